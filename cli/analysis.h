@@ -1,0 +1,36 @@
+// Measurements on particle frames shared by the benchmark and the tests: the dam-break surge
+// front and its error against Martin & Moyce (1952), and pressure probes.
+#pragma once
+
+#include "core/particle_frame.h"
+
+#include <string>
+#include <vector>
+
+namespace sph::app {
+
+/// Leading edge of the fluid along +x: the largest x among particles (unit: m).
+double surgeFront(const ParticleFrame& f);
+
+/// A (T, Z) reference table read from a CSV file whose '#' lines are comments and whose first
+/// other line is a header (the format of shared/reference/). Throws InputError on a bad file.
+struct Table {
+  std::vector<std::string> columns;
+  std::vector<std::vector<double>> rows;
+  std::vector<double> column(const std::string& name) const;
+};
+Table readCsvTable(const std::string& path);
+
+/// Dam-break front error against Martin & Moyce: for each experimental point (T_e, Z_e) with
+/// zmin <= Z_e <= zmax, the simulated front Z_s at T_e - shift (linear interpolation of the
+/// simulated series; T = t sqrt(2 g / a), Z = x / a). Returns the largest and mean relative error
+/// |Z_s - Z_e| / Z_e, and the number of points compared (0 if the run is too short).
+struct FrontError {
+  double max_rel = 0, mean_rel = 0;
+  int points = 0;
+};
+FrontError frontError(const std::vector<double>& T_sim, const std::vector<double>& Z_sim,
+                      const std::vector<double>& T_exp, const std::vector<double>& Z_exp, double shift,
+                      double zmin, double zmax);
+
+}  // namespace sph::app

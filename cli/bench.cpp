@@ -1,0 +1,193 @@
+// `sphaptics bench`: what speed costs and what accuracy costs.
+//
+//  1. Speed: the dam break (scenes/dam_break.yaml) scaled to ~10k, 50k and 100k particles, with
+//     the scene's substeps set to 2 and 4 (CFL control may add steps: the table shows the steps per
+//     frame actually taken). Reports frames/s, particle-steps/s, time per stage and memory.
+//  2. Accuracy against time: the dam-break surge front against Martin & Moyce (1952) at three
+//     resolutions x two step sizes (Courant number 0.4 and 0.2, i.e. 1x and 2x the steps) x both
+//     equations of state, next to the wall time of each run.
+// Both tables are printed and written as CSV; scripts/plot_bench.py draws error against seconds.
+#include "cli/analysis.h"
+#include "cli/commands.h"
+#include "cli/runner.h"
+#include "core/errors.h"
+#include "io/scene_loader.h"
+
+#include <sys/resource.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <sstream>
+
+namespace fs = std::filesystem;
+
+namespace sph::app {
+
+namespace {
+
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  const std::size_t n = v.size();
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+double peakRssMiB() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return u.ru_maxrss / 1024.0;
+}
+
+std::string sourcePath(const std::string& rel) {
+  // The benchmark runs from the repository root or from the build folder.
+  for (const char* base : {".", "..", SPHAPTICS_SOURCE_DIR_DEFAULT})
+    if (fs::exists(fs::path(base) / rel)) return (fs::path(base) / rel).string();
+  throw InputError(rel, 0, 0, "not found: run the benchmark from the repository root");
+}
+
+// Particle spacing that puts about `target` particles in the scene's blocks.
+double spacingFor(const SceneSpec& spec, double target) {
+  double volume = 0;
+  for (const BlockSpec& b : spec.fluid.blocks) volume += (b.max - b.min).prod();
+  return std::cbrt(volume / target);
+}
+
+std::string fmtd(double v, int prec = 3) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.*f", prec, v);
+  return buf;
+}
+
+}  // namespace
+
+int benchCommand(const BenchOptions& opt) {
+  try {
+    fs::create_directories(opt.out);
+    const std::string scene = sourcePath("scenes/dam_break.yaml");
+    const SceneSpec base = io::loadScene(scene);
+    std::cout << "benchmark scene: " << scene << "\n";
+
+    // ---- 1. Speed -------------------------------------------------------------------------
+    if (!opt.accuracy_only) {
+      const fs::path csv = fs::path(opt.out) / "speed.csv";
+      std::ofstream out(csv);
+      out << "# sphaptics " << SPHAPTICS_VERSION << " speed benchmark: dam break, medians of " << opt.repeats
+          << " runs of " << opt.frames << " frames\n";
+      std::string header = "target_particles,particles,substeps,steps_per_frame,frames_per_s,particle_steps_per_s";
+      for (int s = 0; s < kNumStages; ++s) header += std::string(",ms_per_step_") + stageName(static_cast<Stage>(s));
+      header += ",device_buffers_mib,peak_rss_mib,device";
+      out << header << "\n";
+      std::printf("\n%-9s %-9s %-8s %-10s %-9s %-14s %-40s %-8s\n", "particles", "substeps", "steps/fr", "frames/s",
+                  "ms/step", "p-steps/s", "ms/step: grid density pressure visc integ", "buf MiB");
+      for (long target : opt.sizes) {
+        for (int sub : opt.substeps) {
+          std::vector<double> fps, pss;
+          RunResult last;
+          for (int r = 0; r < opt.repeats; ++r) {
+            RunOptions ro;
+            ro.scene = scene;
+            ro.device = opt.device;
+            ro.quiet = true;
+            ro.write_output = false;
+            ro.sets = {"fluid.particle_spacing=" + fmtd(spacingFor(base, static_cast<double>(target)), 6),
+                       "simulation.substeps=" + std::to_string(sub)};
+            ro.duration = opt.frames / base.simulation.frame_rate;
+            last = runScene(ro);
+            if (last.exit_code != 0) throw std::runtime_error("benchmark run failed: " + last.message);
+            fps.push_back(last.frames / last.wall_seconds);
+            pss.push_back(static_cast<double>(last.profile.particle_steps) / last.wall_seconds);
+          }
+          const double steps_per_frame = static_cast<double>(last.profile.steps) / last.frames;
+          const double ms_step = 1e3 * last.wall_seconds / static_cast<double>(last.profile.steps);
+          auto stage_ms = [&](Stage s) {
+            return 1e3 * last.profile.seconds[static_cast<std::size_t>(s)] / static_cast<double>(last.profile.steps);
+          };
+          out << target << "," << last.particles << "," << sub << "," << steps_per_frame << "," << median(fps) << ","
+              << median(pss);
+          for (int s = 0; s < kNumStages; ++s) out << "," << stage_ms(static_cast<Stage>(s));
+          out << "," << last.device_bytes / 1048576.0 << "," << peakRssMiB() << ",\""
+              << (opt.device.empty() ? "default" : opt.device) << "\"\n";
+          std::printf("%-9zu %-9d %-8.0f %-10.3f %-9.2f %-14.3g %5.2f %7.2f %8.2f %5.2f %5.2f %12.1f\n",
+                      last.particles, sub, steps_per_frame, median(fps), ms_step, median(pss),
+                      stage_ms(Stage::Grid), stage_ms(Stage::Density), stage_ms(Stage::Pressure),
+                      stage_ms(Stage::Viscosity), stage_ms(Stage::Integrate), last.device_bytes / 1048576.0);
+          std::fflush(stdout);
+        }
+      }
+      std::cout << "wrote " << csv.string() << " (peak RSS of the whole process: " << fmtd(peakRssMiB(), 0)
+                << " MiB)\n";
+    }
+
+    // ---- 2. Accuracy against time ---------------------------------------------------------
+    if (!opt.speed_only) {
+      const Table mm = readCsvTable(sourcePath("tests/data/martin_moyce_1952_n2_2_front_table2.csv"));
+      const std::vector<double> Te = mm.column("T"), Ze = mm.column("Z");
+      // Column base a and the time scale T = t sqrt(2 g / a).
+      const BlockSpec& col = base.fluid.blocks.at(0);
+      const double a = col.max.x() - col.min.x();
+      const double wall_x = base.domain.min.x();
+      const double g = base.simulation.gravity.norm();
+      const double tscale = std::sqrt(2.0 * g / a);
+      const double duration = 3.6 / tscale;  // covers the data up to Z ~ 4
+      const fs::path csv = fs::path(opt.out) / "accuracy.csv";
+      std::ofstream out(csv);
+      out << "# sphaptics " << SPHAPTICS_VERSION
+          << " accuracy benchmark: dam-break front vs Martin & Moyce 1952 (Table 2), points with 1.5 <= Z <= 4, "
+             "simulated T shifted by +0.175\n";
+      out << "particles,dx_m,cfl,steps,eos,mean_rel_error,max_rel_error,points,wall_s,particle_steps_per_s\n";
+      std::printf("\n%-9s %-8s %-5s %-7s %-7s %-10s %-10s %-8s\n", "particles", "dx [m]", "cfl", "steps", "eos",
+                  "mean err", "max err", "wall s");
+      for (double target : {4000.0, 12000.0, 30000.0}) {
+        for (double cfl : {0.4, 0.2}) {
+          for (const char* eos : {"linear", "tait"}) {
+            RunOptions ro;
+            ro.scene = scene;
+            ro.device = opt.device;
+            ro.quiet = true;
+            ro.write_output = false;
+            const double dx = spacingFor(base, target);
+            ro.sets = {"fluid.particle_spacing=" + fmtd(dx, 6), "simulation.cfl=" + fmtd(cfl, 2),
+                       std::string("fluid.equation_of_state=") + eos};
+            ro.duration = duration;
+            std::vector<double> Ts{0.0}, Zs{1.0};
+            double front_seconds = 0;
+            auto probe = [&](Simulation& sim, const FrameReport&) {
+              const auto t0 = std::chrono::steady_clock::now();
+              Ts.push_back(sim.time() * tscale);
+              Zs.push_back((surgeFront(sim.readFrame()) - wall_x) / a);
+              front_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+            };
+            const RunResult r = runScene(ro, probe);
+            if (r.exit_code != 0) throw std::runtime_error("benchmark run failed: " + r.message);
+            const double wall = r.wall_seconds - front_seconds;  // the probe is not the simulator's cost
+            const FrontError e = frontError(Ts, Zs, Te, Ze, 0.175, 1.5, 4.0);
+            const double pss = static_cast<double>(r.profile.particle_steps) / wall;
+            out << r.particles << "," << dx << "," << cfl << "," << r.profile.steps << "," << eos << "," << e.mean_rel
+                << "," << e.max_rel << "," << e.points << "," << wall << "," << pss << "\n";
+            std::printf("%-9zu %-8.4f %-5.2f %-7llu %-7s %-10.3f %-10.3f %-8.1f\n", r.particles, dx, cfl,
+                        static_cast<unsigned long long>(r.profile.steps), eos, e.mean_rel, e.max_rel, wall);
+            std::fflush(stdout);
+          }
+        }
+      }
+      std::cout << "wrote " << csv.string() << "\n";
+      const std::string plot = sourcePath("scripts/plot_bench.py");
+      const std::string cmd = "/usr/bin/python3 " + plot + " " + csv.string() + " " +
+                              (fs::path(opt.out) / "accuracy.png").string();
+      if (std::system(cmd.c_str()) != 0)
+        std::cerr << "note: plotting failed (needs python3-matplotlib); run: " << cmd << "\n";
+    }
+    return kExitOk;
+  } catch (const InputError& e) {
+    std::cerr << e.what() << "\n";
+    return kExitBadInput;
+  } catch (const std::exception& e) {
+    std::cerr << "error: " << e.what() << "\n";
+    return 1;
+  }
+}
+
+}  // namespace sph::app

@@ -1,0 +1,31 @@
+// The small commands: validate, schema, devices, and the benchmark.
+#pragma once
+
+#include <string>
+#include <vector>
+
+namespace sph::app {
+
+/// Loads and compiles each scene; prints every problem; returns 0 if all are valid, 2 otherwise.
+int validateCommand(const std::vector<std::string>& files);
+/// Prints the schema table.
+int schemaCommand();
+/// Prints every OpenCL device with its index; returns 3 if there is none.
+int devicesCommand();
+
+struct BenchOptions {
+  std::string out = "bench";
+  std::string device;
+  std::vector<long> sizes{10000, 50000, 100000};
+  std::vector<int> substeps{2, 4};
+  int frames = 10;
+  int repeats = 3;
+  bool speed_only = false;
+  bool accuracy_only = false;
+};
+
+/// Speed table (dam break at several sizes and substep counts) and accuracy-versus-time table
+/// (dam-break front against Martin & Moyce 1952); prints both and writes CSV files.
+int benchCommand(const BenchOptions& opt);
+
+}  // namespace sph::app

@@ -1,0 +1,65 @@
+// sphaptics: command-line entry point. Parses the command line (CLI11) and dispatches to the
+// commands in cli/; this is the only place where io/, core/ and the commands are wired together.
+#include "cli/commands.h"
+#include "cli/runner.h"
+#include "core/errors.h"
+
+#include <CLI/CLI.hpp>
+
+#include <iostream>
+
+int main(int argc, char** argv) {
+  using namespace sph;
+  CLI::App app{"sphaptics: real-time SPH fluids, rigid bodies and cloth you can touch.\n"
+               "Scenes are YAML files in SI units, Z up; see `sphaptics schema` for every key."};
+  app.set_version_flag("--version", std::string("sphaptics ") + SPHAPTICS_VERSION);
+  app.require_subcommand(1);
+
+  // run
+  app::RunOptions run;
+  auto* cmd_run = app.add_subcommand("run", "Simulate a scene and write its output");
+  cmd_run->add_option("scene", run.scene, "Scene file (YAML)")->required();
+  cmd_run->add_option("--out,-o", run.out, "Output folder (default: the scene's output.directory, else out/<scene>)");
+  cmd_run->add_option("--device,-d", run.device, "OpenCL device: cpu, gpu or an index from `sphaptics devices` "
+                                                  "(default: $SPHAPTICS_DEVICE, else a GPU if any, else the CPU)");
+  cmd_run->add_option("--set,-s", run.sets, "Override a scene key, e.g. --set fluid.particle_spacing=0.01");
+  cmd_run->add_option("--disable", run.disable, "Switch off a stage (" + stageNameList() + ")");
+  cmd_run->add_option("--duration", run.duration, "Simulated time in seconds (overrides simulation.duration)");
+  cmd_run->add_flag("--quiet,-q", run.quiet, "No progress line and no summary");
+
+  // validate
+  std::vector<std::string> validate_files;
+  auto* cmd_validate = app.add_subcommand("validate", "Check scene files and report every problem with file:line:col");
+  cmd_validate->add_option("scenes", validate_files, "Scene files")->required();
+
+  // schema, devices
+  auto* cmd_schema = app.add_subcommand("schema", "List every scene key: type, default, unit, allowed values, doc");
+  auto* cmd_devices = app.add_subcommand("devices", "List the OpenCL devices");
+
+  // bench
+  app::BenchOptions bench;
+  auto* cmd_bench = app.add_subcommand("bench", "Speed and accuracy benchmarks (prints tables, writes CSV)");
+  cmd_bench->add_option("--out,-o", bench.out, "Folder for the CSV files")->capture_default_str();
+  cmd_bench->add_option("--device,-d", bench.device, "OpenCL device (as for run)");
+  cmd_bench->add_option("--sizes", bench.sizes, "Particle counts for the speed table")->capture_default_str();
+  cmd_bench->add_option("--substeps", bench.substeps, "Substep counts for the speed table")->capture_default_str();
+  cmd_bench->add_option("--frames", bench.frames, "Frames per speed run")->capture_default_str();
+  cmd_bench->add_option("--repeats", bench.repeats, "Runs per configuration (the median is reported)")
+      ->capture_default_str();
+  cmd_bench->add_flag("--speed-only", bench.speed_only, "Skip the accuracy benchmark");
+  cmd_bench->add_flag("--accuracy-only", bench.accuracy_only, "Skip the speed benchmark");
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    const int code = app.exit(e);
+    return code == 0 ? 0 : kExitBadInput;
+  }
+
+  if (*cmd_run) return app::runScene(run).exit_code;
+  if (*cmd_validate) return app::validateCommand(validate_files);
+  if (*cmd_schema) return app::schemaCommand();
+  if (*cmd_devices) return app::devicesCommand();
+  if (*cmd_bench) return app::benchCommand(bench);
+  return kExitBadInput;
+}

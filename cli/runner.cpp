@@ -1,0 +1,232 @@
+#include "cli/runner.h"
+
+#include "core/errors.h"
+#include "io/h5part_writer.h"
+#include "io/run_json.h"
+#include "io/scene_loader.h"
+
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <csignal>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <memory>
+#include <sstream>
+
+namespace fs = std::filesystem;
+
+namespace sph::app {
+
+namespace {
+
+std::atomic<bool> g_interrupted{false};
+extern "C" void onSigint(int) { g_interrupted = true; }
+
+using Clock = std::chrono::steady_clock;
+double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+std::string humanRate(double v) {
+  char buf[32];
+  if (v >= 1e6) std::snprintf(buf, sizeof buf, "%.2f M", v / 1e6);
+  else if (v >= 1e3) std::snprintf(buf, sizeof buf, "%.1f k", v / 1e3);
+  else std::snprintf(buf, sizeof buf, "%.0f ", v);
+  return buf;
+}
+
+std::string profileLine(const Profile& p) {
+  std::ostringstream s;
+  const double total = p.total();
+  s << "profile:";
+  for (int i = 0; i < kNumStages; ++i) {
+    const double t = p.seconds[static_cast<std::size_t>(i)];
+    if (t <= 0) continue;
+    char buf[64];
+    std::snprintf(buf, sizeof buf, " %s %.2fs (%.0f%%)", stageName(static_cast<Stage>(i)), t,
+                  total > 0 ? 100.0 * t / total : 0.0);
+    s << buf;
+  }
+  if (p.subdivided_frames) s << "; CFL subdivided " << p.subdivided_frames << " frame(s)";
+  if (p.cfl_warned_frames) s << "; ran " << p.cfl_warned_frames << " frame(s) above the CFL limit";
+  return s.str();
+}
+
+}  // namespace
+
+RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, const FrameReport&)>& on_frame) {
+  RunResult res;
+  const bool tty = !opt.quiet && isatty(fileno(stderr));
+  auto log = [&](const std::string& line) {
+    if (!opt.quiet) std::cerr << line << "\n";
+  };
+
+  // Output state, so that a failure can mark the run as failed.
+  std::unique_ptr<io::H5PartWriter> h5;
+  fs::path out_dir, h5_partial, h5_final;
+  io::RunInfo info;
+  Clock::time_point t_start = Clock::now();
+
+  auto finish = [&](int code, const std::string& status, const std::string& message) {
+    res.exit_code = code;
+    res.message = message;
+    if (h5) h5->close();
+    if (!out_dir.empty() && opt.write_output) {
+      info.status = status;
+      info.message = message;
+      info.frames = res.frames;
+      info.sim_time = res.sim_time;
+      info.wall_seconds = since(t_start);
+      info.particles = res.particles;
+      info.profile = res.profile;
+      // Only a complete run gets the final file name; anything else keeps ".partial".
+      std::error_code ec;
+      if (status == "complete" && !h5_partial.empty() && fs::exists(h5_partial)) fs::rename(h5_partial, h5_final, ec);
+      io::writeRunJson((out_dir / "run.json").string(), info);
+    }
+    return res;
+  };
+
+  try {
+    // --- Scene: load, override, compile --------------------------------------------------
+    SceneSpec spec = io::loadScene(opt.scene, opt.sets);
+    if (opt.duration >= 0.0) {
+      if (!(opt.duration > 0.0)) throw InputError("--duration", 0, 0, "must be > 0 (unit: s)");
+      spec.simulation.duration = opt.duration;
+    }
+    Compiled compiled = compile(spec);
+    const Model& model = compiled.model;
+    for (const std::string& note : model.notes) log("note: " + note);
+
+    // --- Device and simulation -----------------------------------------------------------
+    ClContext cl(opt.device);
+    log("OpenCL " + cl.info().str());
+    Simulation sim(model, compiled.initial, cl);
+    for (const std::string& name : opt.disable) {
+      auto st = stageFromName(name);
+      if (!st) throw InputError("--disable", 0, 0, "unknown stage '" + name + "' (stages: " + stageNameList() + ")");
+      if (!sim.disable(*st)) throw InputError("--disable", 0, 0, "stage '" + name + "' cannot be disabled");
+    }
+    log("stages: " + sim.stages().str());
+    {
+      std::ostringstream s;
+      s << "scene: " << compiled.initial.size() << " fluid particles (budget " << model.capacity << "), "
+        << model.boundary.size() << " boundary particles, dx = " << model.dx << " m, h = " << model.h
+        << " m, c0 = " << model.c0 << " m/s, " << model.num_frames << " frames at " << spec.simulation.frame_rate
+        << " fps";
+      log(s.str());
+    }
+
+    // --- Output folder: nothing from an earlier run may look like this run's result -------
+    if (opt.write_output) {
+      if (!opt.out.empty()) out_dir = opt.out;
+      else if (!spec.output.directory.empty()) out_dir = spec.output.directory;
+      else out_dir = fs::path("out") / fs::path(opt.scene).stem();
+      std::error_code ec;
+      fs::create_directories(out_dir, ec);
+      if (ec) throw InputError(out_dir.string(), 0, 0, "cannot create the output folder: " + ec.message());
+      h5_final = out_dir / "particles.h5part";
+      h5_partial = out_dir / "particles.h5part.partial";
+      fs::remove(h5_final, ec);
+      fs::remove(out_dir / "run.json", ec);
+      info.scene_file = spec.source_file;
+      info.scene_json = io::sceneToJson(spec);
+      info.device = cl.info().str();
+      info.stages = sim.stages().str();
+      info.notes = model.notes;
+      info.status = "running";
+      io::writeRunJson((out_dir / "run.json").string(), info);
+      if (spec.output.particles) h5 = std::make_unique<io::H5PartWriter>(h5_partial.string());
+      res.out_dir = out_dir.string();
+    }
+
+    // --- Frames ---------------------------------------------------------------------------
+    g_interrupted = false;
+    auto old_handler = std::signal(SIGINT, onSigint);
+    auto write_frame = [&] {
+      if (!h5) return;
+      const auto t0 = Clock::now();
+      h5->writeStep(sim.readFrame());
+      res.output_seconds += since(t0);
+    };
+    write_frame();  // Step#0: the initial state
+    t_start = Clock::now();
+    double last_log = 0.0;
+    const int frames = std::max(1, static_cast<int>(std::lround(spec.simulation.duration * spec.simulation.frame_rate)));
+    for (int f = 0; f < frames; ++f) {
+      if (g_interrupted) break;
+      const FrameReport rep = sim.advanceFrame();
+      for (const std::string& m : rep.messages) log((tty ? "\n" : "") + std::string("note: ") + m);
+      if (!rep.clean()) {
+        std::ostringstream s;
+        s << "warning: frame " << rep.frame << " t=" << rep.time << " s: " << rep.nonfinite << " NaN/inf, "
+          << rep.wall_crossings << " wall crossings, " << rep.cfl_violations
+          << " CFL violations";
+        log((tty ? "\n" : "") + s.str());
+      }
+      res.reports.push_back(rep);
+      res.frames = f + 1;
+      res.sim_time = sim.time();
+      res.particles = sim.numFluid();
+      write_frame();
+      if (on_frame) on_frame(sim, rep);
+
+      // Progress: a live line on a terminal, a plain line every 10 s otherwise.
+      const double wall = since(t_start);
+      if (!opt.quiet && (tty || wall - last_log > 10.0 || f + 1 == frames)) {
+        const double sim_wall = wall - res.output_seconds;
+        const double fps = res.frames / std::max(wall, 1e-9);
+        const double pss = sim.profile().particle_steps / std::max(sim_wall, 1e-9);
+        const double eta = (frames - res.frames) / std::max(fps, 1e-9);
+        char buf[256];
+        std::snprintf(buf, sizeof buf, "frame %d/%d  t=%.3f s  %.2f frames/s  %sparticle-steps/s  %zu particles  ETA %.0f s",
+                      res.frames, frames, sim.time(), fps, humanRate(pss).c_str(), sim.numFluid(), eta);
+        if (tty) std::cerr << "\r" << buf << "\033[K" << std::flush;
+        else if (!tty && (wall - last_log > 10.0)) std::cerr << buf << "\n";
+        if (!tty) last_log = wall;
+      }
+    }
+    std::signal(SIGINT, old_handler);
+    if (tty) std::cerr << "\n";
+    res.wall_seconds = since(t_start) - res.output_seconds;
+    res.profile = sim.profile();
+    res.device_bytes = sim.deviceBytes();
+    res.dispatch_counts = sim.dispatchCounts();
+    res.state_hash = sim.stateHash();
+    info.particle_steps_per_second = sim.profile().particle_steps / std::max(res.wall_seconds, 1e-9);
+
+    if (g_interrupted) {
+      log("interrupted at frame " + std::to_string(res.frames) + ": output kept as particles.h5part.partial");
+      return finish(130, "interrupted", "interrupted by the user");
+    }
+    // Summary: one line, then the per-stage profile.
+    if (!opt.quiet) {
+      char buf[256];
+      std::snprintf(buf, sizeof buf,
+                    "done: %d frames, %.3f s simulated in %.2f s wall (%.2f frames/s), %llu steps, %zu particles, "
+                    "%sparticle-steps/s",
+                    res.frames, res.sim_time, res.wall_seconds, res.frames / std::max(res.wall_seconds, 1e-9),
+                    static_cast<unsigned long long>(res.profile.steps), res.particles,
+                    humanRate(info.particle_steps_per_second).c_str());
+      log(buf);
+      log(profileLine(res.profile));
+      if (!out_dir.empty()) log("output: " + out_dir.string());
+    }
+    return finish(kExitOk, "complete", "");
+  } catch (const InputError& e) {
+    std::cerr << e.what() << "\n";
+    return finish(kExitBadInput, "failed", e.what());
+  } catch (const DeviceError& e) {
+    std::cerr << (tty ? "\n" : "") << "device error: " << e.what() << "\n";
+    return finish(kExitDevice, "failed", e.what());
+  } catch (const NumericalError& e) {
+    std::cerr << (tty ? "\n" : "") << "error: " << e.what() << "\n";
+    return finish(kExitNumerical, "failed", e.what());
+  } catch (const std::exception& e) {
+    std::cerr << (tty ? "\n" : "") << "error: " << e.what() << "\n";
+    return finish(1, "failed", e.what());
+  }
+}
+
+}  // namespace sph::app

@@ -1,0 +1,44 @@
+// The `run` command: scene file -> compiled model -> frames on the device -> output files.
+#pragma once
+
+#include "core/simulation.h"
+
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace sph::app {
+
+struct RunOptions {
+  std::string scene;                  ///< scene file
+  std::string out;                    ///< output folder (overrides output.directory)
+  std::string device;                 ///< "cpu", "gpu", an index, or "" (SPHAPTICS_DEVICE / default)
+  std::vector<std::string> sets;      ///< "key.path=value" overrides
+  std::vector<std::string> disable;   ///< stage names to switch off
+  double duration = -1.0;             ///< simulated seconds; < 0 = the scene's
+  bool quiet = false;                 ///< no progress line, no summary
+  bool write_output = true;           ///< false: simulate only (benchmarks)
+};
+
+/// What a finished run measured (for benchmarks and tests).
+struct RunResult {
+  int exit_code = 0;
+  std::string message;           ///< error text when exit_code != 0
+  std::string out_dir;
+  int frames = 0;
+  double sim_time = 0;           ///< (unit: s)
+  double wall_seconds = 0;       ///< simulation loop wall time, output excluded (unit: s)
+  double output_seconds = 0;     ///< time spent reading back and writing output (unit: s)
+  std::size_t particles = 0;     ///< fluid particles at the end
+  Profile profile;
+  std::size_t device_bytes = 0;
+  uint64_t state_hash = 0;
+  std::map<std::string, uint64_t> dispatch_counts;
+  std::vector<FrameReport> reports;  ///< one per frame
+};
+
+/// Runs a scene; every error becomes an exit code and message (2 bad input, 3 device, 4 numerical).
+/// `on_frame` (optional) sees the simulation after each frame, e.g. for tests that probe the state.
+RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, const FrameReport&)>& on_frame = {});
+
+}  // namespace sph::app

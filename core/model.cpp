@@ -1,0 +1,314 @@
+#include "core/model.h"
+
+#include "core/errors.h"
+#include "kernels/shared/sph_kernel.h"
+
+#include <Eigen/Geometry>
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+#include <unordered_map>
+
+namespace sph {
+
+static_assert(sizeof(SimParams) % 4 == 0, "SimParams holds 4-byte scalars only");
+static_assert(sizeof(SimParams) == 4 * (4 + 4 + 4 + 4 + 4 + 8 + 1 + 4 + 4 + 3 * SPH_MAX_PHASES),
+              "SimParams layout must match kernels/shared/sim_params.h on the device");
+
+void HostParticles::push(const Eigen::Vector3f& x, const Eigen::Vector3f& v, const Eigen::Vector3f& c, uint32_t ph,
+                         uint32_t i) {
+  pos.emplace_back(x.x(), x.y(), x.z(), 0.0f);
+  vel.emplace_back(v.x(), v.y(), v.z(), 0.0f);
+  colour.emplace_back(c.x(), c.y(), c.z(), 1.0f);
+  phase.push_back(ph);
+  id.push_back(i);
+}
+
+Eigen::Vector3d gravityAt(const SimulationSpec& sim, double t) {
+  if (sim.gravity_ramp <= 0.0 || t >= sim.gravity_ramp) return sim.gravity;
+  // Smooth ramp (zero slope at both ends), as in Adami et al. 2012's hydrostatic tank.
+  const double s = 0.5 * (std::sin((t / sim.gravity_ramp - 0.5) * M_PI) + 1.0);
+  return s * sim.gravity;
+}
+
+namespace {
+
+// A simple hash grid on the host, for set-up work (boundary volumes).
+struct HostGrid {
+  float cell;
+  std::unordered_map<int64_t, std::vector<uint32_t>> cells;
+  static int64_t key(int x, int y, int z) {
+    return (static_cast<int64_t>(x) + (1 << 20)) | ((static_cast<int64_t>(y) + (1 << 20)) << 21) |
+           ((static_cast<int64_t>(z) + (1 << 20)) << 42);
+  }
+  Eigen::Vector3i coord(const Eigen::Vector3f& p) const {
+    return Eigen::Vector3i(static_cast<int>(std::floor(p.x() / cell)), static_cast<int>(std::floor(p.y() / cell)),
+                           static_cast<int>(std::floor(p.z() / cell)));
+  }
+};
+
+// Lattice coordinates along one axis: `layers` outside the low wall, the interior, `layers` outside the high wall.
+std::vector<double> axisLattice(double lo, double hi, double dx, int layers) {
+  std::vector<double> v;
+  for (int k = layers - 1; k >= 0; --k) v.push_back(lo - (k + 0.5) * dx);
+  for (double x = lo + 0.5 * dx; x < hi; x += dx) v.push_back(x);
+  for (int k = 0; k < layers; ++k) v.push_back(hi + (k + 0.5) * dx);
+  return v;
+}
+
+std::string fmt(double v) {
+  std::ostringstream s;
+  s << v;
+  return s.str();
+}
+
+}  // namespace
+
+std::vector<float> akinciVolumes(const std::vector<Eigen::Vector3f>& points, float support, int kernel) {
+  HostGrid grid{support, {}};
+  for (uint32_t i = 0; i < points.size(); ++i) {
+    const Eigen::Vector3i c = grid.coord(points[i]);
+    grid.cells[HostGrid::key(c.x(), c.y(), c.z())].push_back(i);
+  }
+  std::vector<float> volume(points.size());
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const Eigen::Vector3i c = grid.coord(points[i]);
+    double sum = 0.0;
+    for (int dz = -1; dz <= 1; ++dz)
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) {
+          auto it = grid.cells.find(HostGrid::key(c.x() + dx, c.y() + dy, c.z() + dz));
+          if (it == grid.cells.end()) continue;
+          for (uint32_t j : it->second) sum += sph_w(kernel, (points[i] - points[j]).norm(), support);
+        }
+    volume[i] = static_cast<float>(1.0 / sum);
+  }
+  return volume;
+}
+
+Compiled compile(const SceneSpec& spec) {
+  Compiled out;
+  Model& m = out.model;
+  m.spec = spec;
+  const SimulationSpec& sim = spec.simulation;
+  const DomainSpec& dom = spec.domain;
+  const FluidSpec& fl = spec.fluid;
+  std::vector<InputIssue> issues;
+  auto fail = [&](const SourceLoc& loc, const std::string& msg) {
+    issues.push_back(InputIssue{loc.file, loc.line, loc.col, msg});
+  };
+
+  // --- Lengths and times -------------------------------------------------------------------
+  m.dx = fl.particle_spacing;
+  m.support = sim.support_ratio * m.dx;
+  m.h = 0.5 * m.support;
+  m.frame_dt = 1.0 / sim.frame_rate;
+  m.num_frames = std::max(1, static_cast<int>(std::lround(sim.duration * sim.frame_rate)));
+  const Eigen::Vector3d extent = dom.max - dom.min;
+  if (extent.minCoeff() < 2.0 * m.dx)
+    fail(dom.loc, "domain is thinner than two particle spacings (" + fmt(extent.minCoeff()) + " m < 2 x " +
+                      fmt(m.dx) + " m)");
+  if (fl.phases.empty()) fail(fl.loc, "no fluid phase defined");
+  if (fl.phases.size() > SPH_MAX_PHASES)
+    fail(fl.loc, "at most " + std::to_string(SPH_MAX_PHASES) + " phases are supported, got " +
+                     std::to_string(fl.phases.size()));
+  if (!issues.empty()) throw InputError(issues);
+
+  auto phaseIndex = [&](const std::string& name) -> int {
+    if (name.empty()) return 0;
+    for (std::size_t i = 0; i < fl.phases.size(); ++i)
+      if (fl.phases[i].name == name) return static_cast<int>(i);
+    return -1;
+  };
+
+  // --- Fluid blocks: cubic lattice at dx, first particle dx/2 inside each face ----------------
+  for (const BlockSpec& b : fl.blocks) {
+    const int ph = phaseIndex(b.phase);
+    if (ph < 0) {
+      fail(b.loc, "block refers to undefined phase '" + b.phase + "'");
+      continue;
+    }
+    const PhaseSpec& P = fl.phases[static_cast<std::size_t>(ph)];
+    const Eigen::Vector3i count = ((b.max - b.min) / m.dx).array().round().cast<int>().max(1);
+    const std::size_t before = out.initial.size();
+    for (int k = 0; k < count.z(); ++k)
+      for (int j = 0; j < count.y(); ++j)
+        for (int i = 0; i < count.x(); ++i) {
+          const Eigen::Vector3d x = b.min + m.dx * Eigen::Vector3d(i + 0.5, j + 0.5, k + 0.5);
+          if ((x.array() >= b.max.array()).any()) continue;
+          out.initial.push(x.cast<float>(), b.velocity.cast<float>(), P.colour.cast<float>(),
+                           static_cast<uint32_t>(ph), static_cast<uint32_t>(out.initial.size()));
+        }
+    if (out.initial.size() == before)
+      fail(b.loc, "block is smaller than the particle spacing (" + fmt(m.dx) + " m): it holds no particle");
+  }
+
+  // --- Nozzles: one layer of lattice points across the opening, perpendicular to the direction --
+  for (const InflowSpec& in : fl.inflows) {
+    Emitter e;
+    e.spec = in;
+    const int ph = phaseIndex(in.phase);
+    if (ph < 0) {
+      fail(in.loc, "inflow refers to undefined phase '" + in.phase + "'");
+      continue;
+    }
+    e.phase = static_cast<uint32_t>(ph);
+    e.direction = in.direction.normalized();
+    // Orthonormal basis (u, v) of the nozzle plane.
+    const Eigen::Vector3d helper = std::abs(e.direction.z()) < 0.9 ? Eigen::Vector3d::UnitZ() : Eigen::Vector3d::UnitX();
+    const Eigen::Vector3d u = e.direction.cross(helper).normalized();
+    const Eigen::Vector3d v = e.direction.cross(u);
+    const double half_u = in.shape == NozzleShape::Circle ? in.radius : 0.5 * in.width;
+    const double half_v = in.shape == NozzleShape::Circle ? in.radius : 0.5 * in.height;
+    const int nu = static_cast<int>(std::floor(half_u / m.dx));
+    const int nv = static_cast<int>(std::floor(half_v / m.dx));
+    for (int j = -nv; j <= nv; ++j)
+      for (int i = -nu; i <= nu; ++i) {
+        const double a = i * m.dx, b = j * m.dx;
+        if (in.shape == NozzleShape::Circle && a * a + b * b > in.radius * in.radius + 1e-12) continue;
+        e.layer.push_back(in.position + a * u + b * v);
+      }
+    if (e.layer.empty()) fail(in.loc, "nozzle is smaller than the particle spacing: it would emit nothing");
+    m.emitters.push_back(std::move(e));
+  }
+  if (!issues.empty()) throw InputError(issues);
+
+  // --- Particle budget: initial + what the nozzles emit over their active time ---------------
+  double emitted = 0.0;
+  for (const Emitter& e : m.emitters) {
+    const double active = std::max(0.0, std::min(e.spec.stop, sim.duration) - e.spec.start);
+    emitted += static_cast<double>(e.layer.size()) * std::ceil(active * e.spec.speed / m.dx + 1.0);
+  }
+  if (fl.max_particles > 0) {
+    m.capacity = static_cast<std::size_t>(fl.max_particles);
+    if (m.capacity < out.initial.size())
+      fail(fl.loc, "max_particles (" + std::to_string(fl.max_particles) + ") is below the " +
+                       std::to_string(out.initial.size()) + " particles the blocks already hold");
+  } else {
+    m.capacity = out.initial.size() + static_cast<std::size_t>(emitted);
+    if (!m.emitters.empty()) m.notes.push_back("particle budget: " + std::to_string(m.capacity) + " (automatic)");
+  }
+  if (m.capacity == 0) fail(fl.loc, "the scene has no fluid: no blocks and no inflows");
+  if (!issues.empty()) throw InputError(issues);
+
+  // --- Speed of sound: 10x the largest expected speed keeps density errors near 1 % --------
+  const double g = sim.gravity.norm();
+  double vmax = 0.0;
+  for (const BlockSpec& b : fl.blocks) {
+    const double drop = std::max(0.0, b.max.z() - dom.min.z());
+    vmax = std::max({vmax, std::sqrt(2.0 * g * drop), b.velocity.norm()});
+  }
+  for (const Emitter& e : m.emitters) {
+    const double drop = std::max(0.0, e.spec.position.z() - dom.min.z());
+    vmax = std::max(vmax, std::sqrt(e.spec.speed * e.spec.speed + 2.0 * g * drop));
+  }
+  if (fl.speed_of_sound > 0.0) {
+    m.c0 = fl.speed_of_sound;
+  } else {
+    m.c0 = std::max(10.0 * vmax, 1.0);
+    m.notes.push_back("speed of sound: " + fmt(m.c0) + " m/s (automatic: 10 x expected max speed " + fmt(vmax) +
+                      " m/s)");
+  }
+  for (const PhaseSpec& p : fl.phases) m.max_viscosity = std::max(m.max_viscosity, p.viscosity);
+
+  // --- Neighbour grid: cell = support, covering the domain plus the boundary layers ----------
+  const int layers = dom.boundary_layers;
+  const double margin = (layers + 1) * m.dx;
+  const Eigen::Vector3d origin = dom.min - Eigen::Vector3d::Constant(margin);
+  const Eigen::Vector3d span = extent + Eigen::Vector3d::Constant(2.0 * margin);
+  Eigen::Vector3i dims;
+  for (int a = 0; a < 3; ++a) dims[a] = std::max(1, static_cast<int>(std::ceil(span[a] / m.support)));
+  const double cells = static_cast<double>(dims.x()) * dims.y() * dims.z();
+  if (cells > 2.0e8)
+    fail(dom.loc, "domain too large for the particle spacing: " + fmt(cells) + " grid cells (limit 2e8)");
+  if (!issues.empty()) throw InputError(issues);
+
+  // --- Boundary particles behind each closed wall (Akinci et al. 2012) ------------------------
+  // A lattice point outside the box is a boundary particle when every wall it lies beyond is closed.
+  {
+    std::vector<Eigen::Vector3f> pts;
+    const auto xs = axisLattice(dom.min.x(), dom.max.x(), m.dx, layers);
+    const auto ys = axisLattice(dom.min.y(), dom.max.y(), m.dx, layers);
+    const auto zs = axisLattice(dom.min.z(), dom.max.z(), m.dx, layers);
+    for (double z : zs)
+      for (double y : ys)
+        for (double x : xs) {
+          const Eigen::Vector3d p(x, y, z);
+          bool outside = false, allowed = true;
+          for (int a = 0; a < 3; ++a) {
+            if (p[a] < dom.min[a]) { outside = true; allowed = allowed && dom.closed[static_cast<std::size_t>(2 * a)]; }
+            if (p[a] > dom.max[a]) { outside = true; allowed = allowed && dom.closed[static_cast<std::size_t>(2 * a + 1)]; }
+          }
+          if (outside && allowed) pts.push_back(p.cast<float>());
+        }
+    const int kernel = sim.kernel == KernelType::WendlandC2 ? SPH_KERNEL_WENDLAND_C2 : SPH_KERNEL_CUBIC_SPLINE;
+    const std::vector<float> vol = akinciVolumes(pts, static_cast<float>(m.support), kernel);
+    // Sort by cell (stable: ties keep lattice order) and build the cell start table.
+    const double V0 = m.dx * m.dx * m.dx;
+    std::vector<std::pair<uint32_t, uint32_t>> keyed(pts.size());
+    for (uint32_t i = 0; i < pts.size(); ++i) {
+      Eigen::Vector3i c = ((pts[i].cast<double>() - origin) / m.support).array().floor().cast<int>();
+      c = c.cwiseMax(0).cwiseMin(dims - Eigen::Vector3i::Ones());
+      keyed[i] = {static_cast<uint32_t>(c.x() + dims.x() * (c.y() + dims.y() * c.z())), i};
+    }
+    std::stable_sort(keyed.begin(), keyed.end(), [](auto& a, auto& b) { return a.first < b.first; });
+    const std::size_t num_cells = static_cast<std::size_t>(cells);
+    std::vector<uint32_t> count(num_cells + 1, 0);
+    m.boundary.reserve(pts.size());
+    for (auto& [cell, i] : keyed) {
+      const Eigen::Vector3f& p = pts[i];
+      m.boundary.emplace_back(p.x(), p.y(), p.z(), static_cast<float>(vol[i] / V0));
+      ++count[cell];
+    }
+    m.boundary_cell_start.assign(num_cells + 1, 0);
+    for (std::size_t c = 0; c < num_cells; ++c) m.boundary_cell_start[c + 1] = m.boundary_cell_start[c] + count[c];
+  }
+
+  // --- Device constants ------------------------------------------------------------------
+  SimParams& P = m.params;
+  for (int a = 0; a < 3; ++a) {
+    P.grid_origin[a] = static_cast<float>(origin[a]);
+    P.grid_dims[a] = dims[a];
+    P.domain_min[a] = static_cast<float>(dom.min[a]);
+    P.domain_max[a] = static_cast<float>(dom.max[a]);
+  }
+  P.cell_size = static_cast<float>(m.support);
+  P.support = static_cast<float>(m.support);
+  P.h = static_cast<float>(m.h);
+  P.rest_volume = static_cast<float>(m.dx * m.dx * m.dx);
+  P.closed_mask = 0;
+  for (int w = 0; w < 6; ++w)
+    if (dom.closed[static_cast<std::size_t>(w)]) P.closed_mask |= 1u << w;
+  P.kernel_type = sim.kernel == KernelType::WendlandC2 ? SPH_KERNEL_WENDLAND_C2 : SPH_KERNEL_CUBIC_SPLINE;
+  P.eos = fl.equation_of_state == EquationOfState::Tait ? SPH_EOS_TAIT : SPH_EOS_LINEAR;
+  P.clamp_negative_pressure = fl.clamp_negative_pressure ? 1u : 0u;
+  P.n_boundary = static_cast<sph_uint>(m.boundary.size());
+  P.num_cells = static_cast<sph_uint>(cells);
+  P.c0 = static_cast<float>(m.c0);
+  P.alpha = static_cast<float>(fl.artificial_viscosity);
+  P.colour_diffusion = static_cast<float>(fl.colour_diffusion);
+  for (std::size_t i = 0; i < fl.phases.size(); ++i) {
+    P.phase_rest_density[i] = static_cast<float>(fl.phases[i].rest_density);
+    P.phase_mass[i] = static_cast<float>(fl.phases[i].rest_density * m.dx * m.dx * m.dx);
+    P.phase_viscosity[i] = static_cast<float>(fl.phases[i].viscosity);
+  }
+
+  // --- Stage mask: only what the scene calls for ------------------------------------------
+  const bool laminar = fl.viscosity_model == ViscosityModel::Laminar;
+  m.stages.set(Stage::Inflow, !m.emitters.empty());
+  m.stages.set(Stage::Grid, true);
+  m.stages.set(Stage::Density, true);
+  m.stages.set(Stage::Pressure, true);
+  m.stages.set(Stage::Viscosity, laminar ? m.max_viscosity > 0.0 : fl.artificial_viscosity > 0.0);
+  m.stages.set(Stage::ColourDiffusion, fl.colour_diffusion > 0.0);
+  m.stages.set(Stage::Integrate, true);
+  m.stages.set(Stage::Diagnostics, true);
+
+  // Fixed build options: the kernel and viscosity model are compile-time constants on the device.
+  m.program_options = "-cl-std=CL1.2 -DSPH_KERNEL=" + std::to_string(P.kernel_type) +
+                      " -DSPH_LAMINAR=" + std::string(laminar ? "1" : "0");
+  return out;
+}
+
+}  // namespace sph

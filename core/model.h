@@ -1,0 +1,78 @@
+// Model: everything derived from a SceneSpec that stays fixed during a run (MuJoCo's mjModel),
+// and compile(), which derives it: smoothing length, particle masses, speed of sound, the
+// neighbour grid, boundary particles with their volumes, nozzles, particle budget, stage mask.
+// The initial particles come out of compile() as HostParticles, which the Simulation uploads.
+#pragma once
+
+#include "core/scene_spec.h"
+#include "core/stages.h"
+#include "kernels/shared/sim_params.h"
+
+#include <Eigen/Core>
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace sph {
+
+/// Particles on the host, structure of arrays (n entries each). Positions and velocities are
+/// float4 (x, y, z, unused) to match the device buffers.
+struct HostParticles {
+  std::vector<Eigen::Vector4f> pos;     ///< (unit: m)
+  std::vector<Eigen::Vector4f> vel;     ///< (unit: m/s)
+  std::vector<Eigen::Vector4f> colour;  ///< linear RGB + unused
+  std::vector<uint32_t> phase;          ///< phase index
+  std::vector<uint32_t> id;             ///< creation order
+  std::size_t size() const { return pos.size(); }
+  void push(const Eigen::Vector3f& x, const Eigen::Vector3f& v, const Eigen::Vector3f& c, uint32_t ph, uint32_t i);
+};
+
+/// A nozzle, compiled: the lattice points of one emitted layer, in world space at the nozzle.
+struct Emitter {
+  InflowSpec spec;
+  uint32_t phase = 0;
+  Eigen::Vector3d direction;                  ///< unit vector
+  std::vector<Eigen::Vector3d> layer;         ///< positions of one layer (unit: m)
+};
+
+struct Model {
+  SceneSpec spec;
+  double dx = 0;          ///< particle spacing (unit: m)
+  double support = 0;     ///< kernel support radius H = support_ratio * dx (unit: m)
+  double h = 0;           ///< smoothing length H / 2 (unit: m)
+  double c0 = 0;          ///< speed of sound (unit: m/s)
+  double frame_dt = 0;    ///< 1 / frame_rate (unit: s)
+  int num_frames = 0;     ///< frames to simulate: round(duration * frame_rate)
+  double max_viscosity = 0;  ///< largest phase kinematic viscosity (unit: m^2/s)
+
+  SimParams params{};     ///< device constants (n_fluid, dt and gravity are set per step)
+  StageMask stages;
+  std::string program_options;  ///< OpenCL build options (kernel choice, viscosity model)
+
+  /// Static boundary particles, sorted by grid cell: xyz (unit: m), w = V_b / V0 (Akinci 2012 volume).
+  std::vector<Eigen::Vector4f> boundary;
+  std::vector<uint32_t> boundary_cell_start;  ///< num_cells + 1 entries
+
+  std::vector<Emitter> emitters;
+  std::size_t capacity = 0;   ///< particle budget (device buffers are this large)
+
+  std::vector<std::string> notes;  ///< derived choices worth telling the user (c0, budget, ...)
+};
+
+struct Compiled {
+  Model model;
+  HostParticles initial;
+};
+
+/// Validates what the schema cannot (sizes against the domain, budget) and derives the Model.
+/// Throws InputError (with the scene location) on bad input.
+Compiled compile(const SceneSpec& spec);
+
+/// Akinci et al. 2012 eq. 4: V_b = 1 / sum_k W(x_b - x_k) over the boundary particles k (self included).
+std::vector<float> akinciVolumes(const std::vector<Eigen::Vector3f>& points, float support, int kernel);
+
+/// Gravity at time t with the scene's ramp (0 -> full over gravity_ramp seconds, smooth).
+Eigen::Vector3d gravityAt(const SimulationSpec& sim, double t);
+
+}  // namespace sph

@@ -1,0 +1,123 @@
+// SceneSpec: the plain description of a scene, as the user wrote it, with defaults filled in.
+//
+// io::loadScene() turns a YAML file into a SceneSpec (validating every key against the schema
+// table in io/schema.cpp); core::compile() turns a SceneSpec into an immutable Model and the
+// initial State. Nothing here is derived: derived quantities (smoothing length, particle mass,
+// boundary volumes, stage mask) belong to the Model.
+//
+// Units are SI throughout (m, s, kg); Z is up. Every default here must match the schema table.
+#pragma once
+
+#include <Eigen/Core>
+
+#include <array>
+#include <limits>
+#include <string>
+#include <vector>
+
+namespace sph {
+
+/// Where a value came from in a scene file, for errors raised after loading (1-based; 0 = unknown).
+struct SourceLoc {
+  std::string file;
+  int line = 0;
+  int col = 0;
+  std::string str() const;  ///< "file:line:col" (or just "file" when line is unknown)
+};
+
+enum class KernelType { CubicSpline, WendlandC2 };
+enum class EquationOfState { Linear, Tait };
+enum class ViscosityModel { Artificial, Laminar };
+enum class TimeStepControl { Subdivide, Warn };
+enum class NumericalPolicy { Warn, Abort };
+enum class NozzleShape { Rectangle, Circle };
+
+struct SimulationSpec {
+  double duration = 2.0;                        ///< simulated time to run (unit: s)
+  double frame_rate = 60.0;                     ///< output frames per simulated second (unit: 1/s)
+  int substeps = 4;                             ///< time steps per frame before CFL subdivision (unit: 1)
+  Eigen::Vector3d gravity{0.0, 0.0, -9.81};     ///< gravitational acceleration (unit: m/s^2)
+  double gravity_ramp = 0.0;                    ///< gravity ramps from 0 to full over this time (unit: s)
+  KernelType kernel = KernelType::CubicSpline;  ///< smoothing kernel
+  double support_ratio = 2.0;                   ///< kernel support radius / particle spacing (unit: 1)
+  TimeStepControl time_step_control = TimeStepControl::Subdivide;  ///< what to do when dt > CFL limit
+  double cfl = 0.4;                             ///< Courant number: dt <= cfl * h / (c0 + |v|max) (unit: 1)
+  NumericalPolicy numerical_errors = NumericalPolicy::Abort;  ///< NaN, escapes, CFL violations
+  SourceLoc loc;
+};
+
+/// Index of each wall in DomainSpec::closed.
+enum Wall { XMin = 0, XMax, YMin, YMax, ZMin, ZMax };
+
+struct DomainSpec {
+  Eigen::Vector3d min{0.0, 0.0, 0.0};  ///< lower corner of the domain box (unit: m)
+  Eigen::Vector3d max{1.0, 1.0, 1.0};  ///< upper corner of the domain box (unit: m)
+  /// Which walls are closed (x_min, x_max, y_min, y_max, z_min, z_max). Default: all but z_max.
+  std::array<bool, 6> closed{true, true, true, true, true, false};
+  int boundary_layers = 2;             ///< layers of boundary particles behind each closed wall (unit: 1)
+  SourceLoc loc;
+};
+
+struct PhaseSpec {
+  std::string name;                            ///< referenced by blocks and inflows
+  double rest_density = 1000.0;                ///< (unit: kg/m^3)
+  double viscosity = 1.0e-6;                   ///< kinematic viscosity, used by the laminar model (unit: m^2/s)
+  Eigen::Vector3d colour{0.2, 0.4, 0.9};       ///< linear RGB in [0,1]
+  SourceLoc loc;
+};
+
+/// An axis-aligned box filled with particles on a cubic lattice at the particle spacing.
+struct BlockSpec {
+  std::string phase;                           ///< phase name (default: the first phase)
+  Eigen::Vector3d min{0.0, 0.0, 0.0};          ///< (unit: m)
+  Eigen::Vector3d max{0.0, 0.0, 0.0};          ///< (unit: m)
+  Eigen::Vector3d velocity{0.0, 0.0, 0.0};     ///< initial velocity (unit: m/s)
+  SourceLoc loc;
+};
+
+/// A nozzle that emits layers of particles at the particle spacing while active.
+struct InflowSpec {
+  std::string name;
+  std::string phase;                                   ///< phase name (default: the first phase)
+  NozzleShape shape = NozzleShape::Circle;
+  Eigen::Vector3d position{0.0, 0.0, 0.0};             ///< nozzle centre (unit: m)
+  Eigen::Vector3d direction{0.0, 0.0, -1.0};           ///< emission direction (normalised on compile)
+  double radius = 0.05;                                ///< circle nozzle radius (unit: m)
+  double width = 0.1;                                  ///< rectangle nozzle width (unit: m)
+  double height = 0.1;                                 ///< rectangle nozzle height (unit: m)
+  double speed = 1.0;                                  ///< emission speed (unit: m/s)
+  double start = 0.0;                                  ///< emission start time (unit: s)
+  double stop = std::numeric_limits<double>::infinity();  ///< emission stop time (unit: s)
+  SourceLoc loc;
+};
+
+struct FluidSpec {
+  double particle_spacing = 0.02;                              ///< lattice spacing dx (unit: m)
+  EquationOfState equation_of_state = EquationOfState::Linear; ///< p = k (rho - rho0), or Tait
+  double speed_of_sound = 0.0;     ///< c0; 0 = automatic, 10 * sqrt(2 |g| H) over the fluid height (unit: m/s)
+  ViscosityModel viscosity_model = ViscosityModel::Artificial;
+  double artificial_viscosity = 0.05;  ///< Monaghan alpha, used by the artificial model (unit: 1)
+  double colour_diffusion = 0.0;       ///< colour diffusion coefficient; 0 = none (unit: m^2/s)
+  bool clamp_negative_pressure = true; ///< clamp p >= 0 (avoids tensile instability at free surfaces)
+  long max_particles = 0;              ///< particle budget; 0 = automatic (unit: 1)
+  std::vector<PhaseSpec> phases;
+  std::vector<BlockSpec> blocks;
+  std::vector<InflowSpec> inflows;
+  SourceLoc loc;
+};
+
+struct OutputSpec {
+  std::string directory;      ///< output folder; empty = ./out/<scene stem>; relative to the scene file
+  bool particles = true;      ///< write particles.h5part
+  SourceLoc loc;
+};
+
+struct SceneSpec {
+  std::string source_file;    ///< absolute path of the scene file ("" when built in code)
+  SimulationSpec simulation;
+  DomainSpec domain;
+  FluidSpec fluid;
+  OutputSpec output;
+};
+
+}  // namespace sph

@@ -1,0 +1,124 @@
+// Simulation: the particle state on the device and the time step that advances it.
+// Simulation::step() is the whole algorithm, top to bottom; advanceFrame() chooses the number of
+// steps per frame (CFL control) and runs the per-frame diagnostics.
+#pragma once
+
+#include "core/cl_context.h"
+#include "core/model.h"
+#include "core/particle_frame.h"
+#include "core/stages.h"
+
+#include <array>
+#include <chrono>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace sph {
+
+/// Wall time spent in each stage (host-side, each stage waits for its kernels), and counts.
+struct Profile {
+  std::array<double, kNumStages> seconds{};  ///< (unit: s)
+  uint64_t steps = 0;                        ///< time steps taken
+  uint64_t particle_steps = 0;               ///< sum over steps of the fluid particle count
+  uint64_t subdivided_frames = 0;            ///< frames where CFL control added steps
+  uint64_t cfl_warned_frames = 0;            ///< frames run with dt above the CFL limit (policy warn)
+  double total() const;
+};
+
+/// What the diagnostics found at the end of one frame.
+struct FrameReport {
+  int frame = 0;                 ///< index of the frame just completed (0-based)
+  double time = 0;               ///< simulated time at its end (unit: s)
+  int steps = 0;                 ///< time steps taken in this frame
+  double dt = 0;                 ///< step used (unit: s)
+  double dt_limit = 0;           ///< CFL / viscous limit at frame start (unit: s)
+  uint32_t nonfinite = 0;        ///< particles with NaN/inf position, velocity or density
+  uint32_t outside = 0;          ///< particles that left the domain box through an open wall (not an error)
+  uint32_t cfl_violations = 0;   ///< particles that moved more than h in one step
+  uint32_t wall_crossings = 0;   ///< particles put back after crossing a closed wall
+  float max_speed = 0;           ///< (unit: m/s)
+  int64_t first_bad_id = -1;     ///< id of a particle with a problem, -1 if none
+  std::size_t particles = 0;     ///< fluid particles at frame end
+  std::vector<std::string> messages;  ///< one-off notices (particle budget reached, ...)
+  bool clean() const { return nonfinite == 0 && cfl_violations == 0 && wall_crossings == 0; }
+};
+
+class Simulation {
+ public:
+  /// Uploads the model's boundary and the initial particles; builds the kernels for the model.
+  Simulation(const Model& model, const HostParticles& initial, ClContext& cl);
+
+  /// Removes a stage (from `--disable`); returns false if the stage is essential (grid, density, integrate).
+  bool disable(Stage s);
+  const StageMask& stages() const { return stages_; }
+
+  /// One time step of length dt (unit: s).
+  void step(double dt);
+  /// Steps through one output frame and runs the diagnostics. Under policy 'abort' a problem
+  /// throws NumericalError naming frame, time, stage and particle.
+  FrameReport advanceFrame();
+
+  double time() const { return time_; }
+  int frame() const { return frame_; }
+  std::size_t numFluid() const { return n_; }
+  const Model& model() const { return model_; }
+  const Profile& profile() const { return profile_; }
+  const std::map<std::string, uint64_t>& dispatchCounts() const { return kernels_.dispatchCounts(); }
+
+  /// Copies the fluid particles to the host.
+  ParticleFrame readFrame();
+  /// FNV-1a hash of positions, velocities, colours, phases and ids (bitwise determinism checks).
+  uint64_t stateHash();
+
+  /// Device memory held by this simulation's buffers (unit: bytes).
+  std::size_t deviceBytes() const { return device_bytes_; }
+
+ private:
+  void emitInflow(double dt);
+  void buildGrid();
+  void computeDensity();
+  void pressureForces();
+  void viscosityForces();
+  void diffuseColour();
+  void integrate();
+  FrameReport runDiagnostics();
+  void scan(cl::Buffer& in, cl::Buffer& out, uint32_t n);
+  cl::Buffer makeBuffer(std::size_t bytes);
+
+  // A timed block: waits for the queue at its end so the profile is per stage.
+  struct StageTimer {
+    Simulation& sim;
+    Stage stage;
+    std::chrono::steady_clock::time_point t0;
+    StageTimer(Simulation& s, Stage st) : sim(s), stage(st), t0(std::chrono::steady_clock::now()) {}
+    ~StageTimer();
+  };
+  bool on(Stage s) const { return stages_.on(s); }
+
+  Model model_;
+  ClContext& cl_;
+  KernelSet kernels_;
+  StageMask stages_;
+  SimParams params_;
+  Profile profile_;
+  double time_ = 0.0;
+  int frame_ = 0;
+  std::size_t n_ = 0;         // active fluid particles
+  uint32_t next_id_ = 0;      // id of the next emitted particle
+  float last_max_speed_ = 0;  // from the previous diagnostics (unit: m/s)
+  std::vector<double> emitter_travel_;  // distance travelled since the last emitted layer (unit: m)
+  std::vector<std::string> pending_messages_;
+  bool budget_reported_ = false;
+  std::size_t device_bytes_ = 0;
+
+  // Per-particle fields, double-buffered for the reorder (cur_ is the live half).
+  int cur_ = 0;
+  std::array<cl::Buffer, 2> pos_, vel_, colour_, phase_, id_;
+  cl::Buffer acc_, density_, pressure_, cell_, rank_, sorted_;
+  // Grid tables and scratch.
+  cl::Buffer cell_count_, cell_start_, scan_sums_, bpos_, bcell_start_, crossings_, diag_;
+  uint32_t scan_chunks_ = 0, diag_groups_ = 0;
+};
+
+}  // namespace sph

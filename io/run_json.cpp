@@ -1,0 +1,74 @@
+#include "io/run_json.h"
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+
+namespace sph::io {
+
+std::string jsonString(const std::string& s) {
+  std::string o = "\"";
+  for (char c : s) {
+    switch (c) {
+      case '"': o += "\\\""; break;
+      case '\\': o += "\\\\"; break;
+      case '\n': o += "\\n"; break;
+      case '\t': o += "\\t"; break;
+      case '\r': o += "\\r"; break;
+      default:
+        if (static_cast<unsigned char>(c) < 0x20) {
+          char buf[8];
+          std::snprintf(buf, sizeof buf, "\\u%04x", c);
+          o += buf;
+        } else {
+          o += c;
+        }
+    }
+  }
+  return o + "\"";
+}
+
+void writeRunJson(const std::string& path, const RunInfo& info) {
+  std::ostringstream j;
+  j.precision(9);
+  j << "{\n";
+  j << "  \"program\": \"sphaptics\",\n";
+  j << "  \"version\": " << jsonString(SPHAPTICS_VERSION) << ",\n";
+  j << "  \"status\": " << jsonString(info.status) << ",\n";
+  j << "  \"message\": " << jsonString(info.message) << ",\n";
+  j << "  \"scene_file\": " << jsonString(info.scene_file) << ",\n";
+  j << "  \"device\": " << jsonString(info.device) << ",\n";
+  j << "  \"stages\": " << jsonString(info.stages) << ",\n";
+  j << "  \"notes\": [";
+  for (std::size_t i = 0; i < info.notes.size(); ++i) j << (i ? ", " : "") << jsonString(info.notes[i]);
+  j << "],\n";
+  j << "  \"frames\": " << info.frames << ",\n";
+  j << "  \"simulated_seconds\": " << info.sim_time << ",\n";
+  j << "  \"wall_seconds\": " << info.wall_seconds << ",\n";
+  j << "  \"particles\": " << info.particles << ",\n";
+  j << "  \"steps\": " << info.profile.steps << ",\n";
+  j << "  \"particle_steps_per_second\": " << info.particle_steps_per_second << ",\n";
+  j << "  \"cfl_subdivided_frames\": " << info.profile.subdivided_frames << ",\n";
+  j << "  \"stage_seconds\": {";
+  for (int i = 0; i < kNumStages; ++i)
+    j << (i ? ", " : "") << jsonString(stageName(static_cast<Stage>(i))) << ": "
+      << info.profile.seconds[static_cast<std::size_t>(i)];
+  j << "},\n";
+  j << "  \"scene\": " << (info.scene_json.empty() ? "null" : info.scene_json) << "\n";
+  j << "}\n";
+
+  const std::string tmp = path + ".tmp";
+  {
+    std::ofstream f(tmp);
+    if (!f) throw std::runtime_error("cannot write " + tmp);
+    f << j.str();
+    if (!f) throw std::runtime_error("cannot write " + tmp);
+  }
+  std::error_code ec;
+  std::filesystem::rename(tmp, path, ec);
+  if (ec) throw std::runtime_error("cannot rename " + tmp + " to " + path + ": " + ec.message());
+}
+
+}  // namespace sph::io

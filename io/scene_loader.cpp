@@ -1,0 +1,839 @@
+// Scene loading: YAML text -> SceneSpec, driven by the schema table (io/schema_table.h).
+//
+//   text ──YAML::Load──► tree ──apply --set overrides──► tree ──readMap (schema walk)──► SceneSpec
+//                                                                     │
+//                                   cross-field checks (domain, blocks, inflows, phases)
+//
+// Every problem becomes an InputIssue "file:line:col: message" (1-based; yaml-cpp marks are
+// 0-based). Nothing stops at the first problem: all of them are collected, sorted by position and
+// thrown as one InputError. Problems in values that came from `--set` are reported against the
+// file "--set" and quote the override, since they have no place in the scene file.
+#include "io/scene_loader.h"
+
+#include "core/errors.h"
+#include "io/schema_table.h"
+
+#include <yaml-cpp/yaml.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <optional>
+#include <set>
+#include <sstream>
+
+namespace sph::io {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+// ---------------------------------------------------------------------------------------------
+// Small helpers: positions, paths, suggestions, value descriptions
+// ---------------------------------------------------------------------------------------------
+
+/// yaml-cpp marks are 0-based and -1 when unknown; InputIssue wants 1-based and 0 when unknown.
+int lineOf(const YAML::Mark& mark) { return mark.line < 0 ? 0 : mark.line + 1; }
+int colOf(const YAML::Mark& mark) { return mark.line < 0 || mark.column < 0 ? 0 : mark.column + 1; }
+
+std::string join(const std::string& prefix, const std::string& name) {
+  return prefix.empty() ? name : prefix + "." + name;
+}
+
+std::string indexed(const std::string& path, std::size_t i) { return path + "[" + std::to_string(i) + "]"; }
+
+/// Optimal string alignment distance (Levenshtein plus adjacent transpositions).
+std::size_t editDistance(const std::string& a, const std::string& b) {
+  std::vector<std::vector<std::size_t>> d(a.size() + 1, std::vector<std::size_t>(b.size() + 1));
+  for (std::size_t i = 0; i <= a.size(); ++i) d[i][0] = i;
+  for (std::size_t j = 0; j <= b.size(); ++j) d[0][j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i)
+    for (std::size_t j = 1; j <= b.size(); ++j) {
+      const std::size_t cost = a[i - 1] == b[j - 1] ? 0 : 1;
+      d[i][j] = std::min({d[i - 1][j] + 1, d[i][j - 1] + 1, d[i - 1][j - 1] + cost});
+      if (i > 1 && j > 1 && a[i - 1] == b[j - 2] && a[i - 2] == b[j - 1]) d[i][j] = std::min(d[i][j], d[i - 2][j - 2] + 1);
+    }
+  return d[a.size()][b.size()];
+}
+
+/// The closest candidate to `word` when it is close enough to be a likely typo, else "".
+std::string closest(const std::string& word, const std::vector<std::string>& candidates) {
+  std::string best;
+  std::size_t best_distance = std::string::npos;
+  for (const auto& candidate : candidates) {
+    const std::size_t distance = editDistance(word, candidate);
+    const std::size_t allowed = std::max<std::size_t>(2, candidate.size() / 3);
+    if (distance <= allowed && distance < candidate.size() && distance < best_distance) {
+      best = candidate;
+      best_distance = distance;
+    }
+  }
+  return best;
+}
+
+std::string didYouMean(const std::string& suggestion) {
+  return suggestion.empty() ? std::string() : " (did you mean '" + suggestion + "'?)";
+}
+
+std::string joinList(const std::vector<std::string>& items, const char* separator = ", ") {
+  std::string s;
+  for (const auto& item : items) s += (s.empty() ? "" : separator) + item;
+  return s;
+}
+
+std::vector<std::string> childNames(const std::string& schema_parent) {
+  std::vector<std::string> names;
+  for (const KeyDef* key : childKeys(schema_parent)) names.push_back(key->name());
+  return names;
+}
+
+/// How a value that has the wrong type looks, for "got ..." in messages.
+std::string describe(const YAML::Node& node) {
+  if (!node.IsDefined() || node.IsNull()) return "nothing";
+  if (node.IsMap()) return "a map";
+  if (node.IsSequence()) return "a list of " + std::to_string(node.size()) + " item(s)";
+  if (node.Tag() == "!") return "the quoted string \"" + node.Scalar() + "\"";
+  return "'" + node.Scalar() + "'";
+}
+
+std::string vecText(const Eigen::Vector3d& v) { return valueText(Value(v)); }
+
+/// What a key's type expects, for "must be ..." in messages.
+std::string expectation(const KeyDef& key) {
+  std::string what;
+  switch (key.type) {
+    case KeyType::Float: what = "a number"; break;
+    case KeyType::Int: what = "an integer"; break;
+    case KeyType::Bool: what = "true or false"; break;
+    case KeyType::String: what = "a string"; break;
+    case KeyType::Enum: what = "one of: " + joinList(key.choices); break;
+    case KeyType::Vec3: what = "a list of 3 numbers [x, y, z]"; break;
+    case KeyType::Map: what = "a map with keys " + joinList(childNames(key.path)); break;
+    case KeyType::List: what = "a list of maps with keys " + joinList(childNames(key.path + "[]")); break;
+  }
+  if (!key.unit.empty() && key.unit != "1") what += " (unit: " + key.unit + ")";
+  return what;
+}
+
+/// A plain (unquoted) YAML scalar read as a double: "1.5", "-2e-3", ".inf", "-.Inf", ".nan".
+std::optional<double> readNumber(const YAML::Node& node) {
+  if (!node.IsScalar() || node.Tag() == "!") return std::nullopt;
+  std::string text = node.Scalar();
+  if (text.empty()) return std::nullopt;
+  // YAML 1.2 spells infinity and NaN with a leading dot; strtod does not.
+  std::string bare = text;
+  if (bare[0] == '+' || bare[0] == '-') bare = bare.substr(1);
+  if (bare == ".inf" || bare == ".Inf" || bare == ".INF")
+    return text[0] == '-' ? -HUGE_VAL : HUGE_VAL;
+  if (bare == ".nan" || bare == ".NaN" || bare == ".NAN") return std::nan("");
+  errno = 0;
+  char* end = nullptr;
+  const double v = std::strtod(text.c_str(), &end);
+  if (end != text.c_str() + text.size()) return std::nullopt;
+  return v;
+}
+
+/// A plain YAML scalar read as a decimal integer.
+std::optional<long> readInteger(const YAML::Node& node) {
+  if (!node.IsScalar() || node.Tag() == "!") return std::nullopt;
+  const std::string text = node.Scalar();
+  if (text.empty()) return std::nullopt;
+  errno = 0;
+  char* end = nullptr;
+  const long v = std::strtol(text.c_str(), &end, 10);
+  if (end != text.c_str() + text.size() || errno == ERANGE) return std::nullopt;
+  return v;
+}
+
+// ---------------------------------------------------------------------------------------------
+// --set overrides: "key.path=value", e.g. "fluid.phases[0].viscosity=1e-3"
+// ---------------------------------------------------------------------------------------------
+
+struct Override {
+  struct Segment {
+    std::string name;
+    long index = -1;  ///< list index, -1 when the segment is not indexed
+  };
+  std::string text;                ///< as given, for messages
+  std::string path;                ///< normalised concrete path, "fluid.phases[0].viscosity"
+  std::vector<Segment> segments;
+  YAML::Node value;                ///< the value, parsed as YAML (scalar or flow)
+};
+
+std::string trim(const std::string& s) {
+  const auto first = s.find_first_not_of(" \t");
+  if (first == std::string::npos) return "";
+  return s.substr(first, s.find_last_not_of(" \t") - first + 1);
+}
+
+/// Parses and checks one override against the schema. Adds an issue (file "--set") and returns
+/// nullopt when the key is malformed or unknown, or the value is not valid YAML.
+std::optional<Override> parseOverride(const std::string& text, std::vector<InputIssue>& issues) {
+  auto fail = [&](const std::string& message) {
+    issues.push_back({"--set", 0, 0, "'" + text + "': " + message});
+    return std::nullopt;
+  };
+  Override ov;
+  ov.text = text;
+  const auto eq = text.find('=');
+  if (eq == std::string::npos) return fail("expected key.path=value");
+  const std::string key = trim(text.substr(0, eq));
+
+  // Split "a.b[2].c" into segments {a}, {b, 2}, {c}.
+  std::stringstream parts(key);
+  std::string part;
+  while (std::getline(parts, part, '.')) {
+    Override::Segment seg;
+    const auto bracket = part.find('[');
+    seg.name = part.substr(0, bracket);
+    if (bracket != std::string::npos) {
+      const std::string digits = part.substr(bracket + 1, part.size() - bracket - 2);
+      const bool well_formed = part.back() == ']' && !digits.empty() &&
+                               digits.find_first_not_of("0123456789") == std::string::npos;
+      if (!well_formed || digits.size() > 9) return fail("malformed key '" + key + "' (items are addressed as fluid.phases[0].name)");
+      seg.index = std::stol(digits);
+    }
+    if (seg.name.empty()) return fail("malformed key '" + key + "' (expected a dotted path such as simulation.duration)");
+    ov.segments.push_back(seg);
+  }
+  if (ov.segments.empty() || key.back() == '.') return fail("malformed key '" + key + "'");
+
+  // Walk the schema along the segments: every segment must exist, lists need an index (except
+  // when the whole list is replaced), and leaves have no sub-keys.
+  std::string schema_prefix, concrete;
+  for (std::size_t k = 0; k < ov.segments.size(); ++k) {
+    const auto& seg = ov.segments[k];
+    const bool last = k + 1 == ov.segments.size();
+    const KeyDef* def = findKey(join(schema_prefix, seg.name));
+    if (!def) {
+      std::string suggestion = closest(seg.name, childNames(schema_prefix));
+      if (!suggestion.empty()) {
+        // Suggest the whole corrected key, not just the misspelt segment.
+        std::string full = join(concrete, suggestion);
+        if (seg.index >= 0) full = indexed(full, static_cast<std::size_t>(seg.index));
+        for (std::size_t r = k + 1; r < ov.segments.size(); ++r) {
+          full = join(full, ov.segments[r].name);
+          if (ov.segments[r].index >= 0) full = indexed(full, static_cast<std::size_t>(ov.segments[r].index));
+        }
+        suggestion = full;
+      } else {
+        const std::string where = schema_prefix.empty() ? "at the top level" : "in '" + concrete + "'";
+        return fail("unknown key '" + key + "' (known keys " + where + ": " + joinList(childNames(schema_prefix)) + ")");
+      }
+      return fail("unknown key '" + key + "'" + didYouMean(suggestion));
+    }
+    concrete = join(concrete, seg.name);
+    if (def->type == KeyType::List) {
+      if (seg.index < 0 && !last) return fail("'" + concrete + "' is a list: address an item as " + concrete + "[0]");
+      if (seg.index >= 0) concrete = indexed(concrete, static_cast<std::size_t>(seg.index));
+      schema_prefix = def->path + "[]";
+    } else {
+      if (seg.index >= 0) return fail("'" + concrete + "' is not a list");
+      if (def->isLeaf() && !last) return fail("'" + concrete + "' is a " + keyTypeName(def->type) + " and has no sub-keys");
+      schema_prefix = def->path;
+    }
+  }
+  ov.path = concrete;
+
+  // The value is YAML, so "[0, 0, -1]" is a list and "1e-3" a number.
+  try {
+    ov.value = YAML::Load(text.substr(eq + 1));
+  } catch (const YAML::Exception& e) {
+    return fail("cannot parse the value as YAML: " + e.msg);
+  }
+  return ov;
+}
+
+/// Writes the override's value into the YAML tree, creating missing sections on the way. List
+/// items must already exist in the scene. Returns false (with an issue) when the tree's shape
+/// does not allow it, e.g. "simulation: 3" or an index past the end of the list.
+bool applyOverride(YAML::Node& root, const Override& ov, std::vector<InputIssue>& issues) {
+  auto fail = [&](const std::string& message) {
+    issues.push_back({"--set", 0, 0, "'" + ov.text + "': " + message});
+    return false;
+  };
+  if (root.IsNull() || !root.IsDefined()) root = YAML::Node(YAML::NodeType::Map);
+  if (!root.IsMap()) return false;  // reported by the loader as "a scene must be a map"
+
+  YAML::Node cur = root;  // yaml-cpp nodes are handles: cur.reset() re-points, operator= assigns content
+  std::string path;
+  for (std::size_t k = 0; k < ov.segments.size(); ++k) {
+    const auto& seg = ov.segments[k];
+    const bool last = k + 1 == ov.segments.size();
+    if (!cur.IsMap()) return fail("cannot set it: '" + path + "' is " + describe(cur) + " in the scene, not a map");
+    path = join(path, seg.name);
+    if (seg.index < 0) {
+      if (last) {
+        cur[seg.name] = ov.value;
+        break;
+      }
+      YAML::Node child = cur[seg.name];
+      if (!child.IsDefined() || child.IsNull()) cur[seg.name] = YAML::Node(YAML::NodeType::Map);
+      cur.reset(cur[seg.name]);
+      continue;
+    }
+    // Indexed segment: the item must exist.
+    YAML::Node list = cur[seg.name];
+    const std::size_t size = list.IsDefined() && list.IsSequence() ? list.size() : 0;
+    if (static_cast<std::size_t>(seg.index) >= size)
+      return fail("'" + path + "' has " + std::to_string(size) + " item(s) in the scene, so index " +
+                  std::to_string(seg.index) + " does not exist");
+    path = indexed(path, static_cast<std::size_t>(seg.index));
+    if (last) {
+      list[static_cast<std::size_t>(seg.index)] = ov.value;
+      break;
+    }
+    cur.reset(list[static_cast<std::size_t>(seg.index)]);
+  }
+  return true;
+}
+
+// ---------------------------------------------------------------------------------------------
+// The schema walk
+// ---------------------------------------------------------------------------------------------
+
+class Loader {
+ public:
+  explicit Loader(std::string file) : file_(std::move(file)) {}
+
+  /// Parses, applies overrides, reads and checks. Throws InputError when anything is wrong.
+  SceneSpec load(const std::string& text, const std::vector<std::string>& override_texts) {
+    // Overrides are checked against the schema first: that needs no scene.
+    std::vector<Override> overrides;
+    for (const auto& text_item : override_texts)
+      if (auto ov = parseOverride(text_item, issues_)) overrides.push_back(std::move(*ov));
+
+    // Parse the YAML; a syntax error ends the reading, with its location.
+    YAML::Node root;
+    try {
+      root = YAML::Load(text);
+    } catch (const YAML::Exception& e) {
+      issues_.push_back({file_, lineOf(e.mark), colOf(e.mark), "YAML syntax error: " + e.msg});
+      throwIssues();
+    }
+
+    // Apply the overrides onto the tree, so they are validated exactly like scene values.
+    for (const auto& ov : overrides)
+      if (applyOverride(root, ov, issues_)) overridden_[ov.path] = ov.text;
+
+    // Walk the tree along the schema, then check what spans several keys.
+    SceneSpec spec;
+    if (root.IsNull() || !root.IsDefined()) {
+      requireKeys("", "", {}, YAML::Mark::null_mark());
+    } else if (!root.IsMap()) {
+      issue("", root.Mark(), "a scene must be a map with the sections " + joinList(childNames("")) + ", got " + describe(root));
+    } else {
+      readMap(root, "", "", 0, spec, root.Mark());
+    }
+    crossCheck(spec);
+    throwIssues();
+    return spec;
+  }
+
+  /// The override that set `path` or one of its parents ("" when none).
+  std::string overrideFor(const std::string& path) const {
+    for (const auto& [p, text] : overridden_) {
+      if (path == p) return text;
+      if (path.size() > p.size() && path.compare(0, p.size(), p) == 0 && (path[p.size()] == '.' || path[p.size()] == '['))
+        return text;
+    }
+    return "";
+  }
+
+ private:
+  // --- issues --------------------------------------------------------------------------------
+
+  /// Records a problem with the value at concrete path `path`, located at `mark` in the file, or
+  /// against "--set" when the value came from an override.
+  void issue(const std::string& path, const YAML::Mark& mark, const std::string& message) {
+    const std::string from_override = overrideFor(path);
+    if (!from_override.empty())
+      issues_.push_back({"--set", 0, 0, "'" + from_override + "': " + message});
+    else
+      issues_.push_back({file_, lineOf(mark), colOf(mark), message});
+    bad_.insert(path);
+  }
+
+  void throwIssues() {
+    if (issues_.empty()) return;
+    std::stable_sort(issues_.begin(), issues_.end(), [](const InputIssue& a, const InputIssue& b) {
+      return a.line != b.line ? a.line < b.line : a.col < b.col;
+    });
+    throw InputError(issues_);
+  }
+
+  SourceLoc locAt(const std::string& path, const YAML::Mark& mark) const {
+    if (!overrideFor(path).empty()) return SourceLoc{"--set", 0, 0};
+    return SourceLoc{file_, lineOf(mark), colOf(mark)};
+  }
+
+  /// The recorded position of `path`, or of its nearest recorded parent.
+  YAML::Mark markOf(std::string path) const {
+    while (!path.empty()) {
+      if (auto it = marks_.find(path); it != marks_.end()) return it->second;
+      const auto cut = path.find_last_of(".[");
+      path = cut == std::string::npos ? "" : path.substr(0, cut);
+    }
+    return YAML::Mark::null_mark();
+  }
+
+  bool given(const std::string& path) const { return marks_.count(path) && !bad_.count(path); }
+  bool usable(const std::string& path) const { return !bad_.count(path); }
+
+  // --- reading -------------------------------------------------------------------------------
+
+  /// Reads the keys of one YAML map: a section (schema_prefix "fluid"), a list item
+  /// ("fluid.phases[]", with `index`) or the top level (""). `where` locates the map itself.
+  void readMap(const YAML::Node& map, const std::string& schema_prefix, const std::string& path_prefix,
+               std::size_t index, SceneSpec& spec, const YAML::Mark& where) {
+    std::map<std::string, YAML::Mark> seen;  // key name -> where it was given
+    for (auto it = map.begin(); it != map.end(); ++it) {
+      // Copies, not references: the iterator's -> yields a temporary proxy (Nodes are handles).
+      const YAML::Node key_node = it->first;
+      const YAML::Node value = it->second;
+      if (!key_node.IsScalar()) {
+        issue(path_prefix, key_node.Mark(), "keys must be plain names, got " + describe(key_node));
+        continue;
+      }
+      const std::string name = key_node.Scalar();
+      const std::string path = join(path_prefix, name);
+
+      // Duplicates: yaml-cpp keeps both; the scene would silently use the first.
+      if (auto first = seen.find(name); first != seen.end()) {
+        issue(path, key_node.Mark(),
+              "duplicate key '" + name + "' (first given at line " + std::to_string(lineOf(first->second)) + ")");
+        continue;
+      }
+      seen[name] = key_node.Mark();
+
+      // Unknown key: suggest a sibling spelt alike, or say where the key does belong.
+      const KeyDef* def = findKey(join(schema_prefix, name));
+      if (!def) {
+        issue(path, key_node.Mark(), unknownKeyMessage(name, schema_prefix, path_prefix));
+        continue;
+      }
+
+      // A key written with nothing after it carries the next token's mark; use the key's.
+      const YAML::Mark value_mark = value.IsNull() ? key_node.Mark() : value.Mark();
+      switch (def->type) {
+        case KeyType::Map: readSection(*def, key_node.Mark(), value, path, index, spec); break;
+        case KeyType::List: readList(*def, value, value_mark, path, spec); break;
+        default:
+          marks_[path] = value_mark;
+          readLeaf(*def, value, value_mark, path, index, spec);
+          break;
+      }
+    }
+    requireKeys(schema_prefix, path_prefix, seen, where);
+  }
+
+  std::string unknownKeyMessage(const std::string& name, const std::string& schema_prefix, const std::string& path_prefix) {
+    const std::string where = path_prefix.empty() ? "at the top level" : "in '" + path_prefix + "'";
+    const std::vector<std::string> siblings = childNames(schema_prefix);
+    const std::string suggestion = closest(name, siblings);
+    if (!suggestion.empty()) return "unknown key '" + name + "' " + where + didYouMean(suggestion);
+    // The name may be right but in the wrong place (e.g. 'viscosity' directly under 'fluid').
+    for (const KeyDef& key : schemaTable())
+      if (key.name() == name) return "unknown key '" + name + "' " + where + " ('" + key.path + "' exists)";
+    return "unknown key '" + name + "' " + where + " (known keys: " + joinList(siblings) + ")";
+  }
+
+  void readSection(const KeyDef& def, const YAML::Mark& key_mark, const YAML::Node& value, const std::string& path,
+                   std::size_t index, SceneSpec& spec) {
+    marks_[path] = key_mark;
+    if (def.loc) *def.loc(spec, index) = locAt(path, key_mark);
+    if (value.IsNull()) {  // "simulation:" with nothing in it: all defaults
+      requireKeys(def.path, path, {}, key_mark);
+      return;
+    }
+    if (!value.IsMap()) {
+      issue(path, value.Mark(), "'" + path + "' must be " + expectation(def) + ", got " + describe(value));
+      return;
+    }
+    readMap(value, def.path, path, index, spec, key_mark);
+  }
+
+  void readList(const KeyDef& def, const YAML::Node& value, const YAML::Mark& value_mark, const std::string& path,
+                SceneSpec& spec) {
+    if (value.IsNull()) return;  // "phases:" with nothing: as if absent
+    marks_[path] = value_mark;
+    if (!value.IsSequence()) {
+      issue(path, value_mark, "'" + path + "' must be " + expectation(def) + ", got " + describe(value));
+      return;
+    }
+    def.resize(spec, value.size());
+    for (std::size_t i = 0; i < value.size(); ++i) {
+      const YAML::Node item = value[i];
+      const std::string item_path = indexed(path, i);
+      const YAML::Mark item_mark = item.IsNull() ? value_mark : item.Mark();
+      marks_[item_path] = item_mark;
+      *def.loc(spec, i) = locAt(item_path, item_mark);
+      if (!item.IsMap()) {
+        issue(item_path, item_mark,
+              "each item of '" + path + "' must be a map with keys " + joinList(childNames(def.path + "[]")) +
+                  ", got " + describe(item));
+        continue;
+      }
+      readMap(item, def.path + "[]", item_path, i, spec, item_mark);
+    }
+  }
+
+  /// Reports missing required keys under a map; recurses into absent sections (their required
+  /// keys are missing too). Problems are located at the map (`where`).
+  void requireKeys(const std::string& schema_prefix, const std::string& path_prefix,
+                   const std::map<std::string, YAML::Mark>& seen, const YAML::Mark& where) {
+    for (const KeyDef* key : childKeys(schema_prefix)) {
+      const std::string name = key->name();
+      if (seen.count(name)) continue;
+      const std::string path = join(path_prefix, name);
+      if (key->required)
+        issue(path, where, "missing required key '" + path + "'" + (key->unit.empty() ? "" : " (" + expectation(*key) + ")"));
+      else if (key->type == KeyType::Map)
+        requireKeys(key->path, path, {}, where);
+    }
+  }
+
+  /// Reads, checks and stores one leaf value.
+  void readLeaf(const KeyDef& def, const YAML::Node& node, const YAML::Mark& mark, const std::string& path,
+                std::size_t index, SceneSpec& spec) {
+    auto wrongType = [&]() { issue(path, mark, "'" + path + "' must be " + expectation(def) + ", got " + describe(node)); };
+    std::optional<Value> value;
+
+    switch (def.type) {
+      case KeyType::Float: {
+        const auto v = readNumber(node);
+        if (!v || std::isnan(*v)) return wrongType();
+        if (!checkNumber(def, *v, path, path, mark)) return;
+        value = *v;
+        break;
+      }
+      case KeyType::Int: {
+        const auto v = readInteger(node);
+        if (!v) return wrongType();
+        if (!checkNumber(def, static_cast<double>(*v), path, path, mark)) return;
+        value = *v;
+        break;
+      }
+      case KeyType::Bool: {
+        bool b = false;
+        if (!node.IsScalar() || node.Tag() == "!" || !YAML::convert<bool>::decode(node, b)) return wrongType();
+        value = b;
+        break;
+      }
+      case KeyType::String: {
+        if (!node.IsScalar()) return wrongType();
+        value = node.Scalar();
+        break;
+      }
+      case KeyType::Enum: {
+        if (!node.IsScalar()) return wrongType();
+        const std::string& text = node.Scalar();
+        if (std::find(def.choices.begin(), def.choices.end(), text) == def.choices.end()) {
+          issue(path, mark,
+                "'" + path + "' = '" + text + "' is not allowed (allowed values: " + joinList(def.choices) + ")" +
+                    didYouMean(closest(text, def.choices)));
+          return;
+        }
+        value = text;
+        break;
+      }
+      case KeyType::Vec3: {
+        if (!node.IsSequence() || node.size() != 3) return wrongType();
+        Eigen::Vector3d v;
+        bool ok = true;
+        for (std::size_t c = 0; c < 3; ++c) {
+          const YAML::Node component = node[c];
+          const std::string component_path = indexed(path, c);
+          const auto x = readNumber(component);
+          if (!x || !std::isfinite(*x)) {
+            issue(path, component.Mark(),
+                  "'" + component_path + "' must be a finite number" + (def.unit.empty() || def.unit == "1" ? "" : " (unit: " + def.unit + ")") +
+                      ", got " + describe(component));
+            ok = false;
+          } else if (!checkNumber(def, *x, path, component_path, component.Mark())) {
+            ok = false;
+          } else {
+            v[static_cast<Eigen::Index>(c)] = *x;
+          }
+        }
+        if (!ok) return;
+        value = v;
+        break;
+      }
+      case KeyType::Map:
+      case KeyType::List: return;  // handled by readSection / readList
+    }
+    def.set(spec, index, *value);
+  }
+
+  /// Range and finiteness check; `shown` is the path used in the message (a vec3 component).
+  bool checkNumber(const KeyDef& def, double v, const std::string& path, const std::string& shown, const YAML::Mark& mark) {
+    if (std::isinf(v) && !def.allow_infinity) {
+      issue(path, mark, "'" + shown + "' must be finite, got " + numberText(v));
+      return false;
+    }
+    if (v > def.int_max) {
+      issue(path, mark, "'" + shown + "' = " + numberText(v) + " is too large (at most " + numberText(def.int_max) + ")");
+      return false;
+    }
+    if (!def.range.contains(v)) {
+      const bool two_sided = !std::isinf(def.range.lo) && !std::isinf(def.range.hi);
+      issue(path, mark,
+            "'" + shown + "' = " + numberText(v) + " is out of range (must be " + (two_sided ? "in " : "") +
+                def.range.str() + (def.unit.empty() || def.unit == "1" ? "" : ", unit: " + def.unit) + ")");
+      return false;
+    }
+    return true;
+  }
+
+  // --- checks across keys ------------------------------------------------------------------
+
+  void crossCheck(SceneSpec& spec) {
+    FluidSpec& fluid = spec.fluid;
+
+    // Domain: max > min in every component.
+    const DomainSpec& domain = spec.domain;
+    bool domain_ok = given("domain.min") && given("domain.max");
+    if (domain_ok && !(domain.max.array() > domain.min.array()).all()) {
+      issue("domain.max", markOf("domain.max"),
+            "'domain.max' " + vecText(domain.max) + " must be greater than 'domain.min' " + vecText(domain.min) +
+                " in every component");
+      domain_ok = false;
+    }
+    auto insideDomain = [&](const Eigen::Vector3d& p) {
+      return (p.array() >= domain.min.array()).all() && (p.array() <= domain.max.array()).all();
+    };
+    const std::string domain_text = vecText(domain.min) + " .. " + vecText(domain.max);
+
+    // Phases: one default phase when none is defined; names present and unique.
+    if (!marks_.count("fluid.phases")) {
+      fluid.phases.assign(1, PhaseSpec{});
+      fluid.phases[0].name = kDefaultPhaseName;
+      fluid.phases[0].loc = fluid.loc;
+    } else if (fluid.phases.empty() && usable("fluid.phases")) {
+      issue("fluid.phases", markOf("fluid.phases"), "'fluid.phases' must define at least one phase");
+    }
+    std::vector<std::string> phase_names;
+    bool phases_ok = !fluid.phases.empty();  // every phase readable: references can be checked
+    for (std::size_t i = 0; i < fluid.phases.size(); ++i) {
+      const std::string path = indexed("fluid.phases", i) + ".name";
+      const std::string& name = fluid.phases[i].name;
+      if (!usable(indexed("fluid.phases", i)) || !usable(path) || name.empty()) phases_ok = false;
+      if (given(path)) {
+        if (name.empty()) {
+          issue(path, markOf(path), "'" + path + "' must not be empty");
+        } else if (auto j = std::find(phase_names.begin(), phase_names.end(), name); j != phase_names.end()) {
+          const auto first = static_cast<std::size_t>(j - phase_names.begin());
+          issue(path, markOf(path), "duplicate phase name '" + name + "' (already the name of " + indexed("fluid.phases", first) + ")");
+        }
+      }
+      phase_names.push_back(name);
+    }
+
+    // Blocks and inflows name a defined phase; without one they take the first phase.
+    auto checkPhaseRef = [&](std::string& phase, const std::string& item_path) {
+      const std::string path = item_path + ".phase";
+      if (!marks_.count(path)) {
+        if (!fluid.phases.empty()) phase = fluid.phases[0].name;
+        return;
+      }
+      if (!usable(path) || !phases_ok) return;
+      if (std::find(phase_names.begin(), phase_names.end(), phase) == phase_names.end())
+        issue(path, markOf(path),
+              "undefined phase '" + phase + "' (defined phases: " + joinList(phase_names) + ")" + didYouMean(closest(phase, phase_names)));
+    };
+
+    // Blocks: min < max, inside the domain.
+    for (std::size_t i = 0; i < fluid.blocks.size(); ++i) {
+      BlockSpec& block = fluid.blocks[i];
+      const std::string item = indexed("fluid.blocks", i);
+      if (!usable(item)) continue;
+      checkPhaseRef(block.phase, item);
+      if (!given(item + ".min") || !given(item + ".max")) continue;
+      if (!(block.max.array() > block.min.array()).all()) {
+        issue(item + ".max", markOf(item + ".max"),
+              "'" + item + ".max' " + vecText(block.max) + " must be greater than '" + item + ".min' " + vecText(block.min) +
+                  " in every component");
+      } else if (domain_ok && !(insideDomain(block.min) && insideDomain(block.max))) {
+        issue(item, markOf(item),
+              "block " + item + " (" + vecText(block.min) + " .. " + vecText(block.max) + ") is not inside the domain (" +
+                  domain_text + ")");
+      }
+    }
+
+    // Inflows: nonzero direction, position inside the domain, stop after start.
+    for (std::size_t i = 0; i < fluid.inflows.size(); ++i) {
+      InflowSpec& inflow = fluid.inflows[i];
+      const std::string item = indexed("fluid.inflows", i);
+      if (!usable(item)) continue;
+      checkPhaseRef(inflow.phase, item);
+      if (usable(item + ".direction") && inflow.direction.norm() == 0.0)
+        issue(item + ".direction", markOf(item + ".direction"), "'" + item + ".direction' must be nonzero");
+      if (domain_ok && given(item + ".position") && !insideDomain(inflow.position))
+        issue(item + ".position", markOf(item + ".position"),
+              "'" + item + ".position' " + vecText(inflow.position) + " is outside the domain (" + domain_text + ")");
+      if (usable(item + ".start") && usable(item + ".stop") && !(inflow.stop > inflow.start)) {
+        const std::string at = marks_.count(item + ".stop") ? item + ".stop" : item + ".start";
+        issue(at, markOf(at),
+              "'" + item + ".stop' = " + numberText(inflow.stop) + " must be greater than '" + item +
+                  ".start' = " + numberText(inflow.start));
+      }
+    }
+  }
+
+  std::string file_;                                 // as shown in messages
+  std::vector<InputIssue> issues_;
+  std::map<std::string, YAML::Mark> marks_;          // concrete path -> where its value is
+  std::set<std::string> bad_;                        // concrete paths whose value was rejected
+  std::map<std::string, std::string> overridden_;    // concrete path -> the --set text that wrote it
+};
+
+/// Loads from text; `file` names it in messages, `anchor` (absolute, may be empty) is the scene
+/// file that relative paths inside it are relative to.
+SceneSpec loadText(const std::string& text, const std::string& file, const fs::path& anchor,
+                   const std::vector<std::string>& overrides) {
+  Loader loader(file);
+  SceneSpec spec = loader.load(text, overrides);
+  spec.source_file = anchor.string();
+
+  // output.directory: relative to the scene file's folder when written in the scene; relative
+  // to the working directory when given with --set (as any command-line path).
+  if (!spec.output.directory.empty()) {
+    fs::path dir(spec.output.directory);
+    if (dir.is_relative()) {
+      std::error_code ec;
+      const bool from_command_line = !loader.overrideFor("output.directory").empty();
+      const fs::path base = from_command_line || anchor.empty() ? fs::current_path(ec) : anchor.parent_path();
+      dir = base / dir;
+    }
+    spec.output.directory = dir.lexically_normal().string();
+  }
+  return spec;
+}
+
+fs::path absolutePath(const std::string& path) {
+  if (path.empty()) return {};
+  std::error_code ec;
+  fs::path abs = fs::absolute(path, ec);
+  return ec ? fs::path(path) : abs.lexically_normal();
+}
+
+// ---------------------------------------------------------------------------------------------
+// JSON output (written by hand; no JSON library is a dependency)
+// ---------------------------------------------------------------------------------------------
+
+std::string jsonQuote(const std::string& s) {
+  std::string out = "\"";
+  for (const char ch : s) {
+    const auto c = static_cast<unsigned char>(ch);
+    switch (c) {
+      case '"': out += "\\\""; break;
+      case '\\': out += "\\\\"; break;
+      case '\b': out += "\\b"; break;
+      case '\f': out += "\\f"; break;
+      case '\n': out += "\\n"; break;
+      case '\r': out += "\\r"; break;
+      case '\t': out += "\\t"; break;
+      default:
+        if (c < 0x20) {
+          char buf[8];
+          std::snprintf(buf, sizeof buf, "\\u%04x", c);
+          out += buf;
+        } else {
+          out += ch;  // UTF-8 bytes pass through
+        }
+    }
+  }
+  return out + "\"";
+}
+
+/// Numbers in JSON: shortest round-trip decimal; infinities as the strings "inf" / "-inf" (JSON
+/// has no infinity), NaN as null.
+std::string jsonNumber(double v) {
+  if (std::isnan(v)) return "null";
+  if (std::isinf(v)) return v > 0 ? "\"inf\"" : "\"-inf\"";
+  return numberText(v);
+}
+
+std::string jsonValue(const Value& value) {
+  struct Visitor {
+    std::string operator()(double v) const { return jsonNumber(v); }
+    std::string operator()(long v) const { return std::to_string(v); }
+    std::string operator()(bool v) const { return v ? "true" : "false"; }
+    std::string operator()(const std::string& v) const { return jsonQuote(v); }
+    std::string operator()(const Eigen::Vector3d& v) const {
+      return "[" + jsonNumber(v.x()) + ", " + jsonNumber(v.y()) + ", " + jsonNumber(v.z()) + "]";
+    }
+  };
+  return std::visit(Visitor{}, value);
+}
+
+/// Writes the members of one object (section or list item) in schema order.
+void jsonMembers(std::string& out, const SceneSpec& spec, const std::string& schema_prefix, std::size_t index,
+                 int indent, bool first) {
+  const std::string pad(static_cast<std::size_t>(indent), ' ');
+  for (const KeyDef* key : childKeys(schema_prefix)) {
+    out += first ? "\n" : ",\n";
+    first = false;
+    out += pad + jsonQuote(key->name()) + ": ";
+    if (key->type == KeyType::Map) {
+      out += "{";
+      jsonMembers(out, spec, key->path, index, indent + 2, true);
+      out += "\n" + pad + "}";
+    } else if (key->type == KeyType::List) {
+      const std::size_t n = key->count(spec);
+      if (n == 0) {
+        out += "[]";
+        continue;
+      }
+      out += "[";
+      for (std::size_t i = 0; i < n; ++i) {
+        out += (i ? ",\n" : "\n") + pad + "  {";
+        jsonMembers(out, spec, key->path + "[]", i, indent + 4, true);
+        out += "\n" + pad + "  }";
+      }
+      out += "\n" + pad + "]";
+    } else {
+      out += jsonValue(key->get(spec, index));
+    }
+  }
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+// Public entry points
+// ---------------------------------------------------------------------------------------------
+
+SceneSpec loadScene(const std::string& path, const std::vector<std::string>& overrides) {
+  // A missing or unreadable file is reported against its path, with no line.
+  std::error_code ec;
+  if (!fs::exists(path, ec)) throw InputError(path, 0, 0, "cannot open the scene file: no such file");
+  if (fs::is_directory(path, ec)) throw InputError(path, 0, 0, "cannot read the scene file: it is a directory");
+  errno = 0;
+  std::ifstream in(path, std::ios::binary);
+  if (!in)
+    throw InputError(path, 0, 0, std::string("cannot open the scene file: ") + (errno ? std::strerror(errno) : "unreadable"));
+  std::ostringstream text;
+  text << in.rdbuf();
+  return loadText(text.str(), path, absolutePath(path), overrides);
+}
+
+SceneSpec loadSceneFromString(const std::string& yaml, const std::string& virtual_path,
+                              const std::vector<std::string>& overrides) {
+  return loadText(yaml, virtual_path.empty() ? "<string>" : virtual_path, absolutePath(virtual_path), overrides);
+}
+
+std::string sceneToJson(const SceneSpec& spec) {
+  std::string out = "{\n  \"source_file\": " + jsonQuote(spec.source_file);
+  jsonMembers(out, spec, "", 0, 2, false);
+  return out + "\n}\n";
+}
+
+}  // namespace sph::io

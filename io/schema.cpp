@@ -1,0 +1,415 @@
+// The schema table: every scene key, once. See io/schema_table.h for what an entry holds.
+//
+// Reading guide: buildTable() at the bottom lists the keys section by section. Each entry is
+//   field<Scope>("path", [](auto& x) -> auto& { return x.member; }).unit(..).range(..).doc(..)
+// where Scope says whether the field lives in the SceneSpec itself or in one item of a list
+// (phases, blocks, inflows), and the lambda picks the member. The key's type (float, int, ...)
+// and, for enums, its allowed spellings follow from the member's C++ type.
+#include "io/schema.h"
+
+#include "io/schema_table.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <map>
+#include <sstream>
+#include <type_traits>
+
+namespace sph::io {
+
+// ---------------------------------------------------------------------------------------------
+// Small helpers on keys and values
+// ---------------------------------------------------------------------------------------------
+
+const char* keyTypeName(KeyType type) {
+  switch (type) {
+    case KeyType::Float: return "float";
+    case KeyType::Int: return "int";
+    case KeyType::Bool: return "bool";
+    case KeyType::String: return "string";
+    case KeyType::Enum: return "enum";
+    case KeyType::Vec3: return "vec3";
+    case KeyType::Map: return "map";
+    case KeyType::List: return "list";
+  }
+  return "?";
+}
+
+bool NumRange::contains(double v) const {
+  const bool above = lo_open ? v > lo : v >= lo;
+  const bool below = hi_open ? v < hi : v <= hi;
+  return above && below;
+}
+
+bool NumRange::unbounded() const { return std::isinf(lo) && std::isinf(hi); }
+
+std::string NumRange::str() const {
+  const bool has_lo = !std::isinf(lo), has_hi = !std::isinf(hi);
+  if (has_lo && has_hi)
+    return std::string(lo_open ? "(" : "[") + numberText(lo) + ", " + numberText(hi) + (hi_open ? ")" : "]");
+  if (has_lo) return std::string(lo_open ? "> " : ">= ") + numberText(lo);
+  if (has_hi) return std::string(hi_open ? "< " : "<= ") + numberText(hi);
+  return "";
+}
+
+std::string KeyDef::parent() const {
+  const auto dot = path.rfind('.');
+  return dot == std::string::npos ? std::string() : path.substr(0, dot);
+}
+
+std::string KeyDef::name() const {
+  const auto dot = path.rfind('.');
+  return dot == std::string::npos ? path : path.substr(dot + 1);
+}
+
+std::string numberText(double v) {
+  if (std::isnan(v)) return "nan";
+  if (std::isinf(v)) return v > 0 ? "inf" : "-inf";
+  // Shortest %g precision that reads back to the same double ...
+  int precision = 1;
+  char buf[64];
+  for (; precision <= 17; ++precision) {
+    std::snprintf(buf, sizeof buf, "%.*g", precision, v);
+    if (std::strtod(buf, nullptr) == v) break;
+  }
+  // ... but plain digits rather than an exponent for moderate magnitudes (60, not 6e+01).
+  const int exponent = v == 0.0 ? 0 : static_cast<int>(std::floor(std::log10(std::fabs(v))));
+  if (exponent >= precision && exponent < 17) std::snprintf(buf, sizeof buf, "%.*g", exponent + 1, v);
+  return buf;
+}
+
+std::string valueText(const Value& value) {
+  struct Visitor {
+    std::string operator()(double v) const { return numberText(v); }
+    std::string operator()(long v) const { return std::to_string(v); }
+    std::string operator()(bool v) const { return v ? "true" : "false"; }
+    std::string operator()(const std::string& v) const { return v; }
+    std::string operator()(const Eigen::Vector3d& v) const {
+      return "[" + numberText(v.x()) + ", " + numberText(v.y()) + ", " + numberText(v.z()) + "]";
+    }
+  };
+  return std::visit(Visitor{}, value);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Binding a key to its field: C++ type -> key type, field <-> Value
+// ---------------------------------------------------------------------------------------------
+
+namespace {
+
+template <class T>
+constexpr KeyType keyTypeOf() {
+  if constexpr (std::is_same_v<T, bool>) return KeyType::Bool;
+  else if constexpr (std::is_enum_v<T>) return KeyType::Enum;
+  else if constexpr (std::is_integral_v<T>) return KeyType::Int;
+  else if constexpr (std::is_floating_point_v<T>) return KeyType::Float;
+  else if constexpr (std::is_same_v<T, std::string>) return KeyType::String;
+  else {
+    static_assert(std::is_same_v<T, Eigen::Vector3d>, "unsupported field type in the schema table");
+    return KeyType::Vec3;
+  }
+}
+
+template <class T>
+Value toValue(const T& field) {
+  if constexpr (std::is_same_v<T, bool>) return Value(field);
+  else if constexpr (std::is_enum_v<T>) return Value(std::string(enumName(field)));
+  else if constexpr (std::is_integral_v<T>) return Value(static_cast<long>(field));
+  else if constexpr (std::is_floating_point_v<T>) return Value(static_cast<double>(field));
+  else return Value(field);  // std::string, Eigen::Vector3d
+}
+
+template <class T>
+void fromValue(const Value& value, T& field) {
+  if constexpr (std::is_same_v<T, bool>) field = std::get<bool>(value);
+  else if constexpr (std::is_enum_v<T>) enumFromName(std::get<std::string>(value), field);
+  else if constexpr (std::is_integral_v<T>) field = static_cast<T>(std::get<long>(value));
+  else if constexpr (std::is_floating_point_v<T>) field = static_cast<T>(std::get<double>(value));
+  else field = std::get<T>(value);
+}
+
+// Where a field lives: in the SceneSpec itself, or in item `index` of one of the fluid lists.
+// `S` is SceneSpec or const SceneSpec, so one accessor serves both get and set.
+struct InScene {
+  using Item = SceneSpec;
+  template <class S>
+  static S& item(S& s, std::size_t) { return s; }
+};
+struct InPhases {
+  using Item = PhaseSpec;
+  template <class S>
+  static auto& list(S& s) { return s.fluid.phases; }
+  template <class S>
+  static auto& item(S& s, std::size_t i) { return s.fluid.phases.at(i); }
+};
+struct InBlocks {
+  using Item = BlockSpec;
+  template <class S>
+  static auto& list(S& s) { return s.fluid.blocks; }
+  template <class S>
+  static auto& item(S& s, std::size_t i) { return s.fluid.blocks.at(i); }
+};
+struct InInflows {
+  using Item = InflowSpec;
+  template <class S>
+  static auto& list(S& s) { return s.fluid.inflows; }
+  template <class S>
+  static auto& item(S& s, std::size_t i) { return s.fluid.inflows.at(i); }
+};
+
+/// Fluent builder for one KeyDef (see buildTable()).
+class Key {
+ public:
+  explicit Key(std::string path, KeyType type) {
+    def.path = std::move(path);
+    def.type = type;
+  }
+  Key& unit(const char* u) { def.unit = u; return *this; }
+  Key& doc(const char* d) { def.doc = d; return *this; }
+  Key& required() { def.required = true; return *this; }
+  Key& allowInfinity() { def.allow_infinity = true; return *this; }
+  Key& defaultNote(const char* note) { def.default_note = note; return *this; }
+  Key& greaterThan(double lo) { def.range.lo = lo; def.range.lo_open = true; return *this; }
+  Key& atLeast(double lo) { def.range.lo = lo; def.range.lo_open = false; return *this; }
+  Key& atMost(double hi) { def.range.hi = hi; def.range.hi_open = false; return *this; }
+  KeyDef def;
+};
+
+/// A leaf key bound to the field `ref(item)` of its scope.
+template <class Scope, class Ref>
+Key field(const char* path, Ref ref) {
+  using T = std::remove_cv_t<std::remove_reference_t<decltype(ref(std::declval<typename Scope::Item&>()))>>;
+  Key key(path, keyTypeOf<T>());
+  key.def.get = [ref](const SceneSpec& s, std::size_t i) { return toValue(ref(Scope::item(s, i))); };
+  key.def.set = [ref](SceneSpec& s, std::size_t i, const Value& v) { fromValue(v, ref(Scope::item(s, i))); };
+  if constexpr (std::is_enum_v<T>) key.def.choices = enumSpellings<T>();
+  // Integers must also fit their C++ type.
+  if constexpr (std::is_integral_v<T> && !std::is_same_v<T, bool> && !std::is_enum_v<T>)
+    key.def.int_max = static_cast<double>(std::numeric_limits<T>::max());
+  return key;
+}
+
+/// A section (YAML map) whose location goes to `loc(scene)`; pass nullptr when it has none.
+Key section(const char* path, SourceLoc* (*loc)(SceneSpec&)) {
+  Key key(path, KeyType::Map);
+  if (loc) key.def.loc = [loc](SceneSpec& s, std::size_t) { return loc(s); };
+  return key;
+}
+
+/// A list of objects; its items' keys are declared with the same Scope under "path[]".
+template <class Scope>
+Key list(const char* path) {
+  Key key(path, KeyType::List);
+  key.def.count = [](const SceneSpec& s) { return Scope::list(s).size(); };
+  key.def.resize = [](SceneSpec& s, std::size_t n) { Scope::list(s).resize(n); };
+  key.def.loc = [](SceneSpec& s, std::size_t i) { return &Scope::item(s, i).loc; };
+  return key;
+}
+
+// ---------------------------------------------------------------------------------------------
+// The table
+// ---------------------------------------------------------------------------------------------
+
+std::vector<KeyDef> buildTable() {
+  std::vector<KeyDef> t;
+  auto add = [&t](const Key& key) { t.push_back(key.def); };
+
+  // simulation: time stepping and numerics ---------------------------------------------------
+  add(section("simulation", [](SceneSpec& s) { return &s.simulation.loc; }).doc("time stepping and numerics"));
+  add(field<InScene>("simulation.duration", [](auto& s) -> auto& { return s.simulation.duration; })
+          .unit("s").greaterThan(0).doc("simulated time to run"));
+  add(field<InScene>("simulation.frame_rate", [](auto& s) -> auto& { return s.simulation.frame_rate; })
+          .unit("1/s").greaterThan(0).doc("output frames per simulated second"));
+  add(field<InScene>("simulation.substeps", [](auto& s) -> auto& { return s.simulation.substeps; })
+          .unit("1").atLeast(1).doc("time steps per frame before CFL subdivision"));
+  add(field<InScene>("simulation.gravity", [](auto& s) -> auto& { return s.simulation.gravity; })
+          .unit("m/s^2").doc("gravitational acceleration [x, y, z] (Z is up)"));
+  add(field<InScene>("simulation.gravity_ramp", [](auto& s) -> auto& { return s.simulation.gravity_ramp; })
+          .unit("s").atLeast(0).doc("gravity ramps from 0 to full over this time; 0 = full from the start"));
+  add(field<InScene>("simulation.kernel", [](auto& s) -> auto& { return s.simulation.kernel; })
+          .doc("smoothing kernel"));
+  add(field<InScene>("simulation.support_ratio", [](auto& s) -> auto& { return s.simulation.support_ratio; })
+          .unit("1").atLeast(1.5).atMost(4).doc("kernel support radius / particle spacing"));
+  add(field<InScene>("simulation.time_step_control", [](auto& s) -> auto& { return s.simulation.time_step_control; })
+          .doc("when dt exceeds the CFL limit: subdivide the step, or only warn"));
+  add(field<InScene>("simulation.cfl", [](auto& s) -> auto& { return s.simulation.cfl; })
+          .unit("1").greaterThan(0).atMost(1).doc("Courant number: dt <= cfl * h / (c0 + |v|max)"));
+  add(field<InScene>("simulation.numerical_errors", [](auto& s) -> auto& { return s.simulation.numerical_errors; })
+          .doc("policy for NaN, escaping particles and CFL violations"));
+
+  // domain: the simulation box and its walls -------------------------------------------------
+  add(section("domain", [](SceneSpec& s) { return &s.domain.loc; }).doc("the simulation box and its walls"));
+  add(field<InScene>("domain.min", [](auto& s) -> auto& { return s.domain.min; })
+          .unit("m").required().doc("lower corner of the domain box"));
+  add(field<InScene>("domain.max", [](auto& s) -> auto& { return s.domain.max; })
+          .unit("m").required().doc("upper corner of the domain box (> min in every component)"));
+  add(section("domain.closed", nullptr).doc("which walls are closed (boundary particles behind them)"));
+  add(field<InScene>("domain.closed.x_min", [](auto& s) -> auto& { return s.domain.closed[XMin]; })
+          .doc("wall at x = min.x is closed"));
+  add(field<InScene>("domain.closed.x_max", [](auto& s) -> auto& { return s.domain.closed[XMax]; })
+          .doc("wall at x = max.x is closed"));
+  add(field<InScene>("domain.closed.y_min", [](auto& s) -> auto& { return s.domain.closed[YMin]; })
+          .doc("wall at y = min.y is closed"));
+  add(field<InScene>("domain.closed.y_max", [](auto& s) -> auto& { return s.domain.closed[YMax]; })
+          .doc("wall at y = max.y is closed"));
+  add(field<InScene>("domain.closed.z_min", [](auto& s) -> auto& { return s.domain.closed[ZMin]; })
+          .doc("wall at z = min.z (floor) is closed"));
+  add(field<InScene>("domain.closed.z_max", [](auto& s) -> auto& { return s.domain.closed[ZMax]; })
+          .doc("wall at z = max.z (ceiling) is closed"));
+  add(field<InScene>("domain.boundary_layers", [](auto& s) -> auto& { return s.domain.boundary_layers; })
+          .unit("1").atLeast(1).atMost(4).doc("layers of boundary particles behind each closed wall"));
+
+  // fluid: particles, material model, phases, initial blocks and inflows ----------------------
+  add(section("fluid", [](SceneSpec& s) { return &s.fluid.loc; }).doc("fluid model, phases, blocks and inflows"));
+  add(field<InScene>("fluid.particle_spacing", [](auto& s) -> auto& { return s.fluid.particle_spacing; })
+          .unit("m").greaterThan(0).doc("lattice spacing dx of the fluid particles"));
+  add(field<InScene>("fluid.equation_of_state", [](auto& s) -> auto& { return s.fluid.equation_of_state; })
+          .doc("pressure from density: linear p = c0^2 (rho - rho0), or Tait"));
+  add(field<InScene>("fluid.speed_of_sound", [](auto& s) -> auto& { return s.fluid.speed_of_sound; })
+          .unit("m/s").atLeast(0).doc("numerical speed of sound c0; 0 = automatic (10 x the fastest free-fall speed)"));
+  add(field<InScene>("fluid.viscosity_model", [](auto& s) -> auto& { return s.fluid.viscosity_model; })
+          .doc("artificial (Monaghan alpha) or laminar (phase viscosity)"));
+  add(field<InScene>("fluid.artificial_viscosity", [](auto& s) -> auto& { return s.fluid.artificial_viscosity; })
+          .unit("1").atLeast(0).doc("Monaghan alpha, used by the artificial model"));
+  add(field<InScene>("fluid.colour_diffusion", [](auto& s) -> auto& { return s.fluid.colour_diffusion; })
+          .unit("m^2/s").atLeast(0).doc("colour diffusion coefficient; 0 = none"));
+  add(field<InScene>("fluid.clamp_negative_pressure", [](auto& s) -> auto& { return s.fluid.clamp_negative_pressure; })
+          .doc("clamp p >= 0 (avoids tensile instability at free surfaces)"));
+  add(field<InScene>("fluid.max_particles", [](auto& s) -> auto& { return s.fluid.max_particles; })
+          .unit("1").atLeast(0).doc("particle budget; 0 = automatic"));
+
+  add(list<InPhases>("fluid.phases")
+          .defaultNote("[{name: water}]").doc("fluid phases (materials); blocks and inflows name one"));
+  add(field<InPhases>("fluid.phases[].name", [](auto& p) -> auto& { return p.name; })
+          .required().doc("unique phase name"));
+  add(field<InPhases>("fluid.phases[].rest_density", [](auto& p) -> auto& { return p.rest_density; })
+          .unit("kg/m^3").greaterThan(0).doc("rest density rho0"));
+  add(field<InPhases>("fluid.phases[].viscosity", [](auto& p) -> auto& { return p.viscosity; })
+          .unit("m^2/s").atLeast(0).doc("kinematic viscosity, used by the laminar model"));
+  add(field<InPhases>("fluid.phases[].colour", [](auto& p) -> auto& { return p.colour; })
+          .unit("1").atLeast(0).atMost(1).doc("linear RGB colour, each component in [0, 1]"));
+
+  add(list<InBlocks>("fluid.blocks").defaultNote("[]").doc("boxes filled with particles at the start"));
+  add(field<InBlocks>("fluid.blocks[].phase", [](auto& b) -> auto& { return b.phase; })
+          .defaultNote("(first phase)").doc("name of the block's phase"));
+  add(field<InBlocks>("fluid.blocks[].min", [](auto& b) -> auto& { return b.min; })
+          .unit("m").required().doc("lower corner (inside the domain)"));
+  add(field<InBlocks>("fluid.blocks[].max", [](auto& b) -> auto& { return b.max; })
+          .unit("m").required().doc("upper corner (> min, inside the domain)"));
+  add(field<InBlocks>("fluid.blocks[].velocity", [](auto& b) -> auto& { return b.velocity; })
+          .unit("m/s").doc("initial velocity"));
+
+  add(list<InInflows>("fluid.inflows").defaultNote("[]").doc("nozzles that emit particles while active"));
+  add(field<InInflows>("fluid.inflows[].name", [](auto& f) -> auto& { return f.name; })
+          .doc("label used in messages"));
+  add(field<InInflows>("fluid.inflows[].phase", [](auto& f) -> auto& { return f.phase; })
+          .defaultNote("(first phase)").doc("name of the emitted phase"));
+  add(field<InInflows>("fluid.inflows[].shape", [](auto& f) -> auto& { return f.shape; })
+          .doc("nozzle cross-section (circle uses radius, rectangle width and height)"));
+  add(field<InInflows>("fluid.inflows[].position", [](auto& f) -> auto& { return f.position; })
+          .unit("m").required().doc("nozzle centre (inside the domain)"));
+  add(field<InInflows>("fluid.inflows[].direction", [](auto& f) -> auto& { return f.direction; })
+          .unit("1").doc("emission direction, nonzero (normalised when compiled)"));
+  add(field<InInflows>("fluid.inflows[].radius", [](auto& f) -> auto& { return f.radius; })
+          .unit("m").greaterThan(0).doc("circle nozzle radius"));
+  add(field<InInflows>("fluid.inflows[].width", [](auto& f) -> auto& { return f.width; })
+          .unit("m").greaterThan(0).doc("rectangle nozzle width"));
+  add(field<InInflows>("fluid.inflows[].height", [](auto& f) -> auto& { return f.height; })
+          .unit("m").greaterThan(0).doc("rectangle nozzle height"));
+  add(field<InInflows>("fluid.inflows[].speed", [](auto& f) -> auto& { return f.speed; })
+          .unit("m/s").greaterThan(0).doc("emission speed"));
+  add(field<InInflows>("fluid.inflows[].start", [](auto& f) -> auto& { return f.start; })
+          .unit("s").atLeast(0).doc("emission start time"));
+  add(field<InInflows>("fluid.inflows[].stop", [](auto& f) -> auto& { return f.stop; })
+          .unit("s").greaterThan(0).allowInfinity().doc("emission stop time (> start); .inf = never"));
+
+  // output ------------------------------------------------------------------------------------
+  add(section("output", [](SceneSpec& s) { return &s.output.loc; }).doc("what to write, and where"));
+  add(field<InScene>("output.directory", [](auto& s) -> auto& { return s.output.directory; })
+          .defaultNote("(./out/<scene stem>)")
+          .doc("output folder, relative to the scene file; --set values are relative to the working directory"));
+  add(field<InScene>("output.particles", [](auto& s) -> auto& { return s.output.particles; })
+          .doc("write particles.h5part (H5Part, opens in ParaView)"));
+  return t;
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+// Lookups
+// ---------------------------------------------------------------------------------------------
+
+const std::vector<KeyDef>& schemaTable() {
+  static const std::vector<KeyDef> table = buildTable();  // immutable after first use
+  return table;
+}
+
+const KeyDef* findKey(const std::string& schema_path) {
+  for (const KeyDef& key : schemaTable())
+    if (key.path == schema_path) return &key;
+  return nullptr;
+}
+
+std::vector<const KeyDef*> childKeys(const std::string& parent_path) {
+  std::vector<const KeyDef*> children;
+  for (const KeyDef& key : schemaTable())
+    if (key.parent() == parent_path) children.push_back(&key);
+  return children;
+}
+
+std::string defaultText(const KeyDef& key) {
+  if (!key.default_note.empty()) return key.default_note;
+  if (key.required) return "(required)";
+  if (!key.isLeaf()) return "";
+  // Read the default from default-constructed specs: one default item in each list.
+  SceneSpec defaults;
+  defaults.fluid.phases.resize(1);
+  defaults.fluid.blocks.resize(1);
+  defaults.fluid.inflows.resize(1);
+  const Value value = key.get(defaults, 0);
+  if (key.type == KeyType::String) return "\"" + std::get<std::string>(value) + "\"";
+  return valueText(value);
+}
+
+// ---------------------------------------------------------------------------------------------
+// schemaText(): one aligned row per key
+// ---------------------------------------------------------------------------------------------
+
+std::string schemaText() {
+  struct Row {
+    std::string cells[6];
+  };
+  std::vector<Row> rows;
+  rows.push_back({{"KEY", "TYPE", "DEFAULT", "UNIT", "ALLOWED", "DESCRIPTION"}});
+  for (const KeyDef& key : schemaTable()) {
+    std::string allowed;
+    if (key.type == KeyType::Enum) {
+      for (const auto& choice : key.choices) allowed += (allowed.empty() ? "" : "|") + choice;
+    } else if (key.type == KeyType::Float || key.type == KeyType::Int || key.type == KeyType::Vec3) {
+      allowed = key.range.str();
+      if (key.type == KeyType::Vec3 && !allowed.empty()) allowed = "each " + allowed;
+      if (key.type == KeyType::Float && key.allow_infinity) allowed += allowed.empty() ? "inf ok" : ", inf ok";
+    }
+    rows.push_back({{key.path, keyTypeName(key.type), defaultText(key), key.unit, allowed, key.doc}});
+  }
+
+  // Column widths (the last column, the description, is not padded).
+  std::size_t width[5] = {0, 0, 0, 0, 0};
+  for (const Row& row : rows)
+    for (int c = 0; c < 5; ++c) width[c] = std::max(width[c], row.cells[c].size());
+
+  std::ostringstream out;
+  out << "Scene keys (YAML). Units are SI; list items are written as name[] (e.g. fluid.phases[0].name in --set).\n";
+  for (const Row& row : rows) {
+    std::string line;
+    for (int c = 0; c < 5; ++c) line += row.cells[c] + std::string(width[c] - row.cells[c].size() + 2, ' ');
+    line += row.cells[5];
+    while (!line.empty() && line.back() == ' ') line.pop_back();
+    out << line << "\n";
+  }
+  return out.str();
+}
+
+}  // namespace sph::io

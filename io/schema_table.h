@@ -1,0 +1,162 @@
+// The schema table behind io/schema.h: one KeyDef per scene key, in the order they are printed.
+//
+// Each entry names a key by its schema path ("simulation.duration", "domain.closed.x_min",
+// "fluid.phases[].rest_density"; "[]" stands for "every item of the list"), says its type, unit,
+// allowed values and doc, and binds it to its SceneSpec field through get/set functions. The
+// defaults are never written here: they are read from a default-constructed SceneSpec (and
+// PhaseSpec, BlockSpec, InflowSpec), so core/scene_spec.h stays the one place that defines them.
+//
+// Users of the table: the scene loader (which keys exist, their types and ranges, where to store
+// them), schemaText() (`sphaptics schema`) and sceneToJson() (run.json).
+#pragma once
+
+#include "core/scene_spec.h"
+
+#include <Eigen/Core>
+
+#include <cstddef>
+#include <functional>
+#include <limits>
+#include <string>
+#include <utility>
+#include <variant>
+#include <vector>
+
+namespace sph::io {
+
+/// Name of the phase created when a scene defines no `fluid.phases`.
+inline constexpr const char* kDefaultPhaseName = "water";
+
+// ---------------------------------------------------------------------------------------------
+// Enum values as they are spelled in YAML (DESIGN.md section 6: enum values are strings).
+// ---------------------------------------------------------------------------------------------
+
+template <class E>
+struct EnumNames;  // specialised below: `values`, an array of {enumerator, YAML spelling}
+
+template <>
+struct EnumNames<KernelType> {
+  static constexpr std::pair<KernelType, const char*> values[] = {
+      {KernelType::CubicSpline, "cubic_spline"}, {KernelType::WendlandC2, "wendland_c2"}};
+};
+template <>
+struct EnumNames<EquationOfState> {
+  static constexpr std::pair<EquationOfState, const char*> values[] = {{EquationOfState::Linear, "linear"},
+                                                                         {EquationOfState::Tait, "tait"}};
+};
+template <>
+struct EnumNames<ViscosityModel> {
+  static constexpr std::pair<ViscosityModel, const char*> values[] = {{ViscosityModel::Artificial, "artificial"},
+                                                                        {ViscosityModel::Laminar, "laminar"}};
+};
+template <>
+struct EnumNames<TimeStepControl> {
+  static constexpr std::pair<TimeStepControl, const char*> values[] = {{TimeStepControl::Subdivide, "subdivide"},
+                                                                         {TimeStepControl::Warn, "warn"}};
+};
+template <>
+struct EnumNames<NumericalPolicy> {
+  static constexpr std::pair<NumericalPolicy, const char*> values[] = {{NumericalPolicy::Warn, "warn"},
+                                                                         {NumericalPolicy::Abort, "abort"}};
+};
+template <>
+struct EnumNames<NozzleShape> {
+  static constexpr std::pair<NozzleShape, const char*> values[] = {{NozzleShape::Circle, "circle"},
+                                                                     {NozzleShape::Rectangle, "rectangle"}};
+};
+
+/// The YAML spelling of an enum value, e.g. enumName(KernelType::WendlandC2) == "wendland_c2".
+template <class E>
+const char* enumName(E e) {
+  for (const auto& [value, name] : EnumNames<E>::values)
+    if (value == e) return name;
+  return "?";
+}
+
+/// Parses a YAML spelling; returns false (leaving `out` alone) when `name` is not one of them.
+template <class E>
+bool enumFromName(const std::string& name, E& out) {
+  for (const auto& [value, spelling] : EnumNames<E>::values)
+    if (name == spelling) {
+      out = value;
+      return true;
+    }
+  return false;
+}
+
+template <class E>
+std::vector<std::string> enumSpellings() {
+  std::vector<std::string> names;
+  for (const auto& entry : EnumNames<E>::values) names.emplace_back(entry.second);
+  return names;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Key definitions
+// ---------------------------------------------------------------------------------------------
+
+enum class KeyType { Float, Int, Bool, String, Enum, Vec3, Map, List };
+
+/// "float", "int", "bool", "string", "enum", "vec3", "map", "list".
+const char* keyTypeName(KeyType type);
+
+/// A key's value, independent of the field it is stored in. Int fields travel as long, enum
+/// fields as their YAML spelling.
+using Value = std::variant<double, long, bool, std::string, Eigen::Vector3d>;
+
+/// Allowed numeric interval, applied to float and int keys and to each component of vec3 keys.
+struct NumRange {
+  double lo = -std::numeric_limits<double>::infinity();
+  double hi = std::numeric_limits<double>::infinity();
+  bool lo_open = false;  ///< true: value > lo; false: value >= lo
+  bool hi_open = false;  ///< true: value < hi; false: value <= hi
+  bool contains(double v) const;
+  bool unbounded() const;
+  std::string str() const;  ///< "> 0", ">= 1", "[1.5, 4]", "(0, 1]", "" when unbounded
+};
+
+struct KeyDef {
+  std::string path;            ///< schema path, e.g. "fluid.phases[].rest_density"
+  KeyType type = KeyType::Float;
+  std::string unit;            ///< SI unit ("s", "m", "kg/m^3", "1" for dimensionless); "" when not a quantity
+  std::string doc;             ///< one line
+  bool required = false;       ///< must be present whenever its parent section or list item is
+  bool allow_infinity = false; ///< floats only: accept .inf (otherwise every float must be finite)
+  NumRange range;              ///< float, int, vec3 components
+  double int_max = std::numeric_limits<double>::infinity();  ///< ints: the largest value the C++ field holds
+  std::vector<std::string> choices;  ///< enum spellings
+  std::string default_note;    ///< shown instead of the default value when set (lists, implied defaults)
+
+  /// Leaf keys: read / write the field; `index` selects the list item (ignored outside lists).
+  std::function<Value(const SceneSpec&, std::size_t index)> get;
+  std::function<void(SceneSpec&, std::size_t index, const Value&)> set;
+  /// Sections (the section's loc) and lists (item `index`'s loc); null when there is none.
+  std::function<SourceLoc*(SceneSpec&, std::size_t index)> loc;
+  /// Lists only: number of items, and resize to n default-constructed items.
+  std::function<std::size_t(const SceneSpec&)> count;
+  std::function<void(SceneSpec&, std::size_t n)> resize;
+
+  bool isLeaf() const { return type != KeyType::Map && type != KeyType::List; }
+  std::string parent() const;  ///< "fluid.phases[]" for "fluid.phases[].name"; "" for top-level sections
+  std::string name() const;    ///< last segment: "name"
+};
+
+/// Every key, parents before their children, in the order of the YAML sections.
+const std::vector<KeyDef>& schemaTable();
+
+/// The entry with this schema path, or nullptr.
+const KeyDef* findKey(const std::string& schema_path);
+
+/// The direct children of a section ("" for the top level; "fluid.phases[]" for phase items).
+std::vector<const KeyDef*> childKeys(const std::string& parent_path);
+
+/// The default value of a key as text (from the default-constructed specs), or its default_note.
+std::string defaultText(const KeyDef& key);
+
+/// A value as text in YAML flow style: 0.4, 4, true, cubic_spline, [0, 0, -9.81].
+std::string valueText(const Value& value);
+
+/// Shortest decimal text that reads back as the same double ("0.4", "1e-06", "inf").
+std::string numberText(double v);
+
+}  // namespace sph::io

@@ -1,0 +1,56 @@
+/* Neighbour grid (stage: always). Counting sort of the fluid particles by cell, as in the
+ * SPHaptics paper: cell per particle -> count per cell -> prefix sum (scan.cl) -> sorted index,
+ * then every field is gathered into cell order for memory locality.
+ * Deterministic: integer atomics only count; the order inside each cell is then fixed by sorting
+ * the (short) run of each cell by previous index, so the result never depends on thread timing. */
+
+/* 1. Cell of each particle and its arrival rank within the cell. cell_count must be zeroed. */
+__kernel void grid_assign(const SimParams p, __global const float4* pos, __global uint* cell,
+                          __global uint* rank, volatile __global uint* cell_count) {
+  const uint i = get_global_id(0);
+  if (i >= p.n_fluid) return;
+  const uint c = sph_cell_index(&p, sph_cell_of(&p, pos[i].xyz));
+  cell[i] = c;
+  rank[i] = atomic_inc(&cell_count[c]);
+}
+
+/* 2. Place each particle at cell_start[cell] + rank. */
+__kernel void grid_scatter(const SimParams p, __global const uint* cell, __global const uint* rank,
+                           __global const uint* cell_start, __global uint* sorted) {
+  const uint i = get_global_id(0);
+  if (i >= p.n_fluid) return;
+  sorted[cell_start[cell[i]] + rank[i]] = i;
+}
+
+/* 3. Make the order inside each cell deterministic: the first slot of each cell sorts its run. */
+__kernel void grid_order_cells(const SimParams p, __global const uint* cell, __global const uint* cell_start,
+                               __global uint* sorted) {
+  const uint s = get_global_id(0);
+  if (s >= p.n_fluid) return;
+  const uint c = cell[sorted[s]];
+  const uint begin = cell_start[c];
+  if (s != begin) return;
+  const uint end = cell_start[c + 1];
+  for (uint a = begin + 1; a < end; ++a) { /* insertion sort: runs hold ~8 particles */
+    const uint v = sorted[a];
+    uint b = a;
+    while (b > begin && sorted[b - 1] > v) { sorted[b] = sorted[b - 1]; --b; }
+    sorted[b] = v;
+  }
+}
+
+/* 4. Gather every per-particle field into sorted order (double buffers; the host swaps). */
+__kernel void grid_reorder(const SimParams p, __global const uint* sorted,
+                           __global const float4* pos, __global const float4* vel, __global const float4* colour,
+                           __global const uint* phase, __global const uint* id,
+                           __global float4* pos_out, __global float4* vel_out, __global float4* colour_out,
+                           __global uint* phase_out, __global uint* id_out) {
+  const uint s = get_global_id(0);
+  if (s >= p.n_fluid) return;
+  const uint j = sorted[s];
+  pos_out[s] = pos[j];
+  vel_out[s] = vel[j];
+  colour_out[s] = colour[j];
+  phase_out[s] = phase[j];
+  id_out[s] = id[j];
+}
