@@ -50,6 +50,12 @@ Simulation::Simulation(const Model& model, const HostParticles& initial, ClConte
   cell_ = makeBuffer(cap * 4);
   rank_ = makeBuffer(cap * 4);
   sorted_ = makeBuffer(cap * 4);
+  nbr_count_ = makeBuffer(cap * 4);
+  bnbr_count_ = makeBuffer(cap * 4);
+  overflow_ = makeBuffer(4);
+  // Neighbour-list slots: 1.5x the neighbours of a particle in the bulk at rest, plus 8.
+  const double ratio = model_.support / model_.dx;
+  allocateNeighbourLists(static_cast<uint32_t>((1.5 * 4.18879 * ratio * ratio * ratio + 8.0 + 7.0) / 8.0) * 8u);
 
   // Grid tables; the scan works in chunks of ~1k cells.
   cell_count_ = makeBuffer(cells * 4);
@@ -70,6 +76,7 @@ Simulation::Simulation(const Model& model, const HostParticles& initial, ClConte
     q.enqueueWriteBuffer(bcell_start_, CL_TRUE, 0, (cells + 1) * 4, model_.boundary_cell_start.data());
     const uint32_t zero = 0;
     q.enqueueWriteBuffer(crossings_, CL_TRUE, 0, 4, &zero);
+    q.enqueueWriteBuffer(overflow_, CL_TRUE, 0, 4, &zero);
     n_ = initial.size();
     if (n_ > 0) {
       q.enqueueWriteBuffer(pos_[0], CL_TRUE, 0, n_ * 16, initial.pos.data());
@@ -82,6 +89,14 @@ Simulation::Simulation(const Model& model, const HostParticles& initial, ClConte
   });
   next_id_ = static_cast<uint32_t>(n_);
   emitter_travel_.assign(model_.emitters.size(), model_.dx);  // the first layer leaves at the start time
+}
+
+void Simulation::allocateNeighbourLists(uint32_t slots) {
+  const std::size_t bytes = model_.capacity * slots * 4;
+  if (params_.max_neighbours > 0) device_bytes_ -= 2 * std::max<std::size_t>(model_.capacity * params_.max_neighbours * 4, 16);
+  nbr_ = makeBuffer(bytes);
+  bnbr_ = makeBuffer(bytes);
+  params_.max_neighbours = slots;
 }
 
 bool Simulation::disable(Stage s) {
@@ -286,6 +301,11 @@ void Simulation::computeDensity() {
   k.setArg(5, bcell_start_);
   k.setArg(6, density_);
   k.setArg(7, pressure_);
+  k.setArg(8, nbr_);
+  k.setArg(9, nbr_count_);
+  k.setArg(10, bnbr_);
+  k.setArg(11, bnbr_count_);
+  k.setArg(12, overflow_);
   kernels_.enqueue("compute_density", n_, kLocal);
 }
 
@@ -304,10 +324,12 @@ void Simulation::pressureForces() {
   k.setArg(2, phase_[cur_]);
   k.setArg(3, density_);
   k.setArg(4, pressure_);
-  k.setArg(5, cell_start_);
-  k.setArg(6, bpos_);
-  k.setArg(7, bcell_start_);
-  k.setArg(8, acc_);
+  k.setArg(5, nbr_);
+  k.setArg(6, nbr_count_);
+  k.setArg(7, bpos_);
+  k.setArg(8, bnbr_);
+  k.setArg(9, bnbr_count_);
+  k.setArg(10, acc_);
   kernels_.enqueue("pressure_force", n_, kLocal);
 }
 
@@ -319,8 +341,9 @@ void Simulation::viscosityForces() {
   k.setArg(2, vel_[cur_]);
   k.setArg(3, phase_[cur_]);
   k.setArg(4, density_);
-  k.setArg(5, cell_start_);
-  k.setArg(6, acc_);
+  k.setArg(5, nbr_);
+  k.setArg(6, nbr_count_);
+  k.setArg(7, acc_);
   kernels_.enqueue("viscosity_force", n_, kLocal);
 }
 
@@ -333,8 +356,9 @@ void Simulation::diffuseColour() {
   k.setArg(2, phase_[cur_]);
   k.setArg(3, density_);
   k.setArg(4, colour_[cur_]);
-  k.setArg(5, cell_start_);
-  k.setArg(6, colour_[nxt]);
+  k.setArg(5, nbr_);
+  k.setArg(6, nbr_count_);
+  k.setArg(7, colour_[nxt]);
   kernels_.enqueue("colour_diffuse", n_, kLocal);
   // The other fields are not double-buffered past this point: copy the new colours back.
   clCall("copying colours", [&] { return cl_.queue().enqueueCopyBuffer(colour_[nxt], colour_[cur_], 0, 0, n_ * 16); });
@@ -357,7 +381,7 @@ FrameReport Simulation::runDiagnostics() {
   params_.n_fluid = static_cast<sph_uint>(n_);
   const uint32_t chunk = static_cast<uint32_t>((n_ + diag_groups_ - 1) / diag_groups_);
   std::vector<uint32_t> out(diag_groups_ * 8, 0);
-  uint32_t crossings = 0;
+  uint32_t crossings = 0, overflow = 0;
   if (n_ > 0) {
     cl::Kernel& k = kernels_["diagnostics"];
     k.setArg(0, sizeof(SimParams), &params_);
@@ -371,8 +395,10 @@ FrameReport Simulation::runDiagnostics() {
       auto& q = cl_.queue();
       q.enqueueReadBuffer(diag_, CL_TRUE, 0, out.size() * 4, out.data());
       q.enqueueReadBuffer(crossings_, CL_TRUE, 0, 4, &crossings);
+      q.enqueueReadBuffer(overflow_, CL_TRUE, 0, 4, &overflow);
       const uint32_t zero = 0;
       q.enqueueWriteBuffer(crossings_, CL_TRUE, 0, 4, &zero);
+      q.enqueueWriteBuffer(overflow_, CL_TRUE, 0, 4, &zero);
       return 0;
     });
   }
@@ -389,6 +415,15 @@ FrameReport Simulation::runDiagnostics() {
     if (first_bad == 0xffffffffu && o[5] != 0xffffffffu) first_bad = o[5];
   }
   rep.wall_crossings = crossings;
+  // A neighbour list overflowed during this frame: the extra neighbours were ignored; grow the lists.
+  if (overflow > 0) {
+    const uint32_t slots = (overflow + overflow / 4 + 7) / 8 * 8;
+    std::ostringstream s;
+    s << "a particle had " << overflow << " neighbours, more than the " << params_.max_neighbours
+      << " list slots: the extra ones were ignored this frame; lists grown to " << slots << " slots";
+    pending_messages_.push_back(s.str());
+    allocateNeighbourLists(slots);
+  }
   if (first_bad != 0xffffffffu) {
     uint32_t id = 0;
     clCall("reading a particle id",

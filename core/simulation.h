@@ -116,6 +116,9 @@ class Simulation {
   int cur_ = 0;
   std::array<cl::Buffer, 2> pos_, vel_, colour_, phase_, id_;
   cl::Buffer acc_, density_, pressure_, cell_, rank_, sorted_;
+  // Neighbour lists (fluid and boundary), written by the density pass, read by the force stages.
+  cl::Buffer nbr_, nbr_count_, bnbr_, bnbr_count_, overflow_;
+  void allocateNeighbourLists(uint32_t slots);
   // Grid tables and scratch.
   cl::Buffer cell_count_, cell_start_, scan_sums_, bpos_, bcell_start_, crossings_, diag_;
   uint32_t scan_chunks_ = 0, diag_groups_ = 0;

@@ -3,7 +3,7 @@
  * Explicit update into a second buffer (the host swaps), so every particle reads old colours. */
 __kernel void colour_diffuse(const SimParams p, __global const float4* pos, __global const uint* phase,
                              __global const float* density, __global const float4* colour,
-                             __global const uint* cell_start, __global float4* colour_out) {
+                             __global const uint* nbr, __global const uint* nbr_count, __global float4* colour_out) {
   const uint i = get_global_id(0);
   if (i >= p.n_fluid) return;
   const float3 xi = pos[i].xyz;
@@ -12,16 +12,17 @@ __kernel void colour_diffuse(const SimParams p, __global const float4* pos, __gl
   const float H2 = H * H;
   const float eta2 = 0.01f * p.h * p.h;
   float4 lap = (float4)(0.0f);
-  SPH_FOR_NEIGHBOURS(&p, cell_start, xi, j) {
+  const uint nn = nbr_count[i];
+  for (uint k = 0; k < nn; ++k) {
+    const uint j = nbr[(size_t)i * p.max_neighbours + k];
     const float3 d = xi - pos[j].xyz;
     const float r2 = dot(d, d);
-    if (r2 < H2 && j != i) {
+    if (r2 < H2) {
       const float dj = density[j] / p.phase_mass[phase[j]];
       const float F = sph_grad_factor(SPH_KERNEL, sqrt(r2), H);
       lap += 2.0f / dj * (ci - colour[j]) * (F * r2) / (r2 + eta2);
     }
   }
-  SPH_END_NEIGHBOURS
   float4 c = ci + p.dt * p.colour_diffusion * lap;
   c.w = ci.w;
   colour_out[i] = clamp(c, 0.0f, 1.0f);

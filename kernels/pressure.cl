@@ -18,8 +18,9 @@
  * The force between fluid particles i and j is equal and opposite, so momentum is conserved. */
 __kernel void pressure_force(const SimParams p, __global const float4* pos, __global const uint* phase,
                              __global const float* density, __global const float* pressure,
-                             __global const uint* cell_start, __global const float4* bpos,
-                             __global const uint* bcell_start, __global float4* acc) {
+                             __global const uint* nbr, __global const uint* nbr_count,
+                             __global const float4* bpos, __global const uint* bnbr,
+                             __global const uint* bnbr_count, __global float4* acc) {
   const uint i = get_global_id(0);
   if (i >= p.n_fluid) return;
   const float3 xi = pos[i].xyz;
@@ -32,18 +33,21 @@ __kernel void pressure_force(const SimParams p, __global const float4* pos, __gl
   const float dx = cbrt(p.rest_volume);
   float3 f = (float3)(0.0f);       /* pressure force (unit: N) */
   float3 contact = (float3)(0.0f); /* boundary contact acceleration (unit: m/s^2) */
-  SPH_FOR_NEIGHBOURS(&p, cell_start, xi, j) {
+  const uint K = p.max_neighbours;
+  const uint nn = nbr_count[i];
+  for (uint k = 0; k < nn; ++k) {
+    const uint j = nbr[(size_t)i * K + k];
     const float3 d = xi - pos[j].xyz;
     const float r2 = dot(d, d);
-    if (r2 < H2 && j != i) {
+    if (r2 < H2) {
       const float dj = density[j] / p.phase_mass[phase[j]];
       f -= (pi_term + pressure[j] / (dj * dj)) * sph_grad_factor(SPH_KERNEL, sqrt(r2), H) * d;
     }
   }
-  SPH_END_NEIGHBOURS
 
-  SPH_FOR_NEIGHBOURS(&p, bcell_start, xi, b) {
-    const float4 bb = bpos[b];
+  const uint nb = bnbr_count[i];
+  for (uint k = 0; k < nb; ++k) {
+    const float4 bb = bpos[bnbr[(size_t)i * K + k]];
     const float3 d = xi - bb.xyz;
     const float r2 = dot(d, d);
     if (r2 < H2) {
@@ -52,7 +56,6 @@ __kernel void pressure_force(const SimParams p, __global const float4* pos, __gl
       if (r < dx && r > 1e-6f * dx) contact += bb.w * (5.0f * p.c0 * p.c0 / dx) * (1.0f - r / dx) / r * d;
     }
   }
-  SPH_END_NEIGHBOURS
 
   const float3 g = (float3)(p.gravity[0], p.gravity[1], p.gravity[2]);
   acc[i] = (float4)(f / mi + contact + g, 0.0f);

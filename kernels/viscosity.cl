@@ -9,7 +9,7 @@
  * Boundaries are free-slip for viscosity (walls exert pressure only). */
 __kernel void viscosity_force(const SimParams p, __global const float4* pos, __global const float4* vel,
                               __global const uint* phase, __global const float* density,
-                              __global const uint* cell_start, __global float4* acc) {
+                              __global const uint* nbr, __global const uint* nbr_count, __global float4* acc) {
   const uint i = get_global_id(0);
   if (i >= p.n_fluid) return;
   const float3 xi = pos[i].xyz;
@@ -21,10 +21,12 @@ __kernel void viscosity_force(const SimParams p, __global const float4* pos, __g
   const float mui = rhoi * p.phase_viscosity[phase[i]];
 
   float3 a = (float3)(0.0f);
-  SPH_FOR_NEIGHBOURS(&p, cell_start, xi, j) {
+  const uint nn = nbr_count[i];
+  for (uint k = 0; k < nn; ++k) {
+    const uint j = nbr[(size_t)i * p.max_neighbours + k];
     const float3 d = xi - pos[j].xyz;
     const float r2 = dot(d, d);
-    if (r2 < H2 && j != i) {
+    if (r2 < H2) {
       const float3 vij = vi - vel[j].xyz;
       const float mj = p.phase_mass[phase[j]];
       const float rhoj = density[j];
@@ -42,7 +44,6 @@ __kernel void viscosity_force(const SimParams p, __global const float4* pos, __g
 #endif
     }
   }
-  SPH_END_NEIGHBOURS
   (void)mui;
   acc[i] += (float4)(a, 0.0f);
 }

@@ -33,7 +33,7 @@ typedef struct SimParams {
   sph_uint n_fluid;       /* active fluid particles */
   sph_uint n_boundary;    /* static boundary particles */
   sph_uint num_cells;     /* grid_dims product */
-  sph_uint pad0;
+  sph_uint max_neighbours; /* neighbour-list slots per particle (fluid and boundary lists alike) */
   /* time integration */
   float dt;               /* (unit: s) */
   float gravity[4];       /* current gravity, ramp applied (unit: m/s^2) */
