@@ -2,10 +2,11 @@
  *
  * Symmetric multi-fluid pressure force, Solenthaler & Pajarola 2008 eq. 6:
  *     a_i = -(1/m_i) sum_j (p_i / delta_i^2 + p_j / delta_j^2) grad W_ij
- * with delta = rho / m the number density. Boundary particles mirror the particle's own pressure
- * and number density (p_b = p_i, delta_b = delta_i: Akinci et al. 2012 eq. 9 with the symmetric
- * pressure term of the fluid-fluid force, written in number densities):
- *     a_i += -(1/m_i) sum_b (V_b / V0) 2 (p_i / delta_i^2) grad W_ib
+ * with delta = rho / m the number density. Boundary particles take the particle's own pressure
+ * (Akinci et al. 2012 eq. 9, written in number densities):
+ *     a_i += -(1/m_i) sum_b (V_b / V0) (p_i / delta_i^2) grad W_ib
+ * (The fully mirrored term, 2 p_i / delta_i^2, made the wall stiffer than the fluid and drove a
+ * slow instability in the hydrostatic tank; Akinci's single term is stable.)
  * Boundary contact: a fluid particle at rest sits one spacing dx from the nearest boundary
  * particle, where pressure alone holds it. A splash particle with too few neighbours has p = 0
  * (negative pressures are clamped) and would reach the wall unopposed, so a short-range linear
@@ -52,7 +53,7 @@ __kernel void pressure_force(const SimParams p, __global const float4* pos, __gl
     const float r2 = dot(d, d);
     if (r2 < H2) {
       const float r = sqrt(r2);
-      f -= bb.w * 2.0f * pi_term * sph_grad_factor(SPH_KERNEL, r, H) * d;
+      f -= bb.w * pi_term * sph_grad_factor(SPH_KERNEL, r, H) * d;
       if (r < dx && r > 1e-6f * dx) contact += bb.w * (5.0f * p.c0 * p.c0 / dx) * (1.0f - r / dx) / r * d;
     }
   }
