@@ -48,6 +48,7 @@ std::string profileLine(const Profile& p) {
                   total > 0 ? 100.0 * t / total : 0.0);
     s << buf;
   }
+  s << "; neighbour lists built " << p.grid_builds << " times in " << p.steps << " steps";
   if (p.subdivided_frames) s << "; CFL subdivided " << p.subdivided_frames << " frame(s)";
   if (p.cfl_warned_frames) s << "; ran " << p.cfl_warned_frames << " frame(s) above the CFL limit";
   return s.str();

@@ -103,6 +103,9 @@ Compiled compile(const SceneSpec& spec) {
   m.dx = fl.particle_spacing;
   m.support = sim.support_ratio * m.dx;
   m.h = 0.5 * m.support;
+  // Neighbour lists reach a quarter support further, so they stay valid for several steps.
+  m.skin = 0.25 * m.support;
+  const double cell_size = m.support + m.skin;
   m.frame_dt = 1.0 / sim.frame_rate;
   m.num_frames = std::max(1, static_cast<int>(std::lround(sim.duration * sim.frame_rate)));
   const Eigen::Vector3d extent = dom.max - dom.min;
@@ -212,13 +215,13 @@ Compiled compile(const SceneSpec& spec) {
   }
   for (const PhaseSpec& p : fl.phases) m.max_viscosity = std::max(m.max_viscosity, p.viscosity);
 
-  // --- Neighbour grid: cell = support, covering the domain plus the boundary layers ----------
+  // --- Neighbour grid: cell = list radius (support + skin), covering domain and boundary layers ---
   const int layers = dom.boundary_layers;
   const double margin = (layers + 1) * m.dx;
   const Eigen::Vector3d origin = dom.min - Eigen::Vector3d::Constant(margin);
   const Eigen::Vector3d span = extent + Eigen::Vector3d::Constant(2.0 * margin);
   Eigen::Vector3i dims;
-  for (int a = 0; a < 3; ++a) dims[a] = std::max(1, static_cast<int>(std::ceil(span[a] / m.support)));
+  for (int a = 0; a < 3; ++a) dims[a] = std::max(1, static_cast<int>(std::ceil(span[a] / cell_size)));
   const double cells = static_cast<double>(dims.x()) * dims.y() * dims.z();
   if (cells > 2.0e8)
     fail(dom.loc, "domain too large for the particle spacing: " + fmt(cells) + " grid cells (limit 2e8)");
@@ -258,7 +261,7 @@ Compiled compile(const SceneSpec& spec) {
     // Sort by cell (stable: ties keep lattice order) and build the cell start table.
     std::vector<std::pair<uint32_t, uint32_t>> keyed(pts.size());
     for (uint32_t i = 0; i < pts.size(); ++i) {
-      Eigen::Vector3i c = ((pts[i].cast<double>() - origin) / m.support).array().floor().cast<int>();
+      Eigen::Vector3i c = ((pts[i].cast<double>() - origin) / cell_size).array().floor().cast<int>();
       c = c.cwiseMax(0).cwiseMin(dims - Eigen::Vector3i::Ones());
       keyed[i] = {static_cast<uint32_t>(c.x() + dims.x() * (c.y() + dims.y() * c.z())), i};
     }
@@ -283,7 +286,7 @@ Compiled compile(const SceneSpec& spec) {
     P.domain_min[a] = static_cast<float>(dom.min[a]);
     P.domain_max[a] = static_cast<float>(dom.max[a]);
   }
-  P.cell_size = static_cast<float>(m.support);
+  P.cell_size = static_cast<float>(cell_size);
   P.support = static_cast<float>(m.support);
   P.h = static_cast<float>(m.h);
   P.rest_volume = static_cast<float>(m.dx * m.dx * m.dx);

@@ -41,6 +41,7 @@ struct Model {
   double dx = 0;          ///< particle spacing (unit: m)
   double support = 0;     ///< kernel support radius H = support_ratio * dx (unit: m)
   double h = 0;           ///< smoothing length H / 2 (unit: m)
+  double skin = 0;        ///< Verlet-list skin: lists hold neighbours within H + skin (unit: m)
   double c0 = 0;          ///< speed of sound (unit: m/s)
   double frame_dt = 0;    ///< 1 / frame_rate (unit: s)
   int num_frames = 0;     ///< frames to simulate: round(duration * frame_rate)

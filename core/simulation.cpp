@@ -47,14 +47,15 @@ Simulation::Simulation(const Model& model, const HostParticles& initial, ClConte
   acc_ = makeBuffer(cap * 16);
   density_ = makeBuffer(cap * 4);
   pressure_ = makeBuffer(cap * 4);
+  pterm_ = makeBuffer(cap * 4);
   cell_ = makeBuffer(cap * 4);
   rank_ = makeBuffer(cap * 4);
   sorted_ = makeBuffer(cap * 4);
   nbr_count_ = makeBuffer(cap * 4);
   bnbr_count_ = makeBuffer(cap * 4);
   overflow_ = makeBuffer(4);
-  // Neighbour-list slots: 1.5x the neighbours of a particle in the bulk at rest, plus 8.
-  const double ratio = model_.support / model_.dx;
+  // Neighbour-list slots: 1.5x the particles within the list radius in the bulk at rest, plus 8.
+  const double ratio = (model_.support + model_.skin) / model_.dx;
   allocateNeighbourLists(static_cast<uint32_t>((1.5 * 4.18879 * ratio * ratio * ratio + 8.0 + 7.0) / 8.0) * 8u);
 
   // Grid tables; the scan works in chunks of ~1k cells.
@@ -65,6 +66,7 @@ Simulation::Simulation(const Model& model, const HostParticles& initial, ClConte
   bpos_ = makeBuffer(model_.boundary.size() * 16);
   bcell_start_ = makeBuffer((cells + 1) * 4);
   crossings_ = makeBuffer(4);
+  max_speed_ = makeBuffer(4);
   diag_groups_ = 64;
   diag_ = makeBuffer(diag_groups_ * 32);
 
@@ -77,6 +79,7 @@ Simulation::Simulation(const Model& model, const HostParticles& initial, ClConte
     const uint32_t zero = 0;
     q.enqueueWriteBuffer(crossings_, CL_TRUE, 0, 4, &zero);
     q.enqueueWriteBuffer(overflow_, CL_TRUE, 0, 4, &zero);
+    q.enqueueWriteBuffer(max_speed_, CL_TRUE, 0, 4, &zero);
     n_ = initial.size();
     if (n_ > 0) {
       q.enqueueWriteBuffer(pos_[0], CL_TRUE, 0, n_ * 16, initial.pos.data());
@@ -117,7 +120,8 @@ void Simulation::step(double dt) {
   if (on(Stage::Inflow)) emitInflow(dt);  // new particles enter at the nozzles
   params_.n_fluid = static_cast<sph_uint>(n_);
   if (n_ > 0) {
-    buildGrid();                                       // sort by cell, reorder fields
+    if (!lists_valid_ || travel_since_build_ > 0.5 * model_.skin)
+      buildGrid();                                     // sort by cell, reorder, Verlet lists
     computeDensity();                                  // number density, rho, p (S&P 2008, Akinci 2012)
     pressureForces();                                  // -grad p / rho + g   (or g alone when disabled)
     if (on(Stage::Viscosity)) viscosityForces();       // Monaghan or Morris
@@ -219,6 +223,7 @@ void Simulation::emitInflow(double dt) {
     return 0;
   });
   n_ += k;
+  lists_valid_ = false;  // new particles need neighbours
 }
 
 void Simulation::scan(cl::Buffer& in, cl::Buffer& out, uint32_t n) {
@@ -288,6 +293,22 @@ void Simulation::buildGrid() {
   re.setArg(11, id_[nxt]);
   kernels_.enqueue("grid_reorder", n_, kLocal);
   cur_ = nxt;
+  // neighbour lists within H + skin
+  cl::Kernel& lists = kernels_["build_neighbour_lists"];
+  lists.setArg(0, sizeof(SimParams), &params_);
+  lists.setArg(1, pos_[cur_]);
+  lists.setArg(2, cell_start_);
+  lists.setArg(3, bpos_);
+  lists.setArg(4, bcell_start_);
+  lists.setArg(5, nbr_);
+  lists.setArg(6, nbr_count_);
+  lists.setArg(7, bnbr_);
+  lists.setArg(8, bnbr_count_);
+  lists.setArg(9, overflow_);
+  kernels_.enqueue("build_neighbour_lists", n_, kLocal);
+  lists_valid_ = true;
+  travel_since_build_ = 0.0;
+  ++profile_.grid_builds;
 }
 
 void Simulation::computeDensity() {
@@ -296,16 +317,14 @@ void Simulation::computeDensity() {
   k.setArg(0, sizeof(SimParams), &params_);
   k.setArg(1, pos_[cur_]);
   k.setArg(2, phase_[cur_]);
-  k.setArg(3, cell_start_);
-  k.setArg(4, bpos_);
-  k.setArg(5, bcell_start_);
-  k.setArg(6, density_);
-  k.setArg(7, pressure_);
-  k.setArg(8, nbr_);
-  k.setArg(9, nbr_count_);
-  k.setArg(10, bnbr_);
-  k.setArg(11, bnbr_count_);
-  k.setArg(12, overflow_);
+  k.setArg(3, bpos_);
+  k.setArg(4, nbr_);
+  k.setArg(5, nbr_count_);
+  k.setArg(6, bnbr_);
+  k.setArg(7, bnbr_count_);
+  k.setArg(8, density_);
+  k.setArg(9, pressure_);
+  k.setArg(10, pterm_);
   kernels_.enqueue("compute_density", n_, kLocal);
 }
 
@@ -322,14 +341,13 @@ void Simulation::pressureForces() {
   k.setArg(0, sizeof(SimParams), &params_);
   k.setArg(1, pos_[cur_]);
   k.setArg(2, phase_[cur_]);
-  k.setArg(3, density_);
-  k.setArg(4, pressure_);
-  k.setArg(5, nbr_);
-  k.setArg(6, nbr_count_);
-  k.setArg(7, bpos_);
-  k.setArg(8, bnbr_);
-  k.setArg(9, bnbr_count_);
-  k.setArg(10, acc_);
+  k.setArg(3, pterm_);
+  k.setArg(4, nbr_);
+  k.setArg(5, nbr_count_);
+  k.setArg(6, bpos_);
+  k.setArg(7, bnbr_);
+  k.setArg(8, bnbr_count_);
+  k.setArg(9, acc_);
   kernels_.enqueue("pressure_force", n_, kLocal);
 }
 
@@ -372,7 +390,20 @@ void Simulation::integrate() {
   k.setArg(2, vel_[cur_]);
   k.setArg(3, acc_);
   k.setArg(4, crossings_);
+  k.setArg(5, max_speed_);
   kernels_.enqueue("integrate", n_, kLocal);
+  // The step's largest speed bounds every displacement: the lists stay valid while the sum of
+  // max speed * dt since they were built is below skin / 2.
+  uint32_t bits = 0;
+  const uint32_t zero = 0;
+  clCall("reading the step's largest speed", [&] {
+    cl_.queue().enqueueReadBuffer(max_speed_, CL_TRUE, 0, 4, &bits);
+    cl_.queue().enqueueWriteBuffer(max_speed_, CL_TRUE, 0, 4, &zero);
+    return 0;
+  });
+  float vmax;
+  std::memcpy(&vmax, &bits, 4);
+  travel_since_build_ += std::isfinite(vmax) ? vmax * params_.dt : INFINITY;
 }
 
 FrameReport Simulation::runDiagnostics() {
@@ -399,6 +430,7 @@ FrameReport Simulation::runDiagnostics() {
       const uint32_t zero = 0;
       q.enqueueWriteBuffer(crossings_, CL_TRUE, 0, 4, &zero);
       q.enqueueWriteBuffer(overflow_, CL_TRUE, 0, 4, &zero);
+    q.enqueueWriteBuffer(max_speed_, CL_TRUE, 0, 4, &zero);
       return 0;
     });
   }
@@ -415,7 +447,8 @@ FrameReport Simulation::runDiagnostics() {
     if (first_bad == 0xffffffffu && o[5] != 0xffffffffu) first_bad = o[5];
   }
   rep.wall_crossings = crossings;
-  // A neighbour list overflowed during this frame: the extra neighbours were ignored; grow the lists.
+  // A neighbour list overflowed during this frame: the extra neighbours were ignored; grow the lists
+  // (and rebuild them at the next step).
   if (overflow > 0) {
     const uint32_t slots = (overflow + overflow / 4 + 7) / 8 * 8;
     std::ostringstream s;
@@ -423,6 +456,7 @@ FrameReport Simulation::runDiagnostics() {
       << " list slots: the extra ones were ignored this frame; lists grown to " << slots << " slots";
     pending_messages_.push_back(s.str());
     allocateNeighbourLists(slots);
+    lists_valid_ = false;
   }
   if (first_bad != 0xffffffffu) {
     uint32_t id = 0;

@@ -23,6 +23,7 @@ struct Profile {
   uint64_t particle_steps = 0;               ///< sum over steps of the fluid particle count
   uint64_t subdivided_frames = 0;            ///< frames where CFL control added steps
   uint64_t cfl_warned_frames = 0;            ///< frames run with dt above the CFL limit (policy warn)
+  uint64_t grid_builds = 0;                  ///< neighbour-grid and list rebuilds (Verlet lists)
   double total() const;
 };
 
@@ -115,12 +116,15 @@ class Simulation {
   // Per-particle fields, double-buffered for the reorder (cur_ is the live half).
   int cur_ = 0;
   std::array<cl::Buffer, 2> pos_, vel_, colour_, phase_, id_;
-  cl::Buffer acc_, density_, pressure_, cell_, rank_, sorted_;
+  cl::Buffer acc_, density_, pressure_, pterm_, cell_, rank_, sorted_;
   // Neighbour lists (fluid and boundary), written by the density pass, read by the force stages.
   cl::Buffer nbr_, nbr_count_, bnbr_, bnbr_count_, overflow_;
   void allocateNeighbourLists(uint32_t slots);
   // Grid tables and scratch.
-  cl::Buffer cell_count_, cell_start_, scan_sums_, bpos_, bcell_start_, crossings_, diag_;
+  cl::Buffer cell_count_, cell_start_, scan_sums_, bpos_, bcell_start_, crossings_, diag_, max_speed_;
+  // Verlet lists: rebuilt when particles were added or some particle may have moved skin / 2.
+  bool lists_valid_ = false;
+  double travel_since_build_ = 0.0;  // sum over steps of max speed * dt (unit: m)
   uint32_t scan_chunks_ = 0, diag_groups_ = 0;
 };
 

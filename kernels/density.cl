@@ -9,16 +9,13 @@
  * Equation of state: linear p = c0^2 (rho - rho0) (the paper's p = k (rho - rho0) with k = c0^2),
  * or Tait p = B ((rho / rho0)^7 - 1), B = c0^2 rho0 / 7 (Monaghan 1994).
  *
- * This pass is the only one that scans the grid (27 cells, ~7x more candidates than neighbours):
- * it also records each particle's neighbours (fluid and boundary, self excluded) in fixed-size
- * lists, which the force stages of the same step then read. A list that overflows keeps its
- * first max_neighbours entries (deterministic) and the largest count is reported to the host,
- * which grows the lists. */
+ * Neighbours come from the lists built by the grid stage (grid.cl, build_neighbour_lists),
+ * which hold every particle within the list radius H + skin; only those within H count here. */
 __kernel void compute_density(const SimParams p, __global const float4* pos, __global const uint* phase,
-                              __global const uint* cell_start, __global const float4* bpos,
-                              __global const uint* bcell_start, __global float* density,
-                              __global float* pressure, __global uint* nbr, __global uint* nbr_count,
-                              __global uint* bnbr, __global uint* bnbr_count, volatile __global uint* overflow) {
+                              __global const float4* bpos, __global const uint* nbr,
+                              __global const uint* nbr_count, __global const uint* bnbr,
+                              __global const uint* bnbr_count, __global float* density,
+                              __global float* pressure, __global float* pterm) {
   const uint i = get_global_id(0);
   if (i >= p.n_fluid) return;
   const float3 xi = pos[i].xyz;
@@ -26,41 +23,22 @@ __kernel void compute_density(const SimParams p, __global const float4* pos, __g
   const float H2 = H * H;
 
   const uint K = p.max_neighbours;
-  __global uint* my_nbr = nbr + (size_t)i * K;
-  __global uint* my_bnbr = bnbr + (size_t)i * K;
 
-  /* number density from fluid neighbours (self included), recording the neighbours */
-  float nd = 0.0f;
-  uint count = 0;
-  SPH_FOR_NEIGHBOURS(&p, cell_start, xi, j) {
-    const float3 d = xi - pos[j].xyz;
+  /* number density: self, fluid neighbours, and static boundary particles weighted by volume */
+  float nd = sph_w(SPH_KERNEL, 0.0f, H);
+  const uint nn = nbr_count[i];
+  for (uint k = 0; k < nn; ++k) {
+    const float3 d = xi - pos[nbr[(size_t)i * K + k]].xyz;
     const float r2 = dot(d, d);
-    if (r2 < H2) {
-      nd += sph_w(SPH_KERNEL, sqrt(r2), H);
-      if (j != i) {
-        if (count < K) my_nbr[count] = j;
-        ++count;
-      }
-    }
+    if (r2 < H2) nd += sph_w(SPH_KERNEL, sqrt(r2), H);
   }
-  SPH_END_NEIGHBOURS
-
-  /* and from static boundary particles, weighted by their volume */
-  uint bcount = 0;
-  SPH_FOR_NEIGHBOURS(&p, bcell_start, xi, b) {
-    const float4 bb = bpos[b];
+  const uint nb = bnbr_count[i];
+  for (uint k = 0; k < nb; ++k) {
+    const float4 bb = bpos[bnbr[(size_t)i * K + k]];
     const float3 d = xi - bb.xyz;
     const float r2 = dot(d, d);
-    if (r2 < H2) {
-      nd += bb.w * sph_w(SPH_KERNEL, sqrt(r2), H);
-      if (bcount < K) my_bnbr[bcount] = b;
-      ++bcount;
-    }
+    if (r2 < H2) nd += bb.w * sph_w(SPH_KERNEL, sqrt(r2), H);
   }
-  SPH_END_NEIGHBOURS
-  nbr_count[i] = min(count, K);
-  bnbr_count[i] = min(bcount, K);
-  if (count > K || bcount > K) atomic_max(overflow, max(count, bcount));
 
   /* mass density and equation of state */
   const uint ph = phase[i];
@@ -77,4 +55,5 @@ __kernel void compute_density(const SimParams p, __global const float4* pos, __g
   if (p.clamp_negative_pressure) pr = fmax(pr, 0.0f);
   density[i] = rho;
   pressure[i] = pr;
+  pterm[i] = pr / (nd * nd); /* p / delta^2, what the pressure force reads of each neighbour */
 }

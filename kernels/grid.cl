@@ -1,8 +1,13 @@
-/* Neighbour grid (stage: always). Counting sort of the fluid particles by cell, as in the
+/* Neighbour grid (stage: grid). Counting sort of the fluid particles by cell, as in the
  * SPHaptics paper: cell per particle -> count per cell -> prefix sum (scan.cl) -> sorted index,
  * then every field is gathered into cell order for memory locality.
  * Deterministic: integer atomics only count; the order inside each cell is then fixed by sorting
- * the (short) run of each cell by previous index, so the result never depends on thread timing. */
+ * the (short) run of each cell by previous index, so the result never depends on thread timing.
+ *
+ * Verlet lists (Verlet 1967): the cells are H + skin wide and each particle records every fluid
+ * and boundary particle within H + skin. The lists stay valid until some particle has moved
+ * skin / 2 (the host tracks the largest speed per step), so the sort, the reorder and the 27-cell
+ * scan run every few steps instead of every step. */
 
 /* 1. Cell of each particle and its arrival rank within the cell. cell_count must be zeroed. */
 __kernel void grid_assign(const SimParams p, __global const float4* pos, __global uint* cell,
@@ -53,4 +58,41 @@ __kernel void grid_reorder(const SimParams p, __global const uint* sorted,
   colour_out[s] = colour[j];
   phase_out[s] = phase[j];
   id_out[s] = id[j];
+}
+
+/* 5. Neighbour lists: every fluid and boundary particle within the list radius (the cell size),
+ * self excluded, in grid order (deterministic). A list that overflows keeps its first
+ * max_neighbours entries and the largest count goes to the host, which grows the lists. */
+__kernel void build_neighbour_lists(const SimParams p, __global const float4* pos, __global const uint* cell_start,
+                                    __global const float4* bpos, __global const uint* bcell_start,
+                                    __global uint* nbr, __global uint* nbr_count, __global uint* bnbr,
+                                    __global uint* bnbr_count, volatile __global uint* overflow) {
+  const uint i = get_global_id(0);
+  if (i >= p.n_fluid) return;
+  const float3 xi = pos[i].xyz;
+  const float R2 = p.cell_size * p.cell_size;
+  const uint K = p.max_neighbours;
+  __global uint* my_nbr = nbr + (size_t)i * K;
+  __global uint* my_bnbr = bnbr + (size_t)i * K;
+  uint count = 0;
+  SPH_FOR_NEIGHBOURS(&p, cell_start, xi, j) {
+    const float3 d = xi - pos[j].xyz;
+    if (dot(d, d) < R2 && j != i) {
+      if (count < K) my_nbr[count] = j;
+      ++count;
+    }
+  }
+  SPH_END_NEIGHBOURS
+  uint bcount = 0;
+  SPH_FOR_NEIGHBOURS(&p, bcell_start, xi, b) {
+    const float3 d = xi - bpos[b].xyz;
+    if (dot(d, d) < R2) {
+      if (bcount < K) my_bnbr[bcount] = b;
+      ++bcount;
+    }
+  }
+  SPH_END_NEIGHBOURS
+  nbr_count[i] = min(count, K);
+  bnbr_count[i] = min(bcount, K);
+  if (count > K || bcount > K) atomic_max(overflow, max(count, bcount));
 }

@@ -1,9 +1,11 @@
 /* Time integration (stage: always). Semi-implicit (symplectic) Euler, as in the paper:
  *     v <- v + dt a,   x <- x + dt v
  * A particle that crosses a closed wall despite the boundary particles is put back just inside and
- * counted (an integer atomic: the count is deterministic), so a leaking boundary is never silent. */
+ * counted (an integer atomic: the count is deterministic), so a leaking boundary is never silent.
+ * The step's largest speed goes to the host (integer atomic max of the float's bits: exact). */
 __kernel void integrate(const SimParams p, __global float4* pos, __global float4* vel,
-                        __global const float4* acc, volatile __global uint* crossings) {
+                        __global const float4* acc, volatile __global uint* crossings,
+                        volatile __global uint* max_speed_bits) {
   const uint i = get_global_id(0);
   if (i >= p.n_fluid) return;
   float3 v = vel[i].xyz + p.dt * acc[i].xyz;
@@ -21,4 +23,7 @@ __kernel void integrate(const SimParams p, __global float4* pos, __global float4
   vel[i] = (float4)(v, 0.0f);
   pos[i] = (float4)(x, 0.0f);
   if (crossed) atomic_inc(crossings);
+  /* largest speed of the step, for the Verlet-list skin (non-negative floats order as uints) */
+  const uint sb = as_uint(length(v));
+  if (sb > *max_speed_bits) atomic_max(max_speed_bits, sb); /* read first: few atomics */
 }

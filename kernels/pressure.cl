@@ -18,7 +18,7 @@
  * k_c c0^2 / dx^2 keeps dt^2 k < 1 at the CFL step (symplectic Euler needs < 4).
  * The force between fluid particles i and j is equal and opposite, so momentum is conserved. */
 __kernel void pressure_force(const SimParams p, __global const float4* pos, __global const uint* phase,
-                             __global const float* density, __global const float* pressure,
+                             __global const float* pterm,
                              __global const uint* nbr, __global const uint* nbr_count,
                              __global const float4* bpos, __global const uint* bnbr,
                              __global const uint* bnbr_count, __global float4* acc) {
@@ -28,8 +28,7 @@ __kernel void pressure_force(const SimParams p, __global const float4* pos, __gl
   const float H = p.support;
   const float H2 = H * H;
   const float mi = p.phase_mass[phase[i]];
-  const float di = density[i] / mi;
-  const float pi_term = pressure[i] / (di * di);
+  const float pi_term = pterm[i]; /* p_i / delta_i^2, from the density pass */
 
   const float dx = cbrt(p.rest_volume);
   float3 f = (float3)(0.0f);       /* pressure force (unit: N) */
@@ -41,8 +40,7 @@ __kernel void pressure_force(const SimParams p, __global const float4* pos, __gl
     const float3 d = xi - pos[j].xyz;
     const float r2 = dot(d, d);
     if (r2 < H2) {
-      const float dj = density[j] / p.phase_mass[phase[j]];
-      f -= (pi_term + pressure[j] / (dj * dj)) * sph_grad_factor(SPH_KERNEL, sqrt(r2), H) * d;
+      f -= (pi_term + pterm[j]) * sph_grad_factor(SPH_KERNEL, sqrt(r2), H) * d;
     }
   }
 

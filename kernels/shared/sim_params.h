@@ -19,7 +19,7 @@ typedef struct SimParams {
   /* neighbour grid: cell (cx, cy, cz) covers grid_origin + [c, c+1) * cell_size */
   float grid_origin[4];   /* (unit: m) */
   int grid_dims[4];       /* cells per axis */
-  float cell_size;        /* = support radius H (unit: m) */
+  float cell_size;        /* = neighbour-list radius, support H + skin (unit: m) */
   float support;          /* kernel support radius H (unit: m) */
   float h;                /* smoothing length H/2, used by CFL and viscosity (unit: m) */
   float rest_volume;      /* particle volume dx^3 (unit: m^3) */
