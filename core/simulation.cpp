@@ -152,6 +152,7 @@ FrameReport Simulation::advanceFrame() {
     }
   }
   for (int k = 0; k < steps; ++k) step(dt);
+  time_ = (frame_ + 1) * model_.frame_dt;  // no drift from summing steps
 
   FrameReport rep;
   if (on(Stage::Diagnostics)) rep = runDiagnostics();
