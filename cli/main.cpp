@@ -22,8 +22,9 @@ int main(int argc, char** argv) {
   cmd_run->add_option("--out,-o", run.out, "Output folder (default: the scene's output.directory, else out/<scene>)");
   cmd_run->add_option("--device,-d", run.device, "OpenCL device: cpu, gpu or an index from `sphaptics devices` "
                                                   "(default: $SPHAPTICS_DEVICE, else a GPU if any, else the CPU)");
-  cmd_run->add_option("--set,-s", run.sets, "Override a scene key, e.g. --set fluid.particle_spacing=0.01");
-  cmd_run->add_option("--disable", run.disable, "Switch off a stage (" + stageNameList() + ")");
+  cmd_run->add_option("--set,-s", run.sets, "Override a scene key, e.g. --set fluid.particle_spacing=0.01")
+      ->allow_extra_args(false);
+  cmd_run->add_option("--disable", run.disable, "Switch off a stage (" + stageNameList() + ")")->allow_extra_args(false);
   cmd_run->add_option("--duration", run.duration, "Simulated time in seconds (overrides simulation.duration)");
   cmd_run->add_flag("--quiet,-q", run.quiet, "No progress line and no summary");
 

@@ -84,7 +84,12 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
       // Only a complete run gets the final file name; anything else keeps ".partial".
       std::error_code ec;
       if (status == "complete" && !h5_partial.empty() && fs::exists(h5_partial)) fs::rename(h5_partial, h5_final, ec);
-      io::writeRunJson((out_dir / "run.json").string(), info);
+      try {
+        io::writeRunJson((out_dir / "run.json").string(), info);
+      } catch (const std::exception& e) {
+        std::cerr << "error: " << e.what() << "\n";
+        if (res.exit_code == kExitOk) res.exit_code = 1;
+      }
     }
     return res;
   };
@@ -121,12 +126,15 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
 
     // --- Output folder: nothing from an earlier run may look like this run's result -------
     if (opt.write_output) {
-      if (!opt.out.empty()) out_dir = opt.out;
-      else if (!spec.output.directory.empty()) out_dir = spec.output.directory;
-      else out_dir = fs::path("out") / fs::path(opt.scene).stem();
+      fs::path dir;
+      if (!opt.out.empty()) dir = opt.out;
+      else if (!spec.output.directory.empty()) dir = spec.output.directory;
+      else dir = fs::path("out") / fs::path(opt.scene).stem();
       std::error_code ec;
-      fs::create_directories(out_dir, ec);
-      if (ec) throw InputError(out_dir.string(), 0, 0, "cannot create the output folder: " + ec.message());
+      fs::create_directories(dir, ec);
+      if (ec || !fs::is_directory(dir))
+        throw InputError(dir.string(), 0, 0, "cannot create the output folder: " + (ec ? ec.message() : "not a folder"));
+      out_dir = dir;  // from here on, failures are recorded in run.json
       h5_final = out_dir / "particles.h5part";
       h5_partial = out_dir / "particles.h5part.partial";
       fs::remove(h5_final, ec);

@@ -462,7 +462,7 @@ TEST_CASE("scene files: absolute source_file, output.directory relative to the s
 // --set overrides
 // ---------------------------------------------------------------------------------------------
 
-TEST_CASE("--set overrides are applied before validation", "[io]") {
+TEST_CASE("Overrides from --set are applied before validation", "[io]") {
   const std::string yaml =
       kDomain +
       "fluid:\n"

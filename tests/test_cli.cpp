@@ -1,0 +1,394 @@
+// The command line as a user meets it: the real `sphaptics` executable (SPHAPTICS_BINARY) run
+// through the shell, its exit code and its stderr. Bad input of every kind gives exit code 2 and a
+// message with file:line:col, and a run that fails leaves no particles.h5part behind; validate,
+// schema, devices and --version work. Apart from one single-frame run, nothing here simulates.
+//
+// The bad scenes below are written one line per string literal with the line number in a comment,
+// so that the expected locations can be read off the source. Each command runs inside the test's
+// temporary folder, so messages name the scene file as it was given ("bad.yaml:5:7: ...").
+#include <catch2/catch.hpp>
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+namespace fs = std::filesystem;
+
+namespace {
+
+const fs::path kSourceDir = SPHAPTICS_SOURCE_DIR;
+const fs::path kTinyScene = kSourceDir / "scenes" / "tests" / "tiny_tank.yaml";
+
+/// A unique folder under the system temp directory, removed at scope exit.
+struct TempDir {
+  fs::path path;
+  TempDir() {
+    const auto tick = std::chrono::steady_clock::now().time_since_epoch().count();
+    path = fs::temp_directory_path() /
+           ("sphaptics_cli_test_" + std::to_string(getpid()) + "_" + std::to_string(tick));
+    fs::create_directories(path);
+  }
+  ~TempDir() {
+    std::error_code ec;
+    fs::remove_all(path, ec);
+  }
+  TempDir(const TempDir&) = delete;
+  TempDir& operator=(const TempDir&) = delete;
+
+  fs::path write(const std::string& name, const std::string& text) const {
+    const fs::path p = path / name;
+    std::ofstream(p) << text;
+    return p;
+  }
+};
+
+std::string readFile(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+/// One argument quoted for /bin/sh.
+std::string shellQuote(const std::string& s) {
+  std::string q = "'";
+  for (char c : s) q += (c == '\'') ? std::string("'\\''") : std::string(1, c);
+  return q + "'";
+}
+
+struct Result {
+  int code = -1;     ///< exit status; -1 when the process did not exit normally (a crash)
+  std::string out;   ///< stdout
+  std::string err;   ///< stderr
+};
+
+/// Runs `sphaptics args...` in folder `dir` and returns its exit status, stdout and stderr.
+Result sphaptics(const fs::path& dir, const std::vector<std::string>& args) {
+  const fs::path out_file = dir / ".stdout", err_file = dir / ".stderr";
+  std::string cmd = "cd " + shellQuote(dir.string()) + " && " + shellQuote(SPHAPTICS_BINARY);
+  for (const auto& a : args) cmd += " " + shellQuote(a);
+  cmd += " >" + shellQuote(out_file.string()) + " 2>" + shellQuote(err_file.string()) + " </dev/null";
+  const int status = std::system(cmd.c_str());
+  Result r;
+  // The shell reports a child killed by a signal as 128 + signal; count that as a crash too.
+  if (status != -1 && WIFEXITED(status) && WEXITSTATUS(status) < 128) r.code = WEXITSTATUS(status);
+  r.out = readFile(out_file);
+  r.err = readFile(err_file);
+  fs::remove(out_file);
+  fs::remove(err_file);
+  return r;
+}
+
+bool contains(const std::string& text, const std::string& fragment) {
+  return text.find(fragment) != std::string::npos;
+}
+
+/// Lines of `text` that start with `prefix`.
+int countLines(const std::string& text, const std::string& prefix) {
+  std::istringstream in(text);
+  int n = 0;
+  for (std::string line; std::getline(in, line);) n += line.rfind(prefix, 0) == 0 ? 1 : 0;
+  return n;
+}
+
+/// No output that looks like a finished run: no particles.h5part (nor a .partial of one),
+/// and a run.json, if any, does not say "complete".
+void requireNoCompleteOutput(const fs::path& out) {
+  INFO("output folder " << out);
+  CHECK_FALSE(fs::exists(out / "particles.h5part"));
+  CHECK_FALSE(fs::exists(out / "particles.h5part.partial"));
+  if (fs::exists(out / "run.json")) CHECK_FALSE(contains(readFile(out / "run.json"), "\"status\": \"complete\""));
+}
+
+/// `validate` and `run` on the same bad scene both exit with 2 and print every fragment;
+/// the failed run leaves no particle output in its --out folder.
+void requireBadScene(const TempDir& tmp, const std::string& file, const std::vector<std::string>& fragments) {
+  const Result v = sphaptics(tmp.path, {"validate", file});
+  INFO("validate " << file << " -> exit " << v.code << ", stderr:\n" << v.err);
+  CHECK(v.code == 2);
+  for (const auto& f : fragments) CHECK(contains(v.err, f));
+
+  const Result r = sphaptics(tmp.path, {"run", file, "--out", "out", "--quiet"});
+  INFO("run " << file << " -> exit " << r.code << ", stderr:\n" << r.err);
+  CHECK(r.code == 2);
+  for (const auto& f : fragments) CHECK(contains(r.err, f));
+  requireNoCompleteOutput(tmp.path / "out");
+}
+
+const std::string kDomain = "domain: {min: [0, 0, 0], max: [1, 1, 1]}\n";
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+// Bad scene files: exit code 2, file:line:col, no output
+// ---------------------------------------------------------------------------------------------
+
+TEST_CASE("cli: an unknown key is reported with its location and a suggestion", "[cli]") {
+  TempDir tmp;
+  tmp.write("bad.yaml",
+            kDomain +                  // 1
+            "fluid:\n"                 // 2
+            "  phases:\n"              // 3
+            "    - name: water\n"      // 4
+            "      viscosty: 1e-3\n"); // 5  col 7
+  requireBadScene(tmp, "bad.yaml", {"bad.yaml:5:7: unknown key 'viscosty'", "(did you mean 'viscosity'?)"});
+}
+
+TEST_CASE("cli: a value of the wrong type is reported with its location", "[cli]") {
+  TempDir tmp;
+  tmp.write("bad.yaml",
+            "simulation:\n"            // 1
+            "  duration: fast\n"       // 2  col 13
+            + kDomain);                // 3
+  requireBadScene(tmp, "bad.yaml", {"bad.yaml:2:13: 'simulation.duration' must be a number (unit: s), got 'fast'"});
+}
+
+TEST_CASE("cli: an out-of-range value is reported with its location and range", "[cli]") {
+  TempDir tmp;
+  tmp.write("bad.yaml",
+            kDomain +                          // 1
+            "fluid:\n"                         // 2
+            "  particle_spacing: -0.01\n");    // 3  col 21
+  requireBadScene(tmp, "bad.yaml",
+                  {"bad.yaml:3:21: 'fluid.particle_spacing' = -0.01 is out of range (must be > 0, unit: m)"});
+}
+
+TEST_CASE("cli: a bad enum value lists the allowed values", "[cli]") {
+  TempDir tmp;
+  tmp.write("bad.yaml",
+            "simulation:\n"                 // 1
+            "  kernel: cubic\n"             // 2  col 11
+            + kDomain);                     // 3
+  requireBadScene(tmp, "bad.yaml",
+                  {"bad.yaml:2:11: 'simulation.kernel' = 'cubic' is not allowed",
+                   "allowed values: cubic_spline, wendland_c2"});
+}
+
+TEST_CASE("cli: a missing required key is reported at its section", "[cli]") {
+  TempDir tmp;
+  tmp.write("bad.yaml",
+            "domain:\n"                 // 1  col 1: domain.max missing
+            "  min: [0, 0, 0]\n");      // 2
+  requireBadScene(tmp, "bad.yaml", {"bad.yaml:1:1: missing required key 'domain.max'"});
+}
+
+TEST_CASE("cli: a YAML syntax error is reported with its location", "[cli]") {
+  TempDir tmp;
+  tmp.write("bad.yaml",
+            "simulation:\n"            // 1
+            "  duration: 1\n"          // 2
+            " frame_rate: 30\n");      // 3  bad indentation: yaml-cpp stops at col 2
+  requireBadScene(tmp, "bad.yaml", {"bad.yaml:3:2: YAML syntax error"});
+}
+
+TEST_CASE("cli: a block naming an undefined phase is reported with the defined phases", "[cli]") {
+  TempDir tmp;
+  tmp.write("bad.yaml",
+            kDomain +                        // 1
+            "fluid:\n"                       // 2
+            "  phases:\n"                    // 3
+            "    - name: water\n"            // 4
+            "    - name: honey\n"            // 5
+            "  blocks:\n"                    // 6
+            "    - phase: hony\n"            // 7  col 14
+            "      min: [0, 0, 0]\n"         // 8
+            "      max: [0.5, 0.5, 0.5]\n"); // 9
+  requireBadScene(tmp, "bad.yaml",
+                  {"bad.yaml:7:14: undefined phase 'hony'", "defined phases: water, honey", "did you mean 'honey'?"});
+}
+
+TEST_CASE("cli: every error of a file is reported, not just the first", "[cli]") {
+  TempDir tmp;
+  tmp.write("bad.yaml",
+            "simulation:\n"                    // 1
+            "  duration: fast\n"               // 2  col 13: wrong type
+            "  kernel: cubic\n"                // 3  col 11: bad enum
+            "domain:\n"                        // 4
+            "  min: [0, 0, 0]\n"               // 5
+            "  max: [1, 1, 1]\n"               // 6
+            "fluid:\n"                         // 7
+            "  particle_spacing: -0.01\n"      // 8  col 21: out of range
+            "  blocs: []\n");                  // 9  col 3: unknown key
+  const std::vector<std::string> errors = {
+      "bad.yaml:2:13: 'simulation.duration' must be a number",
+      "bad.yaml:3:11: 'simulation.kernel' = 'cubic' is not allowed",
+      "bad.yaml:8:21: 'fluid.particle_spacing' = -0.01 is out of range",
+      "bad.yaml:9:3: unknown key 'blocs'",
+  };
+  requireBadScene(tmp, "bad.yaml", errors);
+
+  // One line per error, and nothing else reported as an error.
+  const Result v = sphaptics(tmp.path, {"validate", "bad.yaml"});
+  INFO(v.err);
+  CHECK(countLines(v.err, "error: ") == 4);
+
+  // validate goes on to the next file after a bad one, and still exits with 2.
+  tmp.write("good.yaml", kDomain + "fluid: {blocks: [{min: [0, 0, 0], max: [0.2, 0.2, 0.2]}]}\n");
+  const Result both = sphaptics(tmp.path, {"validate", "bad.yaml", "good.yaml"});
+  INFO(both.out << both.err);
+  CHECK(both.code == 2);
+  CHECK(contains(both.out, "good.yaml: ok"));
+  CHECK(countLines(both.err, "error: ") == 4);
+}
+
+TEST_CASE("cli: a missing scene file is bad input naming the path", "[cli]") {
+  TempDir tmp;
+  requireBadScene(tmp, "no_such_scene.yaml", {"no_such_scene.yaml", "cannot open the scene file"});
+}
+
+// ---------------------------------------------------------------------------------------------
+// Bad command lines: exit code 2, the option named, no output
+// ---------------------------------------------------------------------------------------------
+
+TEST_CASE("cli: an unknown --disable stage lists the stages", "[cli]") {
+  TempDir tmp;
+  const Result r = sphaptics(tmp.path, {"run", kTinyScene.string(), "--out", "out", "--disable", "presure"});
+  INFO("exit " << r.code << ", stderr:\n" << r.err);
+  CHECK(r.code == 2);
+  CHECK(contains(r.err, "--disable: unknown stage 'presure'"));
+  CHECK(contains(r.err, "inflow, grid, density, pressure, viscosity, colour_diffusion, integrate, diagnostics"));
+  requireNoCompleteOutput(tmp.path / "out");
+}
+
+TEST_CASE("cli: a bad --set key or value is bad input naming --set", "[cli]") {
+  TempDir tmp;
+  SECTION("unknown key, with a suggestion") {
+    const Result r = sphaptics(tmp.path, {"run", kTinyScene.string(), "--out", "out", "--set",
+                                          "fluid.particle_spacng=0.01"});
+    INFO("exit " << r.code << ", stderr:\n" << r.err);
+    CHECK(r.code == 2);
+    CHECK(contains(r.err, "--set: 'fluid.particle_spacng=0.01': unknown key 'fluid.particle_spacng'"));
+    CHECK(contains(r.err, "did you mean 'fluid.particle_spacing'?"));
+  }
+  SECTION("value of the wrong type") {
+    const Result r = sphaptics(tmp.path, {"run", kTinyScene.string(), "--out", "out", "--set",
+                                          "fluid.particle_spacing=abc"});
+    INFO("exit " << r.code << ", stderr:\n" << r.err);
+    CHECK(r.code == 2);
+    CHECK(contains(r.err, "--set: 'fluid.particle_spacing=abc': 'fluid.particle_spacing' must be a number"));
+  }
+  SECTION("out-of-range --duration") {
+    const Result r = sphaptics(tmp.path, {"run", kTinyScene.string(), "--out", "out", "--duration", "0"});
+    INFO("exit " << r.code << ", stderr:\n" << r.err);
+    CHECK(r.code == 2);
+    CHECK(contains(r.err, "--duration: must be > 0"));
+  }
+  requireNoCompleteOutput(tmp.path / "out");
+}
+
+TEST_CASE("cli: an --out folder that cannot be created is bad input", "[cli]") {
+  TempDir tmp;
+  tmp.write("taken", "a file where the output folder's parent should be\n");
+  const Result r = sphaptics(tmp.path, {"run", kTinyScene.string(), "--out", "taken/out", "--quiet"});
+  INFO("exit " << r.code << ", stderr:\n" << r.err);
+  CHECK(r.code == 2);
+  CHECK(contains(r.err, "taken/out"));
+  CHECK(contains(r.err, "cannot create the output folder"));
+  CHECK(readFile(tmp.path / "taken") == "a file where the output folder's parent should be\n");
+}
+
+TEST_CASE("cli: unknown options and a missing command exit with 2", "[cli]") {
+  TempDir tmp;
+  const Result flag = sphaptics(tmp.path, {"run", kTinyScene.string(), "--bogus"});
+  INFO(flag.err);
+  CHECK(flag.code == 2);
+  CHECK(contains(flag.err, "--bogus"));
+  const Result none = sphaptics(tmp.path, {});
+  INFO(none.err);
+  CHECK(none.code == 2);
+  const Result unknown = sphaptics(tmp.path, {"simulate"});
+  INFO(unknown.err);
+  CHECK(unknown.code == 2);
+}
+
+// ---------------------------------------------------------------------------------------------
+// The commands that work
+// ---------------------------------------------------------------------------------------------
+
+TEST_CASE("cli: validate accepts every scene shipped in scenes/", "[cli]") {
+  TempDir tmp;
+  std::vector<std::string> scenes;
+  for (const auto& e : fs::recursive_directory_iterator(kSourceDir / "scenes"))
+    if (e.is_regular_file() && e.path().extension() == ".yaml") scenes.push_back(e.path().string());
+  REQUIRE(scenes.size() >= 2);  // at least scenes/dam_break.yaml and scenes/tests/tiny_tank.yaml
+  for (const auto& scene : scenes) {
+    const Result r = sphaptics(tmp.path, {"validate", scene});
+    INFO(scene << " -> exit " << r.code << "\n" << r.out << r.err);
+    CHECK(r.code == 0);
+    CHECK(contains(r.out, scene + ": ok"));
+  }
+}
+
+TEST_CASE("cli: schema lists every key with its type, unit and range", "[cli]") {
+  TempDir tmp;
+  const Result r = sphaptics(tmp.path, {"schema"});
+  INFO(r.err);
+  REQUIRE(r.code == 0);
+
+  // The row of a key, split into whitespace-separated words.
+  auto row = [&](const std::string& key) {
+    std::istringstream in(r.out);
+    for (std::string line; std::getline(in, line);) {
+      std::istringstream words(line);
+      std::vector<std::string> w;
+      for (std::string s; words >> s;) w.push_back(s);
+      if (!w.empty() && w[0] == key) return w;
+    }
+    return std::vector<std::string>{};
+  };
+  // KEY TYPE DEFAULT UNIT ALLOWED DESCRIPTION
+  const auto spacing = row("fluid.particle_spacing");
+  INFO(r.out);
+  REQUIRE(spacing.size() >= 5);
+  CHECK(spacing[1] == "float");
+  CHECK(spacing[3] == "m");
+  const auto kernel = row("simulation.kernel");
+  REQUIRE(kernel.size() >= 4);
+  CHECK(kernel[1] == "enum");
+  CHECK(contains(r.out, "cubic_spline|wendland_c2"));
+  const auto max = row("domain.max");
+  REQUIRE(max.size() >= 4);
+  CHECK(max[1] == "vec3");
+  CHECK(max[2] == "(required)");
+  CHECK(max[3] == "m");
+  CHECK_FALSE(row("fluid.phases[].rest_density").empty());
+  CHECK_FALSE(row("output.particles").empty());
+}
+
+TEST_CASE("cli: --version prints the version", "[cli]") {
+  TempDir tmp;
+  const Result r = sphaptics(tmp.path, {"--version"});
+  INFO(r.err);
+  CHECK(r.code == 0);
+  CHECK(contains(r.out, std::string("sphaptics ") + SPHAPTICS_VERSION));
+}
+
+TEST_CASE("cli: devices lists at least one OpenCL device", "[cli]") {
+  TempDir tmp;
+  const Result r = sphaptics(tmp.path, {"devices"});
+  INFO(r.out << r.err);
+  CHECK(r.code == 0);
+  CHECK(countLines(r.out, "device 0: ") == 1);
+}
+
+TEST_CASE("cli: a complete run writes particles.h5part and a run.json that says complete", "[cli]") {
+  // The counterpart of the failed runs above: one frame of the tiny tank on the CPU.
+  TempDir tmp;
+  const Result r = sphaptics(tmp.path, {"run", kTinyScene.string(), "--out", "out", "--device", "cpu",
+                                        "--duration", "0.016", "--quiet"});
+  INFO("exit " << r.code << ", stderr:\n" << r.err);
+  REQUIRE(r.code == 0);
+  CHECK_FALSE(contains(r.err, "done:"));  // --quiet: no progress line, no summary
+  CHECK_FALSE(contains(r.err, "scene: "));
+  const fs::path out = tmp.path / "out";
+  CHECK(fs::exists(out / "particles.h5part"));
+  CHECK_FALSE(fs::exists(out / "particles.h5part.partial"));
+  CHECK(contains(readFile(out / "run.json"), "\"status\": \"complete\""));
+}
