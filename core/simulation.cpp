@@ -53,6 +53,8 @@ Simulation::Simulation(const Model& model, const HostParticles& initial, ClConte
   sorted_ = makeBuffer(cap * 4);
   nbr_count_ = makeBuffer(cap * 4);
   bnbr_count_ = makeBuffer(cap * 4);
+  snbr_count_ = makeBuffer(cap * 4);
+  sbnbr_count_ = makeBuffer(cap * 4);
   overflow_ = makeBuffer(4);
   // Neighbour-list slots: 1.5x the particles within the list radius in the bulk at rest, plus 8.
   const double ratio = (model_.support + model_.skin) / model_.dx;
@@ -96,9 +98,11 @@ Simulation::Simulation(const Model& model, const HostParticles& initial, ClConte
 
 void Simulation::allocateNeighbourLists(uint32_t slots) {
   const std::size_t bytes = model_.capacity * slots * 4;
-  if (params_.max_neighbours > 0) device_bytes_ -= 2 * std::max<std::size_t>(model_.capacity * params_.max_neighbours * 4, 16);
+  if (params_.max_neighbours > 0) device_bytes_ -= 4 * std::max<std::size_t>(model_.capacity * params_.max_neighbours * 4, 16);
   nbr_ = makeBuffer(bytes);
   bnbr_ = makeBuffer(bytes);
+  snbr_ = makeBuffer(bytes);
+  sbnbr_ = makeBuffer(bytes);
   params_.max_neighbours = slots;
 }
 
@@ -326,6 +330,10 @@ void Simulation::computeDensity() {
   k.setArg(8, density_);
   k.setArg(9, pressure_);
   k.setArg(10, pterm_);
+  k.setArg(11, snbr_);
+  k.setArg(12, snbr_count_);
+  k.setArg(13, sbnbr_);
+  k.setArg(14, sbnbr_count_);
   kernels_.enqueue("compute_density", n_, kLocal);
 }
 
@@ -343,11 +351,11 @@ void Simulation::pressureForces() {
   k.setArg(1, pos_[cur_]);
   k.setArg(2, phase_[cur_]);
   k.setArg(3, pterm_);
-  k.setArg(4, nbr_);
-  k.setArg(5, nbr_count_);
+  k.setArg(4, snbr_);
+  k.setArg(5, snbr_count_);
   k.setArg(6, bpos_);
-  k.setArg(7, bnbr_);
-  k.setArg(8, bnbr_count_);
+  k.setArg(7, sbnbr_);
+  k.setArg(8, sbnbr_count_);
   k.setArg(9, acc_);
   kernels_.enqueue("pressure_force", n_, kLocal);
 }
@@ -360,8 +368,8 @@ void Simulation::viscosityForces() {
   k.setArg(2, vel_[cur_]);
   k.setArg(3, phase_[cur_]);
   k.setArg(4, density_);
-  k.setArg(5, nbr_);
-  k.setArg(6, nbr_count_);
+  k.setArg(5, snbr_);
+  k.setArg(6, snbr_count_);
   k.setArg(7, acc_);
   kernels_.enqueue("viscosity_force", n_, kLocal);
 }
@@ -375,8 +383,8 @@ void Simulation::diffuseColour() {
   k.setArg(2, phase_[cur_]);
   k.setArg(3, density_);
   k.setArg(4, colour_[cur_]);
-  k.setArg(5, nbr_);
-  k.setArg(6, nbr_count_);
+  k.setArg(5, snbr_);
+  k.setArg(6, snbr_count_);
   k.setArg(7, colour_[nxt]);
   kernels_.enqueue("colour_diffuse", n_, kLocal);
   // The other fields are not double-buffered past this point: copy the new colours back.

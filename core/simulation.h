@@ -119,6 +119,8 @@ class Simulation {
   cl::Buffer acc_, density_, pressure_, pterm_, cell_, rank_, sorted_;
   // Neighbour lists (fluid and boundary), written by the density pass, read by the force stages.
   cl::Buffer nbr_, nbr_count_, bnbr_, bnbr_count_, overflow_;
+  // This step's neighbours within H (written by the density pass), read by the force stages.
+  cl::Buffer snbr_, snbr_count_, sbnbr_, sbnbr_count_;
   void allocateNeighbourLists(uint32_t slots);
   // Grid tables and scratch.
   cl::Buffer cell_count_, cell_start_, scan_sums_, bpos_, bcell_start_, crossings_, diag_, max_speed_;

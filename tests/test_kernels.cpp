@@ -389,6 +389,7 @@ struct Device {
   cl::Buffer pos[2], vel[2], colour[2], phase[2], id[2];
   cl::Buffer cell, rank, sorted, cell_count, cell_start, scan_sums, bpos, bcell_start;
   cl::Buffer density, pressure, pterm, nbr, nbr_count, bnbr, bnbr_count, overflow, acc, crossings, max_speed;
+  cl::Buffer snbr, snbr_count, sbnbr, sbnbr_count;  // this step's neighbours within H (density pass)
 
   /// `scan_chunk_cells`: cells per scan chunk (the simulation uses ~1024; smaller gives several chunks).
   Device(KernelSet& k, const Scene& s, uint32_t scan_chunk_cells = 1024) : ks(k), P(s.P), n(s.pos.size()) {
@@ -416,6 +417,10 @@ struct Device {
     bnbr = toDevice(std::vector<uint32_t>(n * P.max_neighbours, 0xffffffffu));
     nbr_count = zeros<uint32_t>(n);
     bnbr_count = zeros<uint32_t>(n);
+    snbr = toDevice(std::vector<uint32_t>(n * P.max_neighbours, 0xffffffffu));
+    sbnbr = toDevice(std::vector<uint32_t>(n * P.max_neighbours, 0xffffffffu));
+    snbr_count = zeros<uint32_t>(n);
+    sbnbr_count = zeros<uint32_t>(n);
     overflow = zeros<uint32_t>(1);
     acc = zeros<F4>(n);
     crossings = zeros<uint32_t>(1);
@@ -524,6 +529,10 @@ struct Device {
     k.setArg(8, density);
     k.setArg(9, pressure);
     k.setArg(10, pterm);
+    k.setArg(11, snbr);
+    k.setArg(12, snbr_count);
+    k.setArg(13, sbnbr);
+    k.setArg(14, sbnbr_count);
     ks.enqueue("compute_density", n, kLocal);
   }
   void pressureForce() {
@@ -532,11 +541,11 @@ struct Device {
     k.setArg(1, pos[cur]);
     k.setArg(2, phase[cur]);
     k.setArg(3, pterm);
-    k.setArg(4, nbr);
-    k.setArg(5, nbr_count);
+    k.setArg(4, snbr);
+    k.setArg(5, snbr_count);
     k.setArg(6, bpos);
-    k.setArg(7, bnbr);
-    k.setArg(8, bnbr_count);
+    k.setArg(7, sbnbr);
+    k.setArg(8, sbnbr_count);
     k.setArg(9, acc);
     ks.enqueue("pressure_force", n, kLocal);
   }
@@ -547,8 +556,8 @@ struct Device {
     k.setArg(2, vel[cur]);
     k.setArg(3, phase[cur]);
     k.setArg(4, density);
-    k.setArg(5, nbr);
-    k.setArg(6, nbr_count);
+    k.setArg(5, snbr);
+    k.setArg(6, snbr_count);
     k.setArg(7, acc);
     ks.enqueue("viscosity_force", n, kLocal);
   }
@@ -559,8 +568,8 @@ struct Device {
     k.setArg(2, phase[cur]);
     k.setArg(3, density);
     k.setArg(4, colour[cur]);
-    k.setArg(5, nbr);
-    k.setArg(6, nbr_count);
+    k.setArg(5, snbr);
+    k.setArg(6, snbr_count);
     k.setArg(7, colour[1 - cur]);
     ks.enqueue("colour_diffuse", n, kLocal);
   }
