@@ -18,7 +18,7 @@ struct BenchOptions {
   std::string device;
   std::vector<long> sizes{10000, 50000, 100000};
   std::vector<int> substeps{2, 4};
-  int frames = 10;
+  int frames = 3;   // ~150 steps each at 50k: CFL control sets the steps, not the frames
   int repeats = 3;
   bool speed_only = false;
   bool accuracy_only = false;
