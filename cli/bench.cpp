@@ -48,11 +48,13 @@ std::string sourcePath(const std::string& rel) {
   throw InputError(rel, 0, 0, "not found: run the benchmark from the repository root");
 }
 
-// Particle spacing that puts about `target` particles in the scene's blocks.
+// Particle spacing that puts about `target` particles in the scene's blocks, snapped so that the
+// column base a (the first block's x extent) holds a whole number of spacings.
 double spacingFor(const SceneSpec& spec, double target) {
   double volume = 0;
   for (const BlockSpec& b : spec.fluid.blocks) volume += (b.max - b.min).prod();
-  return std::cbrt(volume / target);
+  const double a = spec.fluid.blocks.at(0).max.x() - spec.fluid.blocks.at(0).min.x();
+  return a / std::max(1.0, std::round(a / std::cbrt(volume / target)));
 }
 
 std::string fmtd(double v, int prec = 3) {
@@ -92,7 +94,7 @@ int benchCommand(const BenchOptions& opt) {
             ro.device = opt.device;
             ro.quiet = true;
             ro.write_output = false;
-            ro.sets = {"fluid.particle_spacing=" + fmtd(spacingFor(base, static_cast<double>(target)), 6),
+            ro.sets = {"fluid.particle_spacing=" + fmtd(spacingFor(base, static_cast<double>(target)), 9),
                        "simulation.substeps=" + std::to_string(sub)};
             ro.duration = opt.frames / base.simulation.frame_rate;
             last = runScene(ro);
@@ -149,7 +151,7 @@ int benchCommand(const BenchOptions& opt) {
             ro.quiet = true;
             ro.write_output = false;
             const double dx = spacingFor(base, target);
-            ro.sets = {"fluid.particle_spacing=" + fmtd(dx, 6), "simulation.cfl=" + fmtd(cfl, 2),
+            ro.sets = {"fluid.particle_spacing=" + fmtd(dx, 9), "simulation.cfl=" + fmtd(cfl, 2),
                        std::string("fluid.equation_of_state=") + eos};
             ro.duration = duration;
             std::vector<double> Ts{0.0}, Zs{1.0};

@@ -133,7 +133,11 @@ Compiled compile(const SceneSpec& spec) {
       continue;
     }
     const PhaseSpec& P = fl.phases[static_cast<std::size_t>(ph)];
-    const Eigen::Vector3i count = ((b.max - b.min) / m.dx).array().round().cast<int>().max(1);
+    // Whole lattice cells only: rounding up would put the last layer closer than dx/2 to a wall
+    // at the block's face (and the boundary would blast it away).
+    const Eigen::Vector3i count = ((b.max - b.min) / m.dx).array().unaryExpr([](double v) { return std::floor(v + 1e-4); })
+                                      .cast<int>()
+                                      .max(1);
     const std::size_t before = out.initial.size();
     for (int k = 0; k < count.z(); ++k)
       for (int j = 0; j < count.y(); ++j)

@@ -270,3 +270,22 @@ TEST_CASE("Inflow: a nozzle emits at its rate and stops at the particle budget",
   CHECK(capped.particles > 100 - 13);
   CHECK(told);
 }
+
+TEST_CASE("Numerical failure under policy abort exits 4 naming frame, time and stage", "[physics]") {
+  // One step per frame at 5 frames/s with CFL control off (policy 'warn' for the time step):
+  // dt = 0.2 s is ~2000x the CFL limit, so particles fly more than h per step.
+  app::RunOptions o = quietRun("tiny_tank.yaml", {"simulation.time_step_control=warn", "simulation.substeps=1",
+                                                  "simulation.frame_rate=5", "simulation.numerical_errors=abort"});
+  o.duration = 1.0;
+  const app::RunResult r = app::runScene(o);
+  CHECK(r.exit_code == kExitNumerical);
+  CHECK(r.message.find("frame 0") != std::string::npos);
+  CHECK(r.message.find("t = 0.2 s") != std::string::npos);
+  CHECK(r.message.find("stage: integrate") != std::string::npos);
+  // Under policy 'warn' the same run goes on and reports the problems per frame.
+  o.sets.back() = "simulation.numerical_errors=warn";
+  const app::RunResult w = app::runScene(o);
+  CHECK(w.exit_code == 0);
+  REQUIRE(!w.reports.empty());
+  CHECK(!w.reports.front().clean());
+}
