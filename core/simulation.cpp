@@ -170,12 +170,12 @@ FrameReport Simulation::advanceFrame() {
   pending_messages_.clear();
   ++frame_;
 
-  // Policy: abort on any problem, naming frame, time, stage and particle.
-  if (sim.numerical_errors == NumericalPolicy::Abort && !rep.clean()) {
+  // Policy: abort on NaN/inf or a CFL violation, naming frame, time, stage and particle. Wall
+  // crossings were already repaired (the particle is back inside): they are reported, not fatal.
+  if (sim.numerical_errors == NumericalPolicy::Abort && (rep.nonfinite > 0 || rep.cfl_violations > 0)) {
     std::ostringstream s;
     s << "numerical failure at frame " << rep.frame << ", t = " << rep.time << " s: ";
     if (rep.nonfinite) s << rep.nonfinite << " particle(s) with NaN/inf (stage: integrate); ";
-    if (rep.wall_crossings) s << rep.wall_crossings << " particle(s) crossed a closed wall (stage: integrate); ";
     if (rep.cfl_violations)
       s << rep.cfl_violations << " particle(s) moved more than h in one step (CFL, stage: integrate; dt = " << dt
         << " s); ";

@@ -37,7 +37,7 @@ struct FrameReport {
   uint32_t nonfinite = 0;        ///< particles with NaN/inf position, velocity or density
   uint32_t outside = 0;          ///< particles that left the domain box through an open wall (not an error)
   uint32_t cfl_violations = 0;   ///< particles that moved more than h in one step
-  uint32_t wall_crossings = 0;   ///< particles put back after crossing a closed wall
+  uint32_t wall_crossings = 0;   ///< particles put back after crossing a closed wall (a warning, never fatal)
   float max_speed = 0;           ///< (unit: m/s)
   int64_t first_bad_id = -1;     ///< id of a particle with a problem, -1 if none
   std::size_t particles = 0;     ///< fluid particles at frame end
