@@ -6,6 +6,8 @@
 // The bad scenes below are written one line per string literal with the line number in a comment,
 // so that the expected locations can be read off the source. Each command runs inside the test's
 // temporary folder, so messages name the scene file as it was given ("bad.yaml:5:7: ...").
+#include "tests/temp_dir.h"
+
 #include <catch2/catch.hpp>
 
 #include <sys/wait.h>
@@ -26,28 +28,7 @@ namespace {
 const fs::path kSourceDir = SPHAPTICS_SOURCE_DIR;
 const fs::path kTinyScene = kSourceDir / "scenes" / "tests" / "tiny_tank.yaml";
 
-/// A unique folder under the system temp directory, removed at scope exit.
-struct TempDir {
-  fs::path path;
-  TempDir() {
-    const auto tick = std::chrono::steady_clock::now().time_since_epoch().count();
-    path = fs::temp_directory_path() /
-           ("sphaptics_cli_test_" + std::to_string(getpid()) + "_" + std::to_string(tick));
-    fs::create_directories(path);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path, ec);
-  }
-  TempDir(const TempDir&) = delete;
-  TempDir& operator=(const TempDir&) = delete;
-
-  fs::path write(const std::string& name, const std::string& text) const {
-    const fs::path p = path / name;
-    std::ofstream(p) << text;
-    return p;
-  }
-};
+using sph::testing::TempDir;
 
 std::string readFile(const fs::path& p) {
   std::ifstream in(p);

@@ -9,6 +9,8 @@
 #include "io/schema.h"
 #include "io/schema_table.h"
 
+#include "tests/temp_dir.h"
+
 #include <catch2/catch.hpp>
 
 #include <chrono>
@@ -69,19 +71,7 @@ std::string dump(const std::vector<InputIssue>& issues) {
 
 const std::string kDomain = "domain: {min: [0, 0, 0], max: [1, 1, 1]}\n";
 
-/// A unique folder under the system temp directory, removed at scope exit.
-struct TempDir {
-  fs::path path;
-  TempDir() {
-    const auto tick = std::chrono::steady_clock::now().time_since_epoch().count();
-    path = fs::temp_directory_path() / ("sphaptics_io_test_" + std::to_string(tick));
-    fs::create_directories(path);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path, ec);
-  }
-};
+using sph::testing::TempDir;
 
 }  // namespace
 
