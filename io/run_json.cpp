@@ -1,5 +1,7 @@
 #include "io/run_json.h"
 
+#include "io/atomic_file.h"
+
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -59,16 +61,7 @@ void writeRunJson(const std::string& path, const RunInfo& info) {
   j << "  \"scene\": " << (info.scene_json.empty() ? "null" : info.scene_json) << "\n";
   j << "}\n";
 
-  const std::string tmp = path + ".tmp";
-  {
-    std::ofstream f(tmp);
-    if (!f) throw std::runtime_error("cannot write " + tmp);
-    f << j.str();
-    if (!f) throw std::runtime_error("cannot write " + tmp);
-  }
-  std::error_code ec;
-  std::filesystem::rename(tmp, path, ec);
-  if (ec) throw std::runtime_error("cannot rename " + tmp + " to " + path + ": " + ec.message());
+  writeFileAtomic(path, j.str());
 }
 
 }  // namespace sph::io
