@@ -1,0 +1,146 @@
+// The only translation unit that includes OpenVDB (its headers are heavy; see toolchain.md).
+#include "io/vdb_writer.h"
+
+#include <openvdb/openvdb.h>
+#include <openvdb/tools/Dense.h>
+#include <openvdb/tools/Interpolation.h>
+#include <openvdb/tools/LevelSetRebuild.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <mutex>
+#include <stdexcept>
+#include <system_error>
+
+namespace sph::io {
+
+namespace {
+
+openvdb::math::Transform::Ptr worldTransform(const DenseGrid& g) {
+  auto xform = openvdb::math::Transform::createLinearTransform(g.spacing);
+  xform->postTranslate(openvdb::Vec3d(g.origin.x(), g.origin.y(), g.origin.z()));
+  return xform;
+}
+
+void checkGrid(const NamedGrid& ng) {
+  const DenseGrid* g = ng.grid;
+  if (g == nullptr) throw std::runtime_error("VDB grid '" + ng.name + "' has no data");
+  const std::size_t n = static_cast<std::size_t>(g->dims[0]) * static_cast<std::size_t>(g->dims[1]) *
+                        static_cast<std::size_t>(g->dims[2]);
+  if (g->dims[0] <= 0 || g->dims[1] <= 0 || g->dims[2] <= 0 || g->values.size() != n || !(g->spacing > 0))
+    throw std::runtime_error("VDB grid '" + ng.name + "' has inconsistent dimensions or spacing");
+}
+
+// Dense samples (x fastest) into a sparse grid; samples below `tolerance` stay inactive background.
+openvdb::FloatGrid::Ptr toSparse(const DenseGrid& g, const std::vector<float>& values, float background, float tolerance) {
+  const openvdb::CoordBBox bbox(openvdb::Coord(0, 0, 0), openvdb::Coord(g.dims[0] - 1, g.dims[1] - 1, g.dims[2] - 1));
+  // Dense<LayoutXYZ> is x-fastest; the wrapped array is only read by copyFromDense.
+  openvdb::tools::Dense<float, openvdb::tools::LayoutXYZ> dense(bbox, const_cast<float*>(values.data()));
+  auto grid = openvdb::FloatGrid::create(background);
+  openvdb::tools::copyFromDense(dense, *grid, tolerance);
+  grid->setTransform(worldTransform(g));
+  return grid;
+}
+
+void initialiseOnce() {
+  static std::once_flag init;
+  std::call_once(init, [] { openvdb::initialize(); });
+}
+
+openvdb::GridPtrVecPtr readGrids(const std::string& path) {
+  initialiseOnce();
+  try {
+    openvdb::io::File file(path);
+    file.open();
+    auto grids = file.getGrids();
+    file.close();
+    return grids;
+  } catch (const std::exception& e) {
+    throw std::runtime_error("cannot read " + path + ": " + e.what());
+  }
+}
+
+}  // namespace
+
+std::vector<VdbGridInfo> readVdbInfo(const std::string& path) {
+  std::vector<VdbGridInfo> info;
+  const openvdb::GridPtrVecPtr grids = readGrids(path);  // keep alive: the loop ranges over *grids
+  for (const auto& base : *grids) {
+    VdbGridInfo i;
+    i.name = base->getName();
+    i.grid_class = openvdb::GridBase::gridClassToMenuName(base->getGridClass());
+    i.value_type = base->valueType();
+    i.voxel_size = base->voxelSize()[0];
+    const openvdb::Vec3d o = base->indexToWorld(openvdb::Vec3d(0, 0, 0));
+    i.index_origin_world = Eigen::Vector3d(o[0], o[1], o[2]);
+    i.active_voxels = base->activeVoxelCount();
+    if (auto fg = openvdb::gridPtrCast<openvdb::FloatGrid>(base)) {
+      bool first = true;
+      for (auto it = fg->cbeginValueOn(); it; ++it) {
+        const float v = *it;
+        if (first || v < i.min_active) i.min_active = v;
+        if (first || v > i.max_active) i.max_active = v;
+        first = false;
+      }
+    }
+    info.push_back(i);
+  }
+  return info;
+}
+
+float sampleVdb(const std::string& path, const std::string& name, const Eigen::Vector3d& world) {
+  const openvdb::GridPtrVecPtr grids = readGrids(path);
+  for (const auto& base : *grids) {
+    if (base->getName() != name) continue;
+    auto fg = openvdb::gridPtrCast<openvdb::FloatGrid>(base);
+    if (!fg) throw std::runtime_error(path + ": grid '" + name + "' is not a float grid");
+    openvdb::tools::GridSampler<openvdb::FloatGrid, openvdb::tools::BoxSampler> sampler(*fg);
+    return sampler.wsSample(openvdb::Vec3d(world.x(), world.y(), world.z()));
+  }
+  throw std::runtime_error(path + ": no grid named '" + name + "'");
+}
+
+void writeVdb(const std::string& path, const std::vector<NamedGrid>& grids, const VdbOptions& options) {
+  initialiseOnce();
+  openvdb::GridPtrVec out;
+  const DenseGrid* density = nullptr;
+  for (const NamedGrid& ng : grids) {
+    checkGrid(ng);
+    const DenseGrid& g = *ng.grid;
+    const float vmax = g.values.empty() ? 0.f : *std::max_element(g.values.begin(), g.values.end());
+    auto grid = toSparse(g, g.values, 0.f, 1e-6f * std::max(vmax, 0.f));
+    grid->setName(ng.name);
+    grid->setGridClass(openvdb::GRID_FOG_VOLUME);
+    grid->insertMeta("creator", openvdb::StringMetadata("sphaptics " SPHAPTICS_VERSION));
+    out.push_back(grid);
+    if (ng.name == "density") density = &g;
+  }
+  if (options.level_set) {
+    if (density == nullptr) throw std::runtime_error("VDB level set requested but no grid is named 'density'");
+    // levelSetRebuild treats values below the iso value as inside; the density field is larger
+    // inside, so rebuild from (iso - density) at 0. Every sample is kept active for the rebuild.
+    std::vector<float> flipped(density->values.size());
+    for (std::size_t i = 0; i < flipped.size(); ++i) flipped[i] = options.iso - density->values[i];
+    auto signed_field = toSparse(*density, flipped, options.iso, 0.f);
+    auto surface = openvdb::tools::levelSetRebuild(*signed_field, 0.f, options.half_width);
+    surface->setName("surface");
+    surface->setGridClass(openvdb::GRID_LEVEL_SET);
+    out.push_back(surface);
+  }
+
+  const std::string tmp = path + ".tmp";
+  try {
+    openvdb::io::File file(tmp);
+    file.write(out);
+    file.close();
+  } catch (const std::exception& e) {
+    std::error_code ec;
+    std::filesystem::remove(tmp, ec);
+    throw std::runtime_error("cannot write " + path + ": " + e.what());
+  }
+  std::error_code ec;
+  std::filesystem::rename(tmp, path, ec);
+  if (ec) throw std::runtime_error("cannot rename " + tmp + " to " + path + ": " + ec.message());
+}
+
+}  // namespace sph::io
