@@ -1,6 +1,7 @@
 // sphaptics: command-line entry point. Parses the command line (CLI11) and dispatches to the
 // commands in cli/; this is the only place where io/, core/ and the commands are wired together.
 #include "cli/commands.h"
+#include "cli/compare.h"
 #include "cli/runner.h"
 #include "core/errors.h"
 
@@ -50,6 +51,23 @@ int main(int argc, char** argv) {
   cmd_bench->add_flag("--speed-only", bench.speed_only, "Skip the accuracy benchmark");
   cmd_bench->add_flag("--accuracy-only", bench.accuracy_only, "Skip the speed benchmark");
 
+  // compare
+  app::CompareOptions compare;
+  auto* cmd_compare = app.add_subcommand("compare", "Compare two OBJ sequences (folders) or OBJ files frame by frame; "
+                                                    "exit 0 within tolerance, 1 outside, 2 unreadable input");
+  cmd_compare->add_option("a", compare.a, "Reference: an OBJ file or a folder of OBJ files")->required();
+  cmd_compare->add_option("b", compare.b, "Candidate: an OBJ file or a folder (files matched by name)")->required();
+  cmd_compare->add_option("--hausdorff", compare.hausdorff, "Symmetric Hausdorff distance tolerance (unit: particle spacings)")
+      ->capture_default_str();
+  cmd_compare->add_option("--volume", compare.volume,
+                          "Enclosed-volume difference / mean surface area tolerance (unit: particle spacings)")
+      ->capture_default_str();
+  cmd_compare->add_option("--area", compare.area, "Relative surface-area difference tolerance (unit: 1)")
+      ->capture_default_str();
+  cmd_compare->add_option("--spacing", compare.spacing,
+                          "Particle spacing (unit: m; default: the 'particle_spacing:' line of the OBJ header)");
+  cmd_compare->add_flag("--quiet,-q", compare.quiet, "Print only the summary line");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -62,5 +80,6 @@ int main(int argc, char** argv) {
   if (*cmd_schema) return app::schemaCommand();
   if (*cmd_devices) return app::devicesCommand();
   if (*cmd_bench) return app::benchCommand(bench);
+  if (*cmd_compare) return app::compareCommand(compare, std::cout, std::cerr);
   return kExitBadInput;
 }

@@ -5,14 +5,42 @@
 
 #include <tiny_obj_loader.h>
 
+#include <algorithm>
 #include <cstdio>
+#include <fstream>
 #include <filesystem>
 #include <sstream>
 
 namespace sph::io {
 
-TriMesh readObj(const std::string& path) {
+namespace {
+
+// tinyobjloader skips what it does not know; a file with text that is not OBJ is reported here,
+// with its line, rather than read as an empty or partial mesh.
+void checkObjKeywords(const std::string& path) {
+  static const char* const known[] = {"v", "vn", "vt", "vp", "f", "l", "p", "o", "g", "s", "usemtl", "mtllib",
+                                      "cstype", "deg", "curv", "curv2", "surf", "parm", "trim", "hole", "end"};
+  std::ifstream f(path, std::ios::binary);
+  if (!f) throw InputError(path, 0, 0, "cannot open mesh file");
+  std::string line;
+  for (int n = 1; std::getline(f, line); ++n) {
+    std::istringstream words(line);
+    std::string kw;
+    if (!(words >> kw) || kw[0] == '#') continue;
+    if (std::find(std::begin(known), std::end(known), kw) == std::end(known))
+      throw InputError(path, n, 1, "not an OBJ line: '" + line.substr(0, 40) + "'");
+    if (kw == "v" || kw == "vn") {
+      double x, y, z;
+      if (!(words >> x >> y >> z)) throw InputError(path, n, 1, "'" + kw + "' needs three numbers");
+    }
+  }
+}
+
+}  // namespace
+
+TriMesh readObj(const std::string& path, bool allow_empty) {
   if (!std::filesystem::exists(path)) throw InputError(path, 0, 0, "mesh file not found");
+  checkObjKeywords(path);
   tinyobj::ObjReaderConfig config;
   config.triangulate = true;
   config.vertex_color = true;
@@ -50,7 +78,7 @@ TriMesh readObj(const std::string& path) {
       m.triangles.push_back(t);
     }
   }
-  if (m.triangles.empty()) throw InputError(path, 0, 0, "OBJ mesh has no faces");
+  if (m.triangles.empty() && !allow_empty) throw InputError(path, 0, 0, "OBJ mesh has no faces");
   if (normals_per_vertex) m.normals = std::move(normals);
   return m;
 }

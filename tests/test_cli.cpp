@@ -6,6 +6,7 @@
 // The bad scenes below are written one line per string literal with the line number in a comment,
 // so that the expected locations can be read off the source. Each command runs inside the test's
 // temporary folder, so messages name the scene file as it was given ("bad.yaml:5:7: ...").
+#include "tests/run_binary.h"
 #include "tests/temp_dir.h"
 
 #include <catch2/catch.hpp>
@@ -29,43 +30,9 @@ const fs::path kSourceDir = SPHAPTICS_SOURCE_DIR;
 const fs::path kTinyScene = kSourceDir / "scenes" / "tests" / "tiny_tank.yaml";
 
 using sph::testing::TempDir;
-
-std::string readFile(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-/// One argument quoted for /bin/sh.
-std::string shellQuote(const std::string& s) {
-  std::string q = "'";
-  for (char c : s) q += (c == '\'') ? std::string("'\\''") : std::string(1, c);
-  return q + "'";
-}
-
-struct Result {
-  int code = -1;     ///< exit status; -1 when the process did not exit normally (a crash)
-  std::string out;   ///< stdout
-  std::string err;   ///< stderr
-};
-
-/// Runs `sphaptics args...` in folder `dir` and returns its exit status, stdout and stderr.
-Result sphaptics(const fs::path& dir, const std::vector<std::string>& args) {
-  const fs::path out_file = dir / ".stdout", err_file = dir / ".stderr";
-  std::string cmd = "cd " + shellQuote(dir.string()) + " && " + shellQuote(SPHAPTICS_BINARY);
-  for (const auto& a : args) cmd += " " + shellQuote(a);
-  cmd += " >" + shellQuote(out_file.string()) + " 2>" + shellQuote(err_file.string()) + " </dev/null";
-  const int status = std::system(cmd.c_str());
-  Result r;
-  // The shell reports a child killed by a signal as 128 + signal; count that as a crash too.
-  if (status != -1 && WIFEXITED(status) && WEXITSTATUS(status) < 128) r.code = WEXITSTATUS(status);
-  r.out = readFile(out_file);
-  r.err = readFile(err_file);
-  fs::remove(out_file);
-  fs::remove(err_file);
-  return r;
-}
+using sph::testing::readFile;
+using sph::testing::Result;
+using sph::testing::sphaptics;
 
 bool contains(const std::string& text, const std::string& fragment) {
   return text.find(fragment) != std::string::npos;
