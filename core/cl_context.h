@@ -60,6 +60,15 @@ class KernelSet {
   /// Enqueues `name` over `global` work-items and counts it. With `local` > 0 the global size is
   /// rounded up to a multiple of it (the kernel must ignore work-items past its count).
   void enqueue(const std::string& name, std::size_t global, std::size_t local = 0);
+  /// Sets the kernel's arguments in order (buffers, scalars, SimParams by value) and enqueues it:
+  /// one statement per dispatch, so the argument list reads next to the kernel's signature.
+  template <class... Args>
+  void call(const std::string& name, std::size_t global, std::size_t local, const Args&... args) {
+    cl::Kernel& k = (*this)[name];
+    cl_uint index = 0;
+    (k.setArg(index++, args), ...);
+    enqueue(name, global, local);
+  }
   const std::map<std::string, uint64_t>& dispatchCounts() const { return counts_; }
 
  private:

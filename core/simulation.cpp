@@ -127,8 +127,9 @@ void Simulation::step(double dt) {
     if (!lists_valid_ || travel_since_build_ > 0.5 * model_.skin)
       buildGrid();                                     // sort by cell, reorder, Verlet lists
     computeDensity();                                  // number density, rho, p (S&P 2008, Akinci 2012)
-    pressureForces();                                  // -grad p / rho + g   (or g alone when disabled)
-    if (on(Stage::Viscosity)) viscosityForces();       // Monaghan or Morris
+    pressureForces();                                  // -grad p / rho + g (+ viscosity, fused, when on)
+    if (on(Stage::Viscosity) && !on(Stage::Pressure))
+      viscosityForces();                               // Monaghan or Morris, on its own
     if (on(Stage::ColourDiffusion)) diffuseColour();   // colour mixing
     integrate();                                       // semi-implicit Euler, closed walls
   }
@@ -233,24 +234,9 @@ void Simulation::emitInflow(double dt) {
 
 void Simulation::scan(cl::Buffer& in, cl::Buffer& out, uint32_t n) {
   const uint32_t chunk = (n + scan_chunks_ - 1) / scan_chunks_;
-  cl::Kernel& sums = kernels_["scan_chunk_sums"];
-  sums.setArg(0, n);
-  sums.setArg(1, chunk);
-  sums.setArg(2, in);
-  sums.setArg(3, scan_sums_);
-  kernels_.enqueue("scan_chunk_sums", scan_chunks_);
-  cl::Kernel& offs = kernels_["scan_chunk_offsets"];
-  offs.setArg(0, scan_chunks_);
-  offs.setArg(1, scan_sums_);
-  kernels_.enqueue("scan_chunk_offsets", 1);
-  cl::Kernel& apply = kernels_["scan_chunk_apply"];
-  apply.setArg(0, n);
-  apply.setArg(1, chunk);
-  apply.setArg(2, scan_chunks_);
-  apply.setArg(3, in);
-  apply.setArg(4, scan_sums_);
-  apply.setArg(5, out);
-  kernels_.enqueue("scan_chunk_apply", scan_chunks_);
+  kernels_.call("scan_chunk_sums", scan_chunks_, 0, n, chunk, in, scan_sums_);
+  kernels_.call("scan_chunk_offsets", 1, 0, scan_chunks_, scan_sums_);
+  kernels_.call("scan_chunk_apply", scan_chunks_, 0, n, chunk, scan_chunks_, in, scan_sums_, out);
 }
 
 void Simulation::buildGrid() {
@@ -260,57 +246,16 @@ void Simulation::buildGrid() {
   clCall("clearing the cell counts",
          [&] { return q.enqueueFillBuffer(cell_count_, zero, 0, std::size_t(params_.num_cells) * 4); });
   // cell of each particle and its rank in the cell -> prefix sum -> sorted index -> fixed order
-  cl::Kernel& assign = kernels_["grid_assign"];
-  assign.setArg(0, sizeof(SimParams), &params_);
-  assign.setArg(1, pos_[cur_]);
-  assign.setArg(2, cell_);
-  assign.setArg(3, rank_);
-  assign.setArg(4, cell_count_);
-  kernels_.enqueue("grid_assign", n_, kLocal);
+  kernels_.call("grid_assign", n_, kLocal, params_, pos_[cur_], cell_, rank_, cell_count_);
   scan(cell_count_, cell_start_, params_.num_cells);
-  cl::Kernel& scatter = kernels_["grid_scatter"];
-  scatter.setArg(0, sizeof(SimParams), &params_);
-  scatter.setArg(1, cell_);
-  scatter.setArg(2, rank_);
-  scatter.setArg(3, cell_start_);
-  scatter.setArg(4, sorted_);
-  kernels_.enqueue("grid_scatter", n_, kLocal);
-  cl::Kernel& order = kernels_["grid_order_cells"];
-  order.setArg(0, sizeof(SimParams), &params_);
-  order.setArg(1, cell_);
-  order.setArg(2, cell_start_);
-  order.setArg(3, sorted_);
-  kernels_.enqueue("grid_order_cells", n_, kLocal);
+  kernels_.call("grid_scatter", n_, kLocal, params_, cell_, rank_, cell_start_, sorted_);
+  kernels_.call("grid_order_cells", n_, kLocal, params_, cell_, cell_start_, sorted_);
   // gather every field into cell order, then swap halves
   const int nxt = 1 - cur_;
-  cl::Kernel& re = kernels_["grid_reorder"];
-  re.setArg(0, sizeof(SimParams), &params_);
-  re.setArg(1, sorted_);
-  re.setArg(2, pos_[cur_]);
-  re.setArg(3, vel_[cur_]);
-  re.setArg(4, colour_[cur_]);
-  re.setArg(5, phase_[cur_]);
-  re.setArg(6, id_[cur_]);
-  re.setArg(7, pos_[nxt]);
-  re.setArg(8, vel_[nxt]);
-  re.setArg(9, colour_[nxt]);
-  re.setArg(10, phase_[nxt]);
-  re.setArg(11, id_[nxt]);
-  kernels_.enqueue("grid_reorder", n_, kLocal);
+  kernels_.call("grid_reorder", n_, kLocal, params_, sorted_, pos_[cur_], vel_[cur_], colour_[cur_], phase_[cur_], id_[cur_], pos_[nxt], vel_[nxt], colour_[nxt], phase_[nxt], id_[nxt]);
   cur_ = nxt;
   // neighbour lists within H + skin
-  cl::Kernel& lists = kernels_["build_neighbour_lists"];
-  lists.setArg(0, sizeof(SimParams), &params_);
-  lists.setArg(1, pos_[cur_]);
-  lists.setArg(2, cell_start_);
-  lists.setArg(3, bpos_);
-  lists.setArg(4, bcell_start_);
-  lists.setArg(5, nbr_);
-  lists.setArg(6, nbr_count_);
-  lists.setArg(7, bnbr_);
-  lists.setArg(8, bnbr_count_);
-  lists.setArg(9, overflow_);
-  kernels_.enqueue("build_neighbour_lists", n_, kLocal);
+  kernels_.call("build_neighbour_lists", n_, kLocal, params_, pos_[cur_], cell_start_, bpos_, bcell_start_, nbr_, nbr_count_, bnbr_, bnbr_count_, overflow_);
   lists_valid_ = true;
   travel_since_build_ = 0.0;
   ++profile_.grid_builds;
@@ -318,89 +263,38 @@ void Simulation::buildGrid() {
 
 void Simulation::computeDensity() {
   StageTimer timer(*this, Stage::Density);
-  cl::Kernel& k = kernels_["compute_density"];
-  k.setArg(0, sizeof(SimParams), &params_);
-  k.setArg(1, pos_[cur_]);
-  k.setArg(2, phase_[cur_]);
-  k.setArg(3, bpos_);
-  k.setArg(4, nbr_);
-  k.setArg(5, nbr_count_);
-  k.setArg(6, bnbr_);
-  k.setArg(7, bnbr_count_);
-  k.setArg(8, density_);
-  k.setArg(9, pressure_);
-  k.setArg(10, pterm_);
-  k.setArg(11, snbr_);
-  k.setArg(12, snbr_count_);
-  k.setArg(13, sbnbr_);
-  k.setArg(14, sbnbr_count_);
-  kernels_.enqueue("compute_density", n_, kLocal);
+  kernels_.call("compute_density", n_, kLocal, params_, pos_[cur_], phase_[cur_], bpos_, nbr_, nbr_count_, bnbr_, bnbr_count_, density_, pressure_, pterm_, snbr_, snbr_count_, sbnbr_, sbnbr_count_);
 }
 
 void Simulation::pressureForces() {
   StageTimer timer(*this, Stage::Pressure);
   if (!on(Stage::Pressure)) {  // gravity still acts
-    cl::Kernel& k = kernels_["gravity_only"];
-    k.setArg(0, sizeof(SimParams), &params_);
-    k.setArg(1, acc_);
-    kernels_.enqueue("gravity_only", n_, kLocal);
+    kernels_.call("gravity_only", n_, kLocal, params_, acc_);
     return;
   }
-  cl::Kernel& k = kernels_["pressure_force"];
-  k.setArg(0, sizeof(SimParams), &params_);
-  k.setArg(1, pos_[cur_]);
-  k.setArg(2, phase_[cur_]);
-  k.setArg(3, pterm_);
-  k.setArg(4, snbr_);
-  k.setArg(5, snbr_count_);
-  k.setArg(6, bpos_);
-  k.setArg(7, sbnbr_);
-  k.setArg(8, sbnbr_count_);
-  k.setArg(9, acc_);
-  kernels_.enqueue("pressure_force", n_, kLocal);
+  if (on(Stage::Viscosity)) {  // one neighbour loop for both (pressure.cl, pressure_viscosity_force)
+    kernels_.call("pressure_viscosity_force", n_, kLocal, params_, pos_[cur_], vel_[cur_], phase_[cur_], density_, pterm_, snbr_, snbr_count_, bpos_, sbnbr_, sbnbr_count_, acc_);
+    return;
+  }
+  kernels_.call("pressure_force", n_, kLocal, params_, pos_[cur_], phase_[cur_], pterm_, snbr_, snbr_count_, bpos_, sbnbr_, sbnbr_count_, acc_);
 }
 
 void Simulation::viscosityForces() {
   StageTimer timer(*this, Stage::Viscosity);
-  cl::Kernel& k = kernels_["viscosity_force"];
-  k.setArg(0, sizeof(SimParams), &params_);
-  k.setArg(1, pos_[cur_]);
-  k.setArg(2, vel_[cur_]);
-  k.setArg(3, phase_[cur_]);
-  k.setArg(4, density_);
-  k.setArg(5, snbr_);
-  k.setArg(6, snbr_count_);
-  k.setArg(7, acc_);
-  kernels_.enqueue("viscosity_force", n_, kLocal);
+  kernels_.call("viscosity_force", n_, kLocal, params_, pos_[cur_], vel_[cur_], phase_[cur_], density_, snbr_, snbr_count_, acc_);
 }
 
 void Simulation::diffuseColour() {
   StageTimer timer(*this, Stage::ColourDiffusion);
   const int nxt = 1 - cur_;
-  cl::Kernel& k = kernels_["colour_diffuse"];
-  k.setArg(0, sizeof(SimParams), &params_);
-  k.setArg(1, pos_[cur_]);
-  k.setArg(2, phase_[cur_]);
-  k.setArg(3, density_);
-  k.setArg(4, colour_[cur_]);
-  k.setArg(5, snbr_);
-  k.setArg(6, snbr_count_);
-  k.setArg(7, colour_[nxt]);
-  kernels_.enqueue("colour_diffuse", n_, kLocal);
+  kernels_.call("colour_diffuse", n_, kLocal, params_, pos_[cur_], phase_[cur_], density_, colour_[cur_], snbr_, snbr_count_, colour_[nxt]);
   // The other fields are not double-buffered past this point: copy the new colours back.
   clCall("copying colours", [&] { return cl_.queue().enqueueCopyBuffer(colour_[nxt], colour_[cur_], 0, 0, n_ * 16); });
 }
 
 void Simulation::integrate() {
   StageTimer timer(*this, Stage::Integrate);
-  cl::Kernel& k = kernels_["integrate"];
-  k.setArg(0, sizeof(SimParams), &params_);
-  k.setArg(1, pos_[cur_]);
-  k.setArg(2, vel_[cur_]);
-  k.setArg(3, acc_);
-  k.setArg(4, crossings_);
-  k.setArg(5, max_speed_);
-  kernels_.enqueue("integrate", n_, kLocal);
+  kernels_.call("integrate", n_, kLocal, params_, pos_[cur_], vel_[cur_], acc_, crossings_, max_speed_);
   // The step's largest speed bounds every displacement: the lists stay valid while the sum of
   // max speed * dt since they were built is below skin / 2.
   uint32_t bits = 0;
@@ -423,14 +317,7 @@ FrameReport Simulation::runDiagnostics() {
   std::vector<uint32_t> out(diag_groups_ * 8, 0);
   uint32_t crossings = 0, overflow = 0;
   if (n_ > 0) {
-    cl::Kernel& k = kernels_["diagnostics"];
-    k.setArg(0, sizeof(SimParams), &params_);
-    k.setArg(1, chunk);
-    k.setArg(2, pos_[cur_]);
-    k.setArg(3, vel_[cur_]);
-    k.setArg(4, density_);
-    k.setArg(5, diag_);
-    kernels_.enqueue("diagnostics", diag_groups_);
+    kernels_.call("diagnostics", diag_groups_, 0, params_, chunk, pos_[cur_], vel_[cur_], density_, diag_);
     clCall("reading diagnostics", [&] {
       auto& q = cl_.queue();
       q.enqueueReadBuffer(diag_, CL_TRUE, 0, out.size() * 4, out.data());

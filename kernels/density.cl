@@ -34,14 +34,16 @@ __kernel void compute_density(const SimParams p, __global const float4* pos, __g
   float nd = sph_w(SPH_KERNEL, 0.0f, H);
   const uint nn = nbr_count[i];
   uint sn = 0;
+  /* Branch-free: whether a candidate is within H is effectively random, so the loop always
+   * evaluates W (zero beyond H) and always writes the candidate, advancing only when it counts. */
   for (uint k = 0; k < nn; ++k) {
     const uint j = nbr[(size_t)i * K + k];
     const float3 d = xi - pos[j].xyz;
     const float r2 = dot(d, d);
-    if (r2 < H2) {
-      nd += sph_w(SPH_KERNEL, sqrt(r2), H);
-      my_snbr[sn++] = j;
-    }
+    const uint in = r2 < H2;
+    nd += sph_w(SPH_KERNEL, sqrt(r2), H);
+    my_snbr[sn] = j;
+    sn += in;
   }
   const uint nb = bnbr_count[i];
   uint sb = 0;
@@ -50,10 +52,10 @@ __kernel void compute_density(const SimParams p, __global const float4* pos, __g
     const float4 bb = bpos[b];
     const float3 d = xi - bb.xyz;
     const float r2 = dot(d, d);
-    if (r2 < H2) {
-      nd += bb.w * sph_w(SPH_KERNEL, sqrt(r2), H);
-      my_sbnbr[sb++] = b;
-    }
+    const uint in = r2 < H2;
+    nd += bb.w * sph_w(SPH_KERNEL, sqrt(r2), H);
+    my_sbnbr[sb] = b;
+    sb += in;
   }
   snbr_count[i] = sn;
   sbnbr_count[i] = sb;

@@ -429,85 +429,29 @@ struct Device {
 
   void scan(const cl::Buffer& in, const cl::Buffer& out, uint32_t count) {
     const uint32_t chunk = (count + scan_chunks - 1) / scan_chunks;
-    cl::Kernel& sums = ks["scan_chunk_sums"];
-    sums.setArg(0, count);
-    sums.setArg(1, chunk);
-    sums.setArg(2, in);
-    sums.setArg(3, scan_sums);
-    ks.enqueue("scan_chunk_sums", scan_chunks);
-    cl::Kernel& offs = ks["scan_chunk_offsets"];
-    offs.setArg(0, scan_chunks);
-    offs.setArg(1, scan_sums);
-    ks.enqueue("scan_chunk_offsets", 1);
-    cl::Kernel& apply = ks["scan_chunk_apply"];
-    apply.setArg(0, count);
-    apply.setArg(1, chunk);
-    apply.setArg(2, scan_chunks);
-    apply.setArg(3, in);
-    apply.setArg(4, scan_sums);
-    apply.setArg(5, out);
-    ks.enqueue("scan_chunk_apply", scan_chunks);
+    ks.call("scan_chunk_sums", scan_chunks, 0, count, chunk, in, scan_sums);
+    ks.call("scan_chunk_offsets", 1, 0, scan_chunks, scan_sums);
+    ks.call("scan_chunk_apply", scan_chunks, 0, count, chunk, scan_chunks, in, scan_sums, out);
   }
 
   // The grid build in parts, so that the test can look between the steps.
   void gridAssign() {
     const uint32_t zero = 0;
     clctx().queue().enqueueFillBuffer(cell_count, zero, 0, std::size_t(P.num_cells) * 4);
-    cl::Kernel& k = ks["grid_assign"];
-    k.setArg(0, sizeof(SimParams), &P);
-    k.setArg(1, pos[cur]);
-    k.setArg(2, cell);
-    k.setArg(3, rank);
-    k.setArg(4, cell_count);
-    ks.enqueue("grid_assign", n, kLocal);
+    ks.call("grid_assign", n, kLocal, P, pos[cur], cell, rank, cell_count);
   }
   void gridScan() { scan(cell_count, cell_start, P.num_cells); }
   void gridScatterOrder() {
-    cl::Kernel& sc = ks["grid_scatter"];
-    sc.setArg(0, sizeof(SimParams), &P);
-    sc.setArg(1, cell);
-    sc.setArg(2, rank);
-    sc.setArg(3, cell_start);
-    sc.setArg(4, sorted);
-    ks.enqueue("grid_scatter", n, kLocal);
-    cl::Kernel& o = ks["grid_order_cells"];
-    o.setArg(0, sizeof(SimParams), &P);
-    o.setArg(1, cell);
-    o.setArg(2, cell_start);
-    o.setArg(3, sorted);
-    ks.enqueue("grid_order_cells", n, kLocal);
+    ks.call("grid_scatter", n, kLocal, P, cell, rank, cell_start, sorted);
+    ks.call("grid_order_cells", n, kLocal, P, cell, cell_start, sorted);
   }
   void gridReorder() {
     const int nxt = 1 - cur;
-    cl::Kernel& re = ks["grid_reorder"];
-    re.setArg(0, sizeof(SimParams), &P);
-    re.setArg(1, sorted);
-    re.setArg(2, pos[cur]);
-    re.setArg(3, vel[cur]);
-    re.setArg(4, colour[cur]);
-    re.setArg(5, phase[cur]);
-    re.setArg(6, id[cur]);
-    re.setArg(7, pos[nxt]);
-    re.setArg(8, vel[nxt]);
-    re.setArg(9, colour[nxt]);
-    re.setArg(10, phase[nxt]);
-    re.setArg(11, id[nxt]);
-    ks.enqueue("grid_reorder", n, kLocal);
+    ks.call("grid_reorder", n, kLocal, P, sorted, pos[cur], vel[cur], colour[cur], phase[cur], id[cur], pos[nxt], vel[nxt], colour[nxt], phase[nxt], id[nxt]);
     cur = nxt;
   }
   void buildLists() {
-    cl::Kernel& k = ks["build_neighbour_lists"];
-    k.setArg(0, sizeof(SimParams), &P);
-    k.setArg(1, pos[cur]);
-    k.setArg(2, cell_start);
-    k.setArg(3, bpos);
-    k.setArg(4, bcell_start);
-    k.setArg(5, nbr);
-    k.setArg(6, nbr_count);
-    k.setArg(7, bnbr);
-    k.setArg(8, bnbr_count);
-    k.setArg(9, overflow);
-    ks.enqueue("build_neighbour_lists", n, kLocal);
+    ks.call("build_neighbour_lists", n, kLocal, P, pos[cur], cell_start, bpos, bcell_start, nbr, nbr_count, bnbr, bnbr_count, overflow);
   }
   void buildGrid() {
     gridAssign();
@@ -517,71 +461,23 @@ struct Device {
     buildLists();
   }
   void computeDensity() {
-    cl::Kernel& k = ks["compute_density"];
-    k.setArg(0, sizeof(SimParams), &P);
-    k.setArg(1, pos[cur]);
-    k.setArg(2, phase[cur]);
-    k.setArg(3, bpos);
-    k.setArg(4, nbr);
-    k.setArg(5, nbr_count);
-    k.setArg(6, bnbr);
-    k.setArg(7, bnbr_count);
-    k.setArg(8, density);
-    k.setArg(9, pressure);
-    k.setArg(10, pterm);
-    k.setArg(11, snbr);
-    k.setArg(12, snbr_count);
-    k.setArg(13, sbnbr);
-    k.setArg(14, sbnbr_count);
-    ks.enqueue("compute_density", n, kLocal);
+    ks.call("compute_density", n, kLocal, P, pos[cur], phase[cur], bpos, nbr, nbr_count, bnbr, bnbr_count, density, pressure, pterm, snbr, snbr_count, sbnbr, sbnbr_count);
   }
   void pressureForce() {
-    cl::Kernel& k = ks["pressure_force"];
-    k.setArg(0, sizeof(SimParams), &P);
-    k.setArg(1, pos[cur]);
-    k.setArg(2, phase[cur]);
-    k.setArg(3, pterm);
-    k.setArg(4, snbr);
-    k.setArg(5, snbr_count);
-    k.setArg(6, bpos);
-    k.setArg(7, sbnbr);
-    k.setArg(8, sbnbr_count);
-    k.setArg(9, acc);
-    ks.enqueue("pressure_force", n, kLocal);
+    ks.call("pressure_force", n, kLocal, P, pos[cur], phase[cur], pterm, snbr, snbr_count, bpos, sbnbr, sbnbr_count, acc);
+  }
+  void pressureViscosityForce() {
+    ks.call("pressure_viscosity_force", n, kLocal, P, pos[cur], vel[cur], phase[cur], density, pterm, snbr, snbr_count,
+            bpos, sbnbr, sbnbr_count, acc);
   }
   void viscosityForce() {
-    cl::Kernel& k = ks["viscosity_force"];
-    k.setArg(0, sizeof(SimParams), &P);
-    k.setArg(1, pos[cur]);
-    k.setArg(2, vel[cur]);
-    k.setArg(3, phase[cur]);
-    k.setArg(4, density);
-    k.setArg(5, snbr);
-    k.setArg(6, snbr_count);
-    k.setArg(7, acc);
-    ks.enqueue("viscosity_force", n, kLocal);
+    ks.call("viscosity_force", n, kLocal, P, pos[cur], vel[cur], phase[cur], density, snbr, snbr_count, acc);
   }
   void colourDiffuse() {
-    cl::Kernel& k = ks["colour_diffuse"];
-    k.setArg(0, sizeof(SimParams), &P);
-    k.setArg(1, pos[cur]);
-    k.setArg(2, phase[cur]);
-    k.setArg(3, density);
-    k.setArg(4, colour[cur]);
-    k.setArg(5, snbr);
-    k.setArg(6, snbr_count);
-    k.setArg(7, colour[1 - cur]);
-    ks.enqueue("colour_diffuse", n, kLocal);
+    ks.call("colour_diffuse", n, kLocal, P, pos[cur], phase[cur], density, colour[cur], snbr, snbr_count, colour[1 - cur]);
   }
   void integrate() {
-    cl::Kernel& k = ks["integrate"];
-    k.setArg(0, sizeof(SimParams), &P);
-    k.setArg(1, pos[cur]);
-    k.setArg(2, vel[cur]);
-    k.setArg(3, acc);
-    k.setArg(4, crossings);
-    k.setArg(5, max_speed);
-    ks.enqueue("integrate", n, kLocal);
+    ks.call("integrate", n, kLocal, P, pos[cur], vel[cur], acc, crossings, max_speed);
   }
 };
 
@@ -1193,6 +1089,49 @@ TEST_CASE("viscosity_force (laminar, Morris; -DSPH_LAMINAR=1), Wendland C2, equa
   checkViscosity(true, SPH_KERNEL_WENDLAND_C2);
 }
 
+// The fused pass must give what the two separate passes give (each checked against its
+// brute-force reference above): the same float terms, summed in the same order, so equal to the
+// last bit in principle; allow 2 ulp of the larger magnitude for the compiler's freedom to
+// contract a * b + c into an FMA differently in the two kernels.
+void checkFused(const bool laminar, const int kind) {
+  const float ratio = kind == SPH_KERNEL_WENDLAND_C2 ? 3.0f : 2.0f;
+  INFO(kindName(kind) << ", " << (laminar ? "laminar" : "artificial"));
+  const Scene s = makeScene(kind, ratio, true, SPH_EOS_TAIT, false, 35);
+  Device d(kernelSet(kind, laminar), s);
+  const DensityState st = runDensity(d, 0.3f * (s.P.cell_size - s.P.support));
+  REQUIRE(st.overflow == 0u);
+  d.pressureForce();
+  d.viscosityForce();
+  const auto separate = fromDevice<F4>(d.acc, d.n);
+  write(d.acc, std::vector<F4>(d.n, F4{7, 7, 7, 7}));
+  d.pressureViscosityForce();
+  const auto fused = fromDevice<F4>(d.acc, d.n);
+  Failures f;
+  double amax = 0.0;
+  for (std::size_t i = 0; i < d.n; ++i) {
+    const float* a = &separate[i].x;
+    const float* b = &fused[i].x;
+    amax = std::max(amax, norm3(a[0], a[1], a[2]));
+    for (int c = 0; c < 4; ++c) {
+      const float tol = 2.0f * std::numeric_limits<float>::epsilon() * std::max(std::abs(a[c]), std::abs(b[c]));
+      if (!(std::abs(a[c] - b[c]) <= tol))
+        f.add([&](auto& o) { o << "particle " << i << " component " << c << ": separate " << a[c] << ", fused " << b[c]; });
+    }
+  }
+  CHECK_NO_FAILURES(f);
+  CHECK(amax > 1.0);
+}
+
+TEST_CASE("pressure_viscosity_force equals pressure_force then viscosity_force (artificial)", "[kernels]") {
+  checkFused(false, SPH_KERNEL_CUBIC_SPLINE);
+  checkFused(false, SPH_KERNEL_WENDLAND_C2);
+}
+
+TEST_CASE("pressure_viscosity_force equals pressure_force then viscosity_force (laminar)", "[kernels]") {
+  checkFused(true, SPH_KERNEL_CUBIC_SPLINE);
+  checkFused(true, SPH_KERNEL_WENDLAND_C2);
+}
+
 TEST_CASE("colour_diffuse equals the brute-force reference", "[kernels]") {
   for (const int kind : kKinds) {
     INFO(kindName(kind));
@@ -1382,14 +1321,7 @@ TEST_CASE("diagnostics: non-finite, outside, CFL counts, max speed and first bad
   density[80] = nan;         // group 3: non-finite density
   cl::Buffer dpos = toDevice(pos), dvel = toDevice(vel), dden = toDevice(density);
   cl::Buffer out = toDevice(std::vector<uint32_t>(groups * 8, 0xdeadbeefu));
-  cl::Kernel& k = ks["diagnostics"];
-  k.setArg(0, sizeof(SimParams), &P);
-  k.setArg(1, static_cast<uint32_t>(chunk));
-  k.setArg(2, dpos);
-  k.setArg(3, dvel);
-  k.setArg(4, dden);
-  k.setArg(5, out);
-  ks.enqueue("diagnostics", groups);
+  ks.call("diagnostics", groups, 0, P, static_cast<uint32_t>(chunk), dpos, dvel, dden, out);
   const auto r = fromDevice<uint32_t>(out, groups * 8);
   auto fbits = [](uint32_t b) {
     float v;

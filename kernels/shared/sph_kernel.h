@@ -23,36 +23,40 @@
 #define SPH_KERNEL_CUBIC_SPLINE 0
 #define SPH_KERNEL_WENDLAND_C2 1
 
+/* The kernels below are written without branches on q (both pieces are computed and one is
+ * selected, and t = max(1 - q, 0) zeroes everything beyond the support) so that the neighbour
+ * loops, where q is effectively random, compile to selects rather than mispredicted jumps. */
 SPH_FN float sph_cubic_w(float r, float H) {
   const float q = r / H;
   const float s = 8.0f / (SPH_PI_F * H * H * H);
-  if (q <= 0.5f) return s * (6.0f * q * q * q - 6.0f * q * q + 1.0f);
-  if (q <= 1.0f) { const float t = 1.0f - q; return 2.0f * s * t * t * t; }
-  return 0.0f;
+  const float t = 1.0f - q > 0.0f ? 1.0f - q : 0.0f;
+  const float inner = 6.0f * q * q * q - 6.0f * q * q + 1.0f;
+  const float outer = 2.0f * t * t * t;
+  return s * (q <= 0.5f ? inner : outer);
 }
 
 /* dW/dr / r, so that grad W = factor * r_vec. */
 SPH_FN float sph_cubic_grad_factor(float r, float H) {
   const float q = r / H;
   const float s = 8.0f / (SPH_PI_F * H * H * H);
-  if (q <= 0.5f) return s * (18.0f * q - 12.0f) / (H * H); /* (18 q^2 - 12 q) / (H r), with q/r = 1/H */
-  if (q <= 1.0f) { const float t = 1.0f - q; return -6.0f * s * t * t / (H * r); }
-  return 0.0f;
+  const float t = 1.0f - q > 0.0f ? 1.0f - q : 0.0f;
+  const float qs = q > 0.25f ? q : 0.25f; /* the outer piece is used only for q > 1/2 */
+  const float inner = 18.0f * q - 12.0f;  /* (18 q^2 - 12 q) / q */
+  const float outer = -6.0f * t * t / qs; /* -6 (1 - q)^2 / q */
+  return s * (q <= 0.5f ? inner : outer) / (H * H);
 }
 
 SPH_FN float sph_wendland_w(float r, float H) {
   const float q = r / H;
-  if (q >= 1.0f) return 0.0f;
   const float s = 21.0f / (2.0f * SPH_PI_F * H * H * H);
-  const float t = 1.0f - q;
+  const float t = 1.0f - q > 0.0f ? 1.0f - q : 0.0f;
   return s * t * t * t * t * (1.0f + 4.0f * q);
 }
 
 SPH_FN float sph_wendland_grad_factor(float r, float H) {
   const float q = r / H;
-  if (q >= 1.0f) return 0.0f;
   const float s = 21.0f / (2.0f * SPH_PI_F * H * H * H);
-  const float t = 1.0f - q;
+  const float t = 1.0f - q > 0.0f ? 1.0f - q : 0.0f;
   return -20.0f * s * t * t * t / (H * H); /* dW/dq = -20 s q t^3; divided by (H r) with q/r = 1/H */
 }
 
