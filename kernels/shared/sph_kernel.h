@@ -27,8 +27,9 @@
  * selected, and t = max(1 - q, 0) zeroes everything beyond the support) so that the neighbour
  * loops, where q is effectively random, compile to selects rather than mispredicted jumps. */
 SPH_FN float sph_cubic_w(float r, float H) {
-  const float q = r / H;
-  const float s = 8.0f / (SPH_PI_F * H * H * H);
+  const float inv_h = 1.0f / H; /* loop-invariant in the neighbour loops: one multiply per pair */
+  const float q = r * inv_h;
+  const float s = 8.0f / SPH_PI_F * inv_h * inv_h * inv_h;
   const float t = 1.0f - q > 0.0f ? 1.0f - q : 0.0f;
   const float inner = 6.0f * q * q * q - 6.0f * q * q + 1.0f;
   const float outer = 2.0f * t * t * t;
@@ -37,27 +38,30 @@ SPH_FN float sph_cubic_w(float r, float H) {
 
 /* dW/dr / r, so that grad W = factor * r_vec. */
 SPH_FN float sph_cubic_grad_factor(float r, float H) {
-  const float q = r / H;
-  const float s = 8.0f / (SPH_PI_F * H * H * H);
+  const float inv_h = 1.0f / H;
+  const float q = r * inv_h;
+  const float s = 8.0f / SPH_PI_F * inv_h * inv_h * inv_h;
   const float t = 1.0f - q > 0.0f ? 1.0f - q : 0.0f;
   const float qs = q > 0.25f ? q : 0.25f; /* the outer piece is used only for q > 1/2 */
   const float inner = 18.0f * q - 12.0f;  /* (18 q^2 - 12 q) / q */
   const float outer = -6.0f * t * t / qs; /* -6 (1 - q)^2 / q */
-  return s * (q <= 0.5f ? inner : outer) / (H * H);
+  return s * (q <= 0.5f ? inner : outer) * (inv_h * inv_h);
 }
 
 SPH_FN float sph_wendland_w(float r, float H) {
-  const float q = r / H;
-  const float s = 21.0f / (2.0f * SPH_PI_F * H * H * H);
+  const float inv_h = 1.0f / H;
+  const float q = r * inv_h;
+  const float s = 21.0f / (2.0f * SPH_PI_F) * inv_h * inv_h * inv_h;
   const float t = 1.0f - q > 0.0f ? 1.0f - q : 0.0f;
   return s * t * t * t * t * (1.0f + 4.0f * q);
 }
 
 SPH_FN float sph_wendland_grad_factor(float r, float H) {
-  const float q = r / H;
-  const float s = 21.0f / (2.0f * SPH_PI_F * H * H * H);
+  const float inv_h = 1.0f / H;
+  const float q = r * inv_h;
+  const float s = 21.0f / (2.0f * SPH_PI_F) * inv_h * inv_h * inv_h;
   const float t = 1.0f - q > 0.0f ? 1.0f - q : 0.0f;
-  return -20.0f * s * t * t * t / (H * H); /* dW/dq = -20 s q t^3; divided by (H r) with q/r = 1/H */
+  return -20.0f * s * t * t * t * (inv_h * inv_h); /* dW/dq = -20 s q t^3; divided by (H r) with q/r = 1/H */
 }
 
 SPH_FN float sph_w(int kind, float r, float H) {

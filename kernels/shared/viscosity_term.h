@@ -19,12 +19,12 @@ inline float3 sph_viscosity_pair(const SimParams* p, const float3 d, const float
 #if SPH_LAMINAR
   const float muj = rhoj * p->phase_viscosity[phj];
   (void)d;
-  return mj * (mui + muj) / (rhoi * rhoj) * (F * r2) / (r2 + eta2) * vij;
+  return mj * (mui + muj) * (F * r2) / (rhoi * rhoj * (r2 + eta2)) * vij;
 #else
   (void)mui;
   const float vx = fmin(dot(vij, d), 0.0f); /* approaching pairs only; branch-free */
-  const float mu = p->h * vx / (r2 + eta2);
-  const float Pi = -p->alpha * p->c0 * mu / (0.5f * (rhoi + rhoj));
+  /* Pi_ij with mu_ij folded in: one division per pair */
+  const float Pi = -p->alpha * p->c0 * p->h * vx / ((r2 + eta2) * (0.5f * (rhoi + rhoj)));
   return -mj * Pi * F * d;
 #endif
 }
