@@ -3,16 +3,26 @@
 #include "core/errors.h"
 
 #include <algorithm>
+#include <functional>
 #include <cmath>
 #include <fstream>
 #include <sstream>
 
 namespace sph::app {
 
-double surgeFront(const ParticleFrame& f) {
-  double m = -INFINITY;
-  for (float x : f.x) m = std::max(m, static_cast<double>(x));
-  return m;
+double surgeFront(const ParticleFrame& f, double dx, std::size_t min_row) {
+  std::vector<double> xs(f.x.begin(), f.x.end());
+  if (xs.empty()) return -INFINITY;
+  std::sort(xs.begin(), xs.end(), std::greater<double>());
+  min_row = std::max<std::size_t>(min_row, 1);
+  // Two pointers over x in decreasing order: the slice [xs[i] - dx, xs[i]] holds xs[i..j].
+  std::size_t j = 0;
+  for (std::size_t i = 0; i < xs.size(); ++i) {
+    j = std::max(j, i);
+    while (j + 1 < xs.size() && xs[j + 1] >= xs[i] - dx) ++j;
+    if (j - i + 1 >= min_row) return xs[i];
+  }
+  return xs.back();
 }
 
 std::vector<double> Table::column(const std::string& name) const {

@@ -9,8 +9,11 @@
 
 namespace sph::app {
 
-/// Leading edge of the fluid along +x: the largest x among particles (unit: m).
-double surgeFront(const ParticleFrame& f);
+/// Leading edge of the fluid along +x (unit: m): the largest x such that at least `min_row`
+/// particles lie in the slice [x - dx, x], i.e. a full row of particles across the tank rather
+/// than a droplet jetted ahead of the surge (SPH tips shed single particles; Martin & Moyce read
+/// the front of the water body from photographs). min_row = 1 gives the largest x of any particle.
+double surgeFront(const ParticleFrame& f, double dx, std::size_t min_row);
 
 /// A (T, Z) reference table read from a CSV file whose '#' lines are comments and whose first
 /// other line is a header (the format of shared/reference/). Throws InputError on a bad file.

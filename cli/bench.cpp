@@ -152,6 +152,8 @@ int benchCommand(const BenchOptions& opt) {
             ro.quiet = true;
             ro.write_output = false;
             const double dx = spacingFor(base, target);
+            // a full row of particles across the tank marks the front (analysis.h)
+            const std::size_t row = static_cast<std::size_t>(std::max(1.0, std::floor((base.fluid.blocks.at(0).max.y() - base.fluid.blocks.at(0).min.y()) / dx + 1e-4)));
             ro.sets = {"fluid.particle_spacing=" + fmtd(dx, 9), "simulation.cfl=" + fmtd(cfl, 2),
                        std::string("fluid.equation_of_state=") + eos,
                        // count problems instead of stopping: the table reports them
@@ -162,7 +164,7 @@ int benchCommand(const BenchOptions& opt) {
             auto probe = [&](Simulation& sim, const FrameReport&) {
               const auto t0 = std::chrono::steady_clock::now();
               Ts.push_back(sim.time() * tscale);
-              Zs.push_back((surgeFront(sim.readFrame()) - wall_x) / a);
+              Zs.push_back((surgeFront(sim.readFrame(), dx, row) - wall_x) / a);
               front_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
             };
             const RunResult r = runScene(ro, probe);
