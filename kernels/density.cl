@@ -12,7 +12,7 @@
  * Neighbours come from the lists built by the grid stage (grid.cl, build_neighbour_lists),
  * which hold every particle within the list radius H + skin; only those within H count here,
  * and they are written to this step's lists (snbr, sbnbr) so that the force stages visit the
- * ~33 true neighbours rather than the ~65 Verlet candidates. */
+ * ~33 true neighbours rather than the ~65 Verlet candidates. The loop is in shared/pair_loops.h. */
 __kernel void compute_density(const SimParams p, __global const float4* pos, __global const uint* phase,
                               __global const float4* bpos, __global const uint* nbr,
                               __global const uint* nbr_count, __global const uint* bnbr,
@@ -23,40 +23,14 @@ __kernel void compute_density(const SimParams p, __global const float4* pos, __g
   if (i >= p.n_fluid) return;
   const float3 xi = pos[i].xyz;
   const float H = p.support;
-  const float H2 = H * H;
-
   const uint K = p.max_neighbours;
 
   /* number density: self, fluid neighbours, and static boundary particles weighted by volume;
    * the neighbours actually within H go to this step's lists, which the force stages read */
-  __global uint* my_snbr = snbr + (size_t)i * K;
-  __global uint* my_sbnbr = sbnbr + (size_t)i * K;
+  uint sn = 0, sb = 0;
   float nd = sph_w(SPH_KERNEL, 0.0f, H);
-  const uint nn = nbr_count[i];
-  uint sn = 0;
-  /* Branch-free: whether a candidate is within H is effectively random, so the loop always
-   * evaluates W (zero beyond H) and always writes the candidate, advancing only when it counts. */
-  for (uint k = 0; k < nn; ++k) {
-    const uint j = nbr[(size_t)i * K + k];
-    const float3 d = xi - pos[j].xyz;
-    const float r2 = dot(d, d);
-    const uint in = r2 < H2;
-    nd += sph_w(SPH_KERNEL, sqrt(r2), H);
-    my_snbr[sn] = j;
-    sn += in;
-  }
-  const uint nb = bnbr_count[i];
-  uint sb = 0;
-  for (uint k = 0; k < nb; ++k) {
-    const uint b = bnbr[(size_t)i * K + k];
-    const float4 bb = bpos[b];
-    const float3 d = xi - bb.xyz;
-    const float r2 = dot(d, d);
-    const uint in = r2 < H2;
-    nd += bb.w * sph_w(SPH_KERNEL, sqrt(r2), H);
-    my_sbnbr[sb] = b;
-    sb += in;
-  }
+  nd += sph_list_density(xi, nbr + (size_t)i * K, nbr_count[i], pos, 0, H, snbr + (size_t)i * K, &sn);
+  nd += sph_list_density(xi, bnbr + (size_t)i * K, bnbr_count[i], bpos, 1, H, sbnbr + (size_t)i * K, &sb);
   snbr_count[i] = sn;
   sbnbr_count[i] = sb;
 

@@ -17,40 +17,24 @@
  * the wall plane stops particles up to ~0.3 c0 (3x the speed c0 is chosen for); its stiffness
  * k_c c0^2 / dx^2 keeps dt^2 k < 1 at the CFL step (symplectic Euler needs < 4).
  * The force between fluid particles i and j is equal and opposite, so momentum is conserved. */
-/* The neighbour loop of both passes below. `viscous` is a compile-time constant after inlining:
- * with it, the viscous term (shared/viscosity_term.h) is added in the same loop, so the fused pass
- * reads each neighbour's position and computes its kernel gradient once. The sums are kept apart
- * and added in the order of the separate passes (pressure and gravity, then viscosity), so the
- * fused pass gives what pressure_force followed by viscosity_force gives. */
+/* Pressure (and, fused, viscosity) of particle i: the fluid pairs (shared/pair_loops.h), then
+ * the boundary particles. The sums are kept apart and added in the order of the separate passes
+ * (pressure and gravity, then viscosity), so the fused pass gives what pressure_force followed
+ * by viscosity_force gives. */
 inline float4 sph_forces(const SimParams* p, const uint i, __global const float4* pos, __global const float4* vel,
                          __global const uint* phase, __global const float* density, __global const float* pterm,
                          __global const uint* nbr, __global const uint* nbr_count, __global const float4* bpos,
                          __global const uint* bnbr, __global const uint* bnbr_count, const int viscous) {
+  const uint K = p->max_neighbours;
+  const SphPairSums s =
+      sph_pair_sums(p, i, pos, vel, phase, density, pterm, nbr + (size_t)i * K, nbr_count[i], 1, viscous);
+
   const float3 xi = pos[i].xyz;
   const float H = p->support;
-  const uint phi = phase[i];
-  const float mi = p->phase_mass[phi];
   const float pi_term = pterm[i]; /* p_i / delta_i^2, from the density pass */
-  const float3 vi = viscous ? vel[i].xyz : (float3)(0.0f);
-  const float rhoi = viscous ? density[i] : 0.0f;
-  const float mui = rhoi * p->phase_viscosity[phi];
-
   const float dx = cbrt(p->rest_volume);
-  float3 f = (float3)(0.0f);       /* pressure force (unit: N) */
+  float3 f = s.f;                  /* pressure force (unit: N) */
   float3 contact = (float3)(0.0f); /* boundary contact acceleration (unit: m/s^2) */
-  float3 av = (float3)(0.0f);      /* viscous acceleration (unit: m/s^2) */
-  const uint K = p->max_neighbours;
-  /* This step's lists hold the neighbours within H (density pass), so no distance test here. */
-  const uint nn = nbr_count[i];
-  for (uint k = 0; k < nn; ++k) {
-    const uint j = nbr[(size_t)i * K + k];
-    const float3 d = xi - pos[j].xyz;
-    const float r2 = dot(d, d);
-    const float F = sph_grad_factor(SPH_KERNEL, sqrt(r2), H);
-    f -= (pi_term + pterm[j]) * F * d;
-    if (viscous) av += sph_viscosity_pair(p, d, r2, F, vi - vel[j].xyz, rhoi, mui, density[j], phase[j]);
-  }
-
   const uint nb = bnbr_count[i];
   for (uint k = 0; k < nb; ++k) {
     const float4 bb = bpos[bnbr[(size_t)i * K + k]];
@@ -61,7 +45,8 @@ inline float4 sph_forces(const SimParams* p, const uint i, __global const float4
   }
 
   const float3 g = (float3)(p->gravity[0], p->gravity[1], p->gravity[2]);
-  return (float4)(f / mi + contact + g, 0.0f) + (float4)(av, 0.0f);
+  const float mi = p->phase_mass[phase[i]];
+  return (float4)(f / mi + contact + g, 0.0f) + (float4)(s.av, 0.0f);
 }
 
 __kernel void pressure_force(const SimParams p, __global const float4* pos, __global const uint* phase,

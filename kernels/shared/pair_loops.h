@@ -1,0 +1,195 @@
+/* Neighbour-list loops of the density and force passes (device side only), eight candidates per
+ * iteration in float8 vectors, then the remainder one by one.
+ *
+ * Why by hand: pocl runs a work-group's work-items in a loop on each CPU core and leaves these
+ * inner loops scalar (their trip counts differ per particle, and the list compaction carries a
+ * dependence), so the arithmetic is written 8-wide here: positions are gathered lane by lane,
+ * everything after that (distances, sqrt, kernel, pair terms) runs in one AVX instruction per
+ * eight pairs. On a GPU the float8 code is simply unrolled. The eight partial sums are reduced in
+ * a fixed order, so results stay bitwise reproducible.
+ *
+ * The formulas are those of shared/sph_kernel.h (kernels) and of the stage files (pair terms);
+ * the tests compare every pass with a brute-force reference. */
+#ifndef SPHAPTICS_PAIR_LOOPS_H
+#define SPHAPTICS_PAIR_LOOPS_H
+#ifdef __OPENCL_VERSION__
+
+/* ---- kernels for eight distances at once ---------------------------------------------------- */
+inline float8 sph_w8(const float8 r, const float H) {
+  const float inv_h = 1.0f / H;
+  const float8 q = r * inv_h;
+  const float8 t = fmax(1.0f - q, 0.0f);
+#if SPH_KERNEL == SPH_KERNEL_WENDLAND_C2
+  const float s = 21.0f / (2.0f * SPH_PI_F) * inv_h * inv_h * inv_h;
+  return s * t * t * t * t * (1.0f + 4.0f * q);
+#else
+  const float s = 8.0f / SPH_PI_F * inv_h * inv_h * inv_h;
+  const float8 inner = 6.0f * q * q * q - 6.0f * q * q + 1.0f;
+  const float8 outer = 2.0f * t * t * t;
+  return s * select(outer, inner, q <= 0.5f);
+#endif
+}
+
+inline float8 sph_grad_factor8(const float8 r, const float H) {
+  const float inv_h = 1.0f / H;
+  const float8 q = r * inv_h;
+  const float8 t = fmax(1.0f - q, 0.0f);
+#if SPH_KERNEL == SPH_KERNEL_WENDLAND_C2
+  const float s = 21.0f / (2.0f * SPH_PI_F) * inv_h * inv_h * inv_h;
+  return -20.0f * s * t * t * t * (inv_h * inv_h);
+#else
+  const float s = 8.0f / SPH_PI_F * inv_h * inv_h * inv_h;
+  const float8 inner = 18.0f * q - 12.0f;
+  const float8 outer = -6.0f * t * t / fmax(q, 0.25f);
+  return s * select(outer, inner, q <= 0.5f) * (inv_h * inv_h);
+#endif
+}
+
+/* Lane-wise gathers. */
+#define SPH_GATHER8(A, J) ((float8)(A[J.s0], A[J.s1], A[J.s2], A[J.s3], A[J.s4], A[J.s5], A[J.s6], A[J.s7]))
+#define SPH_LANES8(P, C) \
+  ((float8)((P##0).C, (P##1).C, (P##2).C, (P##3).C, (P##4).C, (P##5).C, (P##6).C, (P##7).C))
+#define SPH_LOAD8(NAME, ARR, J)                                                          \
+  const float4 NAME##0 = ARR[J.s0], NAME##1 = ARR[J.s1], NAME##2 = ARR[J.s2], NAME##3 = ARR[J.s3]; \
+  const float4 NAME##4 = ARR[J.s4], NAME##5 = ARR[J.s5], NAME##6 = ARR[J.s6], NAME##7 = ARR[J.s7]
+
+inline float sph_hsum8(const float8 a) {
+  return ((a.s0 + a.s1) + (a.s2 + a.s3)) + ((a.s4 + a.s5) + (a.s6 + a.s7));
+}
+
+/* ---- density ---------------------------------------------------------------------------------
+ * sum_k w_k W(|x - x_k|) over a Verlet list, w_k = pts[k].w when `weighted` (the boundary's
+ * V_b / V0) else 1. The candidates within H are appended to `out` in list order and counted in
+ * *out_n: every candidate is stored and the count advances only for those inside, so the loop has
+ * no data-dependent branch. */
+inline float sph_list_density(const float3 xi, __global const uint* list, const uint n, __global const float4* pts,
+                              const int weighted, const float H, __global uint* out, uint* out_n) {
+  const float H2 = H * H;
+  float8 acc = (float8)(0.0f);
+  uint m = 0;
+  uint k = 0;
+  for (; k + 8 <= n; k += 8) {
+    const uint8 j = vload8(0, list + k);
+    SPH_LOAD8(p, pts, j);
+    const float8 dx = xi.x - SPH_LANES8(p, x), dy = xi.y - SPH_LANES8(p, y), dz = xi.z - SPH_LANES8(p, z);
+    const float8 r2 = dx * dx + dy * dy + dz * dz;
+    float8 w = sph_w8(sqrt(r2), H);
+    if (weighted) w *= SPH_LANES8(p, w);
+    acc += w;
+    const int8 in = -(r2 < H2); /* 1 inside, 0 outside */
+    out[m] = j.s0; m += in.s0;
+    out[m] = j.s1; m += in.s1;
+    out[m] = j.s2; m += in.s2;
+    out[m] = j.s3; m += in.s3;
+    out[m] = j.s4; m += in.s4;
+    out[m] = j.s5; m += in.s5;
+    out[m] = j.s6; m += in.s6;
+    out[m] = j.s7; m += in.s7;
+  }
+  float sum = sph_hsum8(acc);
+  for (; k < n; ++k) {
+    const uint j = list[k];
+    const float4 pj = pts[j];
+    const float3 d = xi - pj.xyz;
+    const float r2 = dot(d, d);
+    sum += (weighted ? pj.w : 1.0f) * sph_w(SPH_KERNEL, sqrt(r2), H);
+    out[m] = j;
+    m += r2 < H2;
+  }
+  *out_n = m;
+  return sum;
+}
+
+/* ---- pressure and viscosity between fluid particles ------------------------------------------
+ * Over this step's list (neighbours within H, from the density pass) of particle i:
+ *   pressure (when `pressure`; Solenthaler & Pajarola 2008 eq. 6, see pressure.cl):
+ *       f_i = -sum_j (p_i / delta_i^2 + p_j / delta_j^2) F_ij x_ij            (unit: N / m_i ... force)
+ *   viscosity (when `viscous`; see viscosity.cl):
+ *     artificial (Monaghan 1992): a_i = -sum_j m_j Pi_ij F_ij x_ij,
+ *         Pi_ij = -alpha c0 h min(v_ij . x_ij, 0) / ((|x_ij|^2 + 0.01 h^2) (rho_i + rho_j) / 2)
+ *     laminar (Morris et al. 1997, -DSPH_LAMINAR=1):
+ *         a_i = sum_j m_j (mu_i + mu_j) F_ij |x_ij|^2 / (rho_i rho_j (|x_ij|^2 + 0.01 h^2)) v_ij
+ * with grad W_ij = F_ij x_ij. `pressure` and `viscous` are constants after inlining. */
+typedef struct {
+  float3 f;  /* pressure force sum (unit: N) */
+  float3 av; /* viscous acceleration (unit: m/s^2) */
+} SphPairSums;
+
+inline SphPairSums sph_pair_sums(const SimParams* p, const uint i, __global const float4* pos,
+                                 __global const float4* vel, __global const uint* phase,
+                                 __global const float* density, __global const float* pterm,
+                                 __global const uint* list, const uint n, const int pressure, const int viscous) {
+  const float H = p->support;
+  const float3 xi = pos[i].xyz;
+  const float pi_term = pressure ? pterm[i] : 0.0f;
+  const float3 vi = viscous ? vel[i].xyz : (float3)(0.0f);
+  const float rhoi = viscous ? density[i] : 1.0f;
+  const float mui = rhoi * p->phase_viscosity[phase[i]];
+  const float eta2 = 0.01f * p->h * p->h;
+  const float visc_k = -p->alpha * p->c0 * p->h; /* Pi = visc_k vx / (...) */
+
+  float8 fx = (float8)(0.0f), fy = fx, fz = fx, ax = fx, ay = fx, az = fx;
+  uint k = 0;
+  for (; k + 8 <= n; k += 8) {
+    const uint8 j = vload8(0, list + k);
+    SPH_LOAD8(x, pos, j);
+    const float8 dx = xi.x - SPH_LANES8(x, x), dy = xi.y - SPH_LANES8(x, y), dz = xi.z - SPH_LANES8(x, z);
+    const float8 r2 = dx * dx + dy * dy + dz * dz;
+    const float8 F = sph_grad_factor8(sqrt(r2), H);
+    if (pressure) {
+      const float8 c = (pi_term + SPH_GATHER8(pterm, j)) * F;
+      fx -= c * dx;
+      fy -= c * dy;
+      fz -= c * dz;
+    }
+    if (viscous) {
+      SPH_LOAD8(v, vel, j);
+      const float8 vx = vi.x - SPH_LANES8(v, x), vy = vi.y - SPH_LANES8(v, y), vz = vi.z - SPH_LANES8(v, z);
+      const float8 rhoj = SPH_GATHER8(density, j);
+      const uint8 phj = (uint8)(phase[j.s0], phase[j.s1], phase[j.s2], phase[j.s3], phase[j.s4], phase[j.s5],
+                                phase[j.s6], phase[j.s7]);
+      const float8 mj = SPH_GATHER8(p->phase_mass, phj);
+#if SPH_LAMINAR
+      const float8 muj = rhoj * SPH_GATHER8(p->phase_viscosity, phj);
+      const float8 c = mj * (mui + muj) * (F * r2) / (rhoi * rhoj * (r2 + eta2));
+      ax += c * vx;
+      ay += c * vy;
+      az += c * vz;
+#else
+      const float8 vdotx = fmin(vx * dx + vy * dy + vz * dz, 0.0f);
+      const float8 Pi = visc_k * vdotx / ((r2 + eta2) * (0.5f * (rhoi + rhoj)));
+      const float8 c = -mj * Pi * F;
+      ax += c * dx;
+      ay += c * dy;
+      az += c * dz;
+#endif
+    }
+  }
+  SphPairSums s;
+  s.f = (float3)(sph_hsum8(fx), sph_hsum8(fy), sph_hsum8(fz));
+  s.av = (float3)(sph_hsum8(ax), sph_hsum8(ay), sph_hsum8(az));
+  for (; k < n; ++k) {
+    const uint j = list[k];
+    const float3 d = xi - pos[j].xyz;
+    const float r2 = dot(d, d);
+    const float F = sph_grad_factor(SPH_KERNEL, sqrt(r2), H);
+    if (pressure) s.f -= (pi_term + pterm[j]) * F * d;
+    if (viscous) {
+      const float3 vij = vi - vel[j].xyz;
+      const float rhoj = density[j];
+      const uint phj = phase[j];
+      const float mj = p->phase_mass[phj];
+#if SPH_LAMINAR
+      const float muj = rhoj * p->phase_viscosity[phj];
+      s.av += mj * (mui + muj) * (F * r2) / (rhoi * rhoj * (r2 + eta2)) * vij;
+#else
+      const float Pi = visc_k * fmin(dot(vij, d), 0.0f) / ((r2 + eta2) * (0.5f * (rhoi + rhoj)));
+      s.av += -mj * Pi * F * d;
+#endif
+    }
+  }
+  return s;
+}
+
+#endif
+#endif
