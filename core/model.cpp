@@ -181,6 +181,53 @@ Compiled compile(const SceneSpec& spec) {
   }
   if (!issues.empty()) throw InputError(issues);
 
+  // --- Rigid bodies: shape -> mesh -> mass properties; surface particles at the fluid spacing ---
+  const int kernel_id = sim.kernel == KernelType::WendlandC2 ? SPH_KERNEL_WENDLAND_C2 : SPH_KERNEL_CUBIC_SPLINE;
+  for (const RigidBodySpec& bs : spec.rigid_bodies) {
+    rigid::RigidBody body;
+    body.spec = bs;
+    body.spec.mesh_data = TriMesh{};
+    body.kind = bs.dynamic ? rigid::BodyKind::Dynamic
+                           : (bs.motion.type != MotionType::None ? rigid::BodyKind::Kinematic : rigid::BodyKind::Static);
+    if (bs.shape == BodyShape::Mesh && bs.mesh_data.triangles.empty()) {
+      fail(bs.loc, "rigid body '" + bs.name + "': shape mesh but no mesh was loaded");
+      continue;
+    }
+    TriMesh mesh = rigid::shapeMesh(bs, m.dx);
+    const rigid::MassProperties mp = rigid::massProperties(mesh);
+    if (!(mp.volume > 0.0)) {
+      fail(bs.loc, "rigid body '" + bs.name + "' encloses no volume (" + fmt(mp.volume) + " m^3)");
+      continue;
+    }
+    // Mass from the density, or the density from the mass (uniform either way).
+    const double density = bs.mass > 0.0 ? bs.mass / mp.volume : bs.density;
+    body.volume = mp.volume;
+    body.mass = density * mp.volume;
+    body.inertia = density * mp.inertia;
+    body.inv_inertia = body.inertia.inverse();
+    // Body frame: origin at the centre of mass.
+    body.origin_offset = -mp.centre;
+    for (auto& p : mesh.positions) p -= mp.centre.cast<float>();
+    body.mesh = std::move(mesh);
+    body.particles = rigid::sampleSurface(body.mesh, m.dx);
+    // Akinci et al. 2012 eq. 4 over the body's own particles: a single sampled layer gets the
+    // volume of the missing ones.
+    const std::vector<float> vol = akinciVolumes(body.particles, static_cast<float>(m.support), kernel_id);
+    const double V0 = m.dx * m.dx * m.dx;
+    body.volumes.resize(vol.size());
+    for (std::size_t i = 0; i < vol.size(); ++i) body.volumes[i] = static_cast<float>(vol[i] / V0);
+    m.bodies.push_back(std::move(body));
+  }
+  if (!issues.empty()) throw InputError(issues);
+  {
+    std::size_t moving = 0;
+    for (const auto& b : m.bodies) moving += b.kind != rigid::BodyKind::Static;
+    if (moving > 0 && (!fl.blocks.empty() || !fl.inflows.empty()))
+      m.notes.push_back(std::to_string(moving) +
+                        " dynamic or kinematic rigid bod(ies): they move, but do not yet exchange forces with the fluid "
+                        "(two-way coupling is not implemented; static bodies are fluid boundaries)");
+  }
+
   // --- Particle budget: initial + what the nozzles emit over their active time ---------------
   double emitted = 0.0;
   for (const Emitter& e : m.emitters) {
@@ -196,7 +243,7 @@ Compiled compile(const SceneSpec& spec) {
     m.capacity = out.initial.size() + static_cast<std::size_t>(emitted);
     if (!m.emitters.empty()) m.notes.push_back("particle budget: " + std::to_string(m.capacity) + " (automatic)");
   }
-  if (m.capacity == 0) fail(fl.loc, "the scene has no fluid: no blocks and no inflows");
+  if (m.capacity == 0 && m.bodies.empty()) fail(fl.loc, "the scene has no fluid and no rigid bodies: no blocks and no inflows");
   if (!issues.empty()) throw InputError(issues);
 
   // --- Speed of sound: 10x the largest expected speed keeps density errors near 1 % --------
@@ -257,11 +304,21 @@ Compiled compile(const SceneSpec& spec) {
     const int kernel = sim.kernel == KernelType::WendlandC2 ? SPH_KERNEL_WENDLAND_C2 : SPH_KERNEL_CUBIC_SPLINE;
     const double V0 = m.dx * m.dx * m.dx;
     const bool complete = layers >= static_cast<int>(std::ceil(sim.support_ratio - 1e-9));
-    const std::vector<float> vol = complete ? std::vector<float>(pts.size(), static_cast<float>(V0))
-                                            : akinciVolumes(pts, static_cast<float>(m.support), kernel);
+    std::vector<float> vol = complete ? std::vector<float>(pts.size(), static_cast<float>(V0))
+                                      : akinciVolumes(pts, static_cast<float>(m.support), kernel);
     if (!complete)
       m.notes.push_back("boundary: " + std::to_string(layers) + " layer(s) for a support of " +
                         fmt(sim.support_ratio) + " dx: Akinci volumes compensate the missing layers");
+    // Static rigid bodies: their particles, placed in the world, join the walls' (volumes from
+    // the body alone, computed at compile above).
+    for (const rigid::RigidBody& body : m.bodies) {
+      if (body.kind != rigid::BodyKind::Static) continue;
+      const rigid::BodyState s0 = rigid::initialState(body);
+      for (std::size_t i = 0; i < body.particles.size(); ++i) {
+        pts.push_back(s0.toWorld(body.particles[i].cast<double>()).cast<float>());
+        vol.push_back(static_cast<float>(body.volumes[i] * V0));
+      }
+    }
     // Sort by cell (stable: ties keep lattice order) and build the cell start table.
     std::vector<std::pair<uint32_t, uint32_t>> keyed(pts.size());
     for (uint32_t i = 0; i < pts.size(); ++i) {
@@ -320,6 +377,9 @@ Compiled compile(const SceneSpec& spec) {
   m.stages.set(Stage::Viscosity, laminar ? m.max_viscosity > 0.0 : fl.artificial_viscosity > 0.0);
   m.stages.set(Stage::ColourDiffusion, fl.colour_diffusion > 0.0);
   m.stages.set(Stage::Integrate, true);
+  bool moving_bodies = false;
+  for (const auto& b : m.bodies) moving_bodies = moving_bodies || b.kind != rigid::BodyKind::Static;
+  m.stages.set(Stage::RigidDynamics, moving_bodies);
   m.stages.set(Stage::Diagnostics, true);
 
   // Fixed build options: the kernel and viscosity model are compile-time constants on the device.

@@ -93,6 +93,7 @@ Simulation::Simulation(const Model& model, const HostParticles& initial, ClConte
     return 0;
   });
   next_id_ = static_cast<uint32_t>(n_);
+  for (const rigid::RigidBody& body : model_.bodies) bodies_.push_back(rigid::initialState(body));
   emitter_travel_.assign(model_.emitters.size(), model_.dx);  // the first layer leaves at the start time
 }
 
@@ -132,6 +133,7 @@ void Simulation::step(double dt) {
     if (on(Stage::ColourDiffusion)) diffuseColour();   // colour mixing
     integrate();                                       // semi-implicit Euler, closed walls
   }
+  if (on(Stage::RigidDynamics)) integrateBodies(dt);   // rigid bodies: momenta, poses (host)
   time_ += dt;
   ++profile_.steps;
   profile_.particle_steps += n_;
@@ -141,7 +143,8 @@ FrameReport Simulation::advanceFrame() {
   const SimulationSpec& sim = model_.spec.simulation;
   // Time-step control: the scene's substeps, checked against the CFL and viscous limits
   // (Monaghan 1992: dt <= cfl h / (c0 + |v|max); Morris et al. 1997: dt <= 0.125 h^2 / nu).
-  double limit = sim.cfl * model_.h / (model_.c0 + last_max_speed_);
+  // A scene without fluid (rigid bodies alone) has no CFL limit: the scene's substeps stand.
+  double limit = model_.capacity == 0 ? INFINITY : sim.cfl * model_.h / (model_.c0 + last_max_speed_);
   if (on(Stage::Viscosity) && model_.spec.fluid.viscosity_model == ViscosityModel::Laminar && model_.max_viscosity > 0)
     limit = std::min(limit, 0.125 * model_.h * model_.h / model_.max_viscosity);
   int steps = sim.substeps;
@@ -413,6 +416,13 @@ void Simulation::integrate() {
   float vmax;
   std::memcpy(&vmax, &bits, 4);
   travel_since_build_ += std::isfinite(vmax) ? vmax * params_.dt : INFINITY;
+}
+
+void Simulation::integrateBodies(double dt) {
+  StageTimer timer(*this, Stage::RigidDynamics);
+  // Gravity at the start of the step, as the fluid sees it (in double: the host integrates in double).
+  const Eigen::Vector3d g = gravityAt(model_.spec.simulation, time_);
+  for (std::size_t b = 0; b < bodies_.size(); ++b) rigid::integrate(model_.bodies[b], bodies_[b], g, dt);
 }
 
 FrameReport Simulation::runDiagnostics() {
