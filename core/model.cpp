@@ -224,8 +224,8 @@ Compiled compile(const SceneSpec& spec) {
     for (const auto& b : m.bodies) moving += b.kind != rigid::BodyKind::Static;
     if (moving > 0 && (!fl.blocks.empty() || !fl.inflows.empty()))
       m.notes.push_back(std::to_string(moving) +
-                        " dynamic or kinematic rigid bod(ies): they move, but do not yet exchange forces with the fluid "
-                        "(two-way coupling is not implemented; static bodies are fluid boundaries)");
+                        " moving rigid bod(ies): coupled to the fluid by pressure and contact (no viscous "
+                        "coupling, no body-body or body-wall contact yet)");
   }
 
   // --- Particle budget: initial + what the nozzles emit over their active time ---------------
@@ -380,6 +380,7 @@ Compiled compile(const SceneSpec& spec) {
   bool moving_bodies = false;
   for (const auto& b : m.bodies) moving_bodies = moving_bodies || b.kind != rigid::BodyKind::Static;
   m.stages.set(Stage::RigidDynamics, moving_bodies);
+  m.stages.set(Stage::RigidCoupling, moving_bodies && m.capacity > 0);
   m.stages.set(Stage::Diagnostics, true);
 
   // Fixed build options: the kernel and viscosity model are compile-time constants on the device.
