@@ -34,7 +34,8 @@ TriMesh lathe(const std::vector<Eigen::Vector2d>& profile, int segments);
 int segmentsFor(double radius, double edge);
 
 /// Closed, outward-facing meshes centred on the origin; curved ones have edges of about `edge`
-/// (unit: m) along their circles. The cylinder and capsule axes are z; `height` is the cylinder's
+/// (unit: m) along their circles; the sphere has a small flat polygon at each pole (so that it rests
+/// on the floor instead of balancing on a vertex). The cylinder and capsule axes are z; `height` is the cylinder's
 /// length and the distance between the capsule's cap centres.
 TriMesh sphereMesh(double radius, double edge);
 TriMesh boxMesh(const Eigen::Vector3d& size);
@@ -109,9 +110,20 @@ Eigen::Matrix3d worldInverseInertia(const RigidBody& body, const Eigen::Quaterni
 /// Dynamic: symplectic (semi-implicit) Euler on momenta,
 ///     v += dt F / m,   L += dt tau,   w = R I^-1 R^T L,   q <- exp(dt w / 2) q (renormalised),   x += dt v,
 /// so a free fall gives x_n = x0 + v0 t + g t^2 / 2 + g t dt / 2 (first order in dt), and without
-/// torque L is conserved exactly. Kinematic: the scripted velocities, integrated exactly.
-/// Static: nothing moves.
-void integrate(const RigidBody& body, BodyState& s, const Eigen::Vector3d& g, double dt);
+/// torque L is conserved exactly. With `walls` (the domain; null = none), contacts with its closed
+/// walls act between the momentum and the position updates (see wallContacts). Kinematic: the
+/// scripted velocities, integrated exactly. Static: nothing moves.
+void integrate(const RigidBody& body, BodyState& s, const Eigen::Vector3d& g, double dt,
+               const DomainSpec* walls = nullptr);
+
+/// Contact of a dynamic body with the closed walls of the domain box, on the mesh vertices:
+/// speculative velocity-level contacts (sequential impulses, as in Box2D): a vertex whose gap to a
+/// wall would close within dt may approach it by at most gap / dt, so it lands on the wall without
+/// passing it; on impact (approach faster than 2 |g| dt, which resting contact never reaches) the
+/// normal velocity is reversed times the restitution; Coulomb friction (friction coefficient) acts on the tangential
+/// velocity with the impulse bound mu * normal impulse. Changes v, L, w; records the contact force
+/// (impulse / dt) in the state. Returns the number of vertices in contact.
+int wallContacts(const RigidBody& body, BodyState& s, const DomainSpec& walls, const Eigen::Vector3d& g, double dt);
 
 /// The body's mesh in world coordinates (for output).
 TriMesh worldMesh(const RigidBody& body, const BodyState& s);

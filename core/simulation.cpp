@@ -575,7 +575,8 @@ void Simulation::integrateBodies(double dt) {
   StageTimer timer(*this, Stage::RigidDynamics);
   // Gravity at the start of the step, as the fluid sees it (in double: the host integrates in double).
   const Eigen::Vector3d g = gravityAt(model_.spec.simulation, time_);
-  for (std::size_t b = 0; b < bodies_.size(); ++b) rigid::integrate(model_.bodies[b], bodies_[b], g, dt);
+  for (std::size_t b = 0; b < bodies_.size(); ++b)
+    rigid::integrate(model_.bodies[b], bodies_[b], g, dt, &model_.spec.domain);  // contact with the closed walls
 }
 
 FrameReport Simulation::runDiagnostics() {

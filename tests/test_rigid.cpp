@@ -228,7 +228,7 @@ TEST_CASE("Surface sampling: particles at least 0.8 dx apart and no gap wider th
 // Scene keys and errors
 // ---------------------------------------------------------------------------------------------
 
-TEST_CASE("rigid_bodies: keys load with their defaults; bodies compile", "[rigid]") {
+TEST_CASE("rigid_bodies: keys load with their defaults, and bodies compile", "[rigid]") {
   testing::TempDir dir;
   dir.write("tet.obj", objOf(tetrahedron(0.1)));
   const std::string yaml = kDomain +
@@ -416,7 +416,7 @@ TEST_CASE("Free fall matches x0 + v0 t + g t^2/2 up to the integrator's known er
   }
 }
 
-TEST_CASE("A kinematic body follows its constant motion exactly; bodies.csv and OBJs are written", "[rigid]") {
+TEST_CASE("A kinematic body follows its constant motion exactly, and bodies.csv and OBJs are written", "[rigid]") {
   testing::TempDir dir;
   const std::string scene = kDomain +
                             "simulation: {duration: 0.2, frame_rate: 10, substeps: 3}\n"
@@ -622,4 +622,59 @@ TEST_CASE("Coupling: a kinematic tool feels a drag opposite to its motion that g
   CHECK(std::max(std::abs(fast.y()), std::abs(fast.z())) < 0.25 * std::abs(fast.x()));
   CHECK(fast.x() / slow.x() > 2.0);
   CHECK(fast.x() / slow.x() < 8.0);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Contact with the walls
+// ---------------------------------------------------------------------------------------------
+
+TEST_CASE("Contact: bodies resting on the floor stay put, and a dropped ball bounces without gaining energy", "[rigid]") {
+  // Resting: gravity adds |g| dt of approach speed per step and the contact removes exactly that
+  // (speculative contact at zero gap), so a resting body must not move: within a hundredth of a
+  // particle spacing over 2 s (120 frames, 240 steps). The ball's mesh has a flat bottom a hair
+  // (r (1 - cos(pi / 2 rings)) = 0.003 dx) above its nominal radius: it settles that far in the
+  // first frame, so its speed is checked from the second frame on. The brick's four corner
+  // contacts are solved iteratively: a tilt below 1e-4 rad moves a corner by 5 um (0.0005 dx).
+  // Bouncing (restitution e = 0.5, dropped from h = 0.2 m): the rebound apex is e^2 h, plus at most
+  // the one step of travel at impact, v dt, that a speculative contact may bounce early from.
+  app::RunOptions o;
+  o.scene = (kSourceDir / "scenes" / "tests" / "resting.yaml").string();
+  o.quiet = true;
+  o.write_output = false;
+  const double dx = 0.01, h = 0.2, e = 0.5, g = 9.81, dt = 1.0 / 120;
+  Eigen::Vector3d ball0, brick0;
+  double worst_ball = 0, worst_brick = 0, worst_speed = 0, worst_tilt = 0;
+  double apex_after_bounce = 0, lowest = 1e9;
+  bool bounced = false;
+  double prev_vz = 0;
+  const app::RunResult r = app::runScene(o, [&](Simulation& sim, const FrameReport& rep) {
+    const auto& b = sim.bodies();
+    if (rep.frame == 0) {
+      ball0 = rigid::initialState(sim.model().bodies[0]).x;
+      brick0 = rigid::initialState(sim.model().bodies[1]).x;
+    }
+    worst_ball = std::max(worst_ball, (b[0].x - ball0).norm());
+    worst_brick = std::max(worst_brick, (b[1].x - brick0).norm());
+    if (rep.frame > 0) worst_speed = std::max({worst_speed, b[0].v.norm(), b[1].v.norm()});
+    worst_tilt = std::max(worst_tilt, b[1].q.angularDistance(Eigen::Quaterniond::Identity()));
+    const double bottom = b[2].x.z() - 0.04;
+    for (const auto& p : rigid::worldMesh(sim.model().bodies[2], b[2]).positions)
+      lowest = std::min(lowest, double(p.z()));
+    if (prev_vz < 0 && b[2].v.z() > 0) bounced = true;
+    if (bounced && b[2].v.z() <= 0 && apex_after_bounce == 0) apex_after_bounce = bottom;
+    prev_vz = b[2].v.z();
+  });
+  REQUIRE(r.exit_code == 0);
+  INFO("ball moved " << worst_ball << " m, brick " << worst_brick << " m, tilt " << worst_tilt << " rad, speed "
+                     << worst_speed << " m/s; dropped ball: lowest " << lowest << " m, apex after bounce "
+                     << apex_after_bounce << " m");
+  CHECK(worst_ball < 0.01 * dx);
+  CHECK(worst_brick < 0.01 * dx);
+  CHECK(worst_tilt < 1e-4);
+  CHECK(worst_speed < 1e-6);
+  CHECK(lowest > -1e-6);  // no vertex below the floor (float vertices: 1e-6 m)
+  REQUIRE(bounced);
+  const double v_impact = std::sqrt(2 * g * h);
+  CHECK(apex_after_bounce <= e * e * h + v_impact * dt);
+  CHECK(apex_after_bounce >= 0.5 * e * e * h);
 }
