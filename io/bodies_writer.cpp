@@ -12,8 +12,9 @@ std::string bodiesCsvHeader() {
   return "# sphaptics rigid bodies, one row per body per output frame. SI units: s, m, m/s, rad/s, N, N m.\n"
          "# com_*: centre of mass (world); q*: orientation quaternion body -> world (w, x, y, z);\n"
          "# v*: velocity of the centre of mass; w*: angular velocity (world frame).\n"
-         "# fluid_f*, fluid_t* (force, torque about the centre of mass) and contact_f* are the last step's;\n"
-         "# they are 0 in this version: two-way fluid coupling and contact are not implemented yet.\n"
+         "# fluid_f*, fluid_t*: the fluid's force and torque about the centre of mass in the frame's last step\n"
+         "# (pressure and contact with the fluid; no viscous coupling yet; 0 for static bodies);\n"
+         "# contact_f*: the closed walls' contact force in that step (dynamic bodies; no body-body contact yet).\n"
          "time,body,com_x,com_y,com_z,qw,qx,qy,qz,vx,vy,vz,wx,wy,wz,"
          "fluid_fx,fluid_fy,fluid_fz,fluid_tx,fluid_ty,fluid_tz,contact_fx,contact_fy,contact_fz\n";
 }
