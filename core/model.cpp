@@ -219,13 +219,64 @@ Compiled compile(const SceneSpec& spec) {
     m.bodies.push_back(std::move(body));
   }
   if (!issues.empty()) throw InputError(issues);
+
+  // Fluid placed where a body is: particles inside a body, or closer than dx to one of its
+  // boundary particles (where the contact repulsion of pressure.cl would act at once), are removed.
+  if (!m.bodies.empty() && out.initial.size() > 0) {
+    const float cell = static_cast<float>(m.dx);
+    HostGrid near{cell, {}};
+    std::vector<Eigen::Vector3f> world;
+    struct Placed { Eigen::Vector3d x; Eigen::Quaterniond q; double reach; };
+    std::vector<Placed> placed;
+    for (const rigid::RigidBody& body : m.bodies) {
+      const rigid::BodyState s0 = rigid::initialState(body);
+      double reach = 0.0;
+      for (const auto& v : body.mesh.positions) reach = std::max(reach, static_cast<double>(v.norm()));
+      placed.push_back({s0.x, s0.q, reach});
+      for (const auto& p : body.particles) {
+        const Eigen::Vector3f w = s0.toWorld(p.cast<double>()).cast<float>();
+        const Eigen::Vector3i c = near.coord(w);
+        near.cells[HostGrid::key(c.x(), c.y(), c.z())].push_back(static_cast<uint32_t>(world.size()));
+        world.push_back(w);
+      }
+    }
+    HostParticles kept;
+    std::size_t removed = 0;
+    for (std::size_t i = 0; i < out.initial.size(); ++i) {
+      const Eigen::Vector3f x = out.initial.pos[i].head<3>();
+      bool clash = false;
+      const Eigen::Vector3i c = near.coord(x);
+      for (int dz = -1; dz <= 1 && !clash; ++dz)
+        for (int dy = -1; dy <= 1 && !clash; ++dy)
+          for (int dxc = -1; dxc <= 1 && !clash; ++dxc) {
+            auto it = near.cells.find(HostGrid::key(c.x() + dxc, c.y() + dy, c.z() + dz));
+            if (it == near.cells.end()) continue;
+            for (uint32_t j : it->second)
+              if ((world[j] - x).squaredNorm() < cell * cell) { clash = true; break; }
+          }
+      for (std::size_t b = 0; b < m.bodies.size() && !clash; ++b) {
+        const Eigen::Vector3d local = placed[b].q.inverse() * (x.cast<double>() - placed[b].x);
+        if (local.norm() <= placed[b].reach) clash = windingNumber(m.bodies[b].mesh, local) > 0.5;
+      }
+      if (clash) {
+        ++removed;
+        continue;
+      }
+      kept.push(x, out.initial.vel[i].head<3>(), out.initial.colour[i].head<3>(), out.initial.phase[i],
+                static_cast<uint32_t>(kept.size()));
+    }
+    if (removed > 0) {
+      m.notes.push_back(std::to_string(removed) + " fluid particles inside or within dx of rigid bodies removed");
+      out.initial = std::move(kept);
+    }
+  }
   {
     std::size_t moving = 0;
     for (const auto& b : m.bodies) moving += b.kind != rigid::BodyKind::Static;
     if (moving > 0 && (!fl.blocks.empty() || !fl.inflows.empty()))
       m.notes.push_back(std::to_string(moving) +
                         " moving rigid bod(ies): coupled to the fluid by pressure and contact (no viscous "
-                        "coupling, no body-body or body-wall contact yet)");
+                        "coupling yet); contact with the closed walls, none between bodies yet");
   }
 
   // --- Particle budget: initial + what the nozzles emit over their active time ---------------

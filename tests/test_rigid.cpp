@@ -708,3 +708,36 @@ TEST_CASE("Coupling: three balls of density 500, 1000 and 4000 kg/m^3 order them
   CHECK(end[2].x.z() - radius < 1.5 * dx);
   CHECK(std::abs(end[2].fluid_force.z() + end[2].contact_force.z() - heavy_weight) < 0.1 * heavy_weight);
 }
+
+TEST_CASE("Fluid placed inside or against a body is removed at compile time", "[rigid]") {
+  // The winding number tells inside from outside for a closed mesh (1 inside, 0 outside).
+  const TriMesh ball = rigid::sphereMesh(0.05, 0.005);
+  CHECK(windingNumber(ball, Eigen::Vector3d(0.01, -0.02, 0.03)) == Approx(1.0).margin(1e-9));
+  CHECK(windingNumber(ball, Eigen::Vector3d(0.06, 0.0, 0.0)) == Approx(0.0).margin(1e-9));
+  // A block of water through a sphere: no particle left inside it or within dx of its particles
+  // (where the boundary contact force would act on the first step).
+  SceneSpec s = io::loadSceneFromString(kDomain +
+                                            "fluid: {particle_spacing: 0.01, blocks: [{min: [0, 0, 0], max: [0.4, 0.4, 0.3]}]}\n"
+                                            "rigid_bodies: [{name: b, shape: sphere, radius: 0.06, position: [0.2, 0.2, 0.2], "
+                                            "density: 500, dynamic: true}]\n",
+                                        "scene.yaml");
+  const Compiled c = compile(s);
+  const std::size_t full = 40 * 40 * 30;
+  const rigid::RigidBody& body = c.model.bodies[0];
+  const rigid::BodyState s0 = rigid::initialState(body);
+  double nearest = 1e9;
+  std::size_t inside = 0, bad_ids = 0;
+  for (std::size_t i = 0; i < c.initial.size(); ++i) {
+    const Eigen::Vector3d x = c.initial.pos[i].head<3>().cast<double>();
+    inside += (x - s0.x).norm() <= 0.06;
+    for (const auto& p : body.particles) nearest = std::min(nearest, (x - s0.toWorld(p.cast<double>())).norm());
+    bad_ids += c.initial.id[i] != i;  // ids stay the creation order, without gaps
+  }
+  CHECK(inside == 0);
+  CHECK(bad_ids == 0);
+  INFO(full - c.initial.size() << " removed; nearest remaining particle " << nearest / 0.01 << " dx from the body's");
+  CHECK(nearest >= 0.01 * (1 - 1e-6));
+  // The removed ones: the sphere (~905 lattice points in 4/3 pi 6^3 dx^3) and a shell about dx thick.
+  CHECK(full - c.initial.size() > 905);
+  CHECK(full - c.initial.size() < 2500);
+}
