@@ -209,7 +209,12 @@ Compiled compile(const SceneSpec& spec) {
     body.origin_offset = -mp.centre;
     for (auto& p : mesh.positions) p -= mp.centre.cast<float>();
     body.mesh = std::move(mesh);
-    body.particles = rigid::sampleSurface(body.mesh, m.dx);
+    // Particles half a spacing inside the surface, as the walls' first layer lies dx/2 behind the
+    // wall plane: fluid rests about dx from boundary particles, so its edge (dx/2 beyond its
+    // particles) then meets the body's true surface, and the displaced volume is the body's.
+    std::vector<Eigen::Vector3f> normals;
+    body.particles = rigid::sampleSurface(body.mesh, m.dx, &normals);
+    for (std::size_t i = 0; i < body.particles.size(); ++i) body.particles[i] -= 0.5f * static_cast<float>(m.dx) * normals[i];
     // Akinci et al. 2012 eq. 4 over the body's own particles: a single sampled layer gets the
     // volume of the missing ones.
     const std::vector<float> vol = akinciVolumes(body.particles, static_cast<float>(m.support), kernel_id);
@@ -219,6 +224,7 @@ Compiled compile(const SceneSpec& spec) {
     m.bodies.push_back(std::move(body));
   }
   if (!issues.empty()) throw InputError(issues);
+  for (RigidBodySpec& b : m.spec.rigid_bodies) b.mesh_data = TriMesh{};  // the Model keeps body.mesh
 
   // Fluid placed where a body is: particles inside a body, or closer than dx to one of its
   // boundary particles (where the contact repulsion of pressure.cl would act at once), are removed.

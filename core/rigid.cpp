@@ -171,7 +171,7 @@ MassProperties massProperties(const TriMesh& mesh) {
 // Sampling
 // ---------------------------------------------------------------------------------------------
 
-std::vector<Eigen::Vector3f> sampleSurface(const TriMesh& mesh, double spacing) {
+std::vector<Eigen::Vector3f> sampleSurface(const TriMesh& mesh, double spacing, std::vector<Eigen::Vector3f>* normals) {
   const double r = 0.8 * spacing;    // Poisson-disk radius
   const double dense = 0.2 * spacing; // candidate spacing on each triangle
   const double r2 = r * r;
@@ -185,8 +185,8 @@ std::vector<Eigen::Vector3f> sampleSurface(const TriMesh& mesh, double spacing) 
            ((static_cast<int64_t>(k.z()) + (1 << 20)) << 42);
   };
   std::unordered_map<int64_t, std::vector<uint32_t>> grid;
-  std::vector<Eigen::Vector3d> accepted;
-  auto offer = [&](const Eigen::Vector3d& p) {
+  std::vector<Eigen::Vector3d> accepted, accepted_normal;
+  auto offer = [&](const Eigen::Vector3d& p, const Eigen::Vector3d& n) {
     const Eigen::Vector3i k = key(p);
     for (int dz = -1; dz <= 1; ++dz)
       for (int dy = -1; dy <= 1; ++dy)
@@ -198,25 +198,39 @@ std::vector<Eigen::Vector3f> sampleSurface(const TriMesh& mesh, double spacing) 
         }
     grid[hash(k)].push_back(static_cast<uint32_t>(accepted.size()));
     accepted.push_back(p);
+    accepted_normal.push_back(n);
   };
+  // Area-weighted vertex normals (the cross product's length is twice the area).
+  std::vector<Eigen::Vector3d> vertex_normal(mesh.positions.size(), Eigen::Vector3d::Zero());
+  for (const auto& t : mesh.triangles) {
+    const Eigen::Vector3d a = mesh.positions[t[0]].cast<double>();
+    const Eigen::Vector3d n = (mesh.positions[t[1]].cast<double>() - a).cross(mesh.positions[t[2]].cast<double>() - a);
+    for (uint32_t v : t) vertex_normal[v] += n;
+  }
   // Vertices first (corners and creases are where gaps would open), then each triangle's
   // barycentric grid of candidates.
-  for (const auto& p : mesh.positions) offer(p.cast<double>());
+  for (std::size_t v = 0; v < mesh.positions.size(); ++v)
+    offer(mesh.positions[v].cast<double>(), vertex_normal[v].normalized());
   for (const auto& t : mesh.triangles) {
     const Eigen::Vector3d a = mesh.positions[t[0]].cast<double>();
     const Eigen::Vector3d b = mesh.positions[t[1]].cast<double>();
     const Eigen::Vector3d c = mesh.positions[t[2]].cast<double>();
+    const Eigen::Vector3d normal = (b - a).cross(c - a).normalized();
     const double longest = std::max({(b - a).norm(), (c - b).norm(), (a - c).norm()});
     const int n = std::max(1, static_cast<int>(std::ceil(longest / dense)));
     for (int i = 0; i <= n; ++i)
       for (int j = 0; i + j <= n; ++j) {
         const double u = static_cast<double>(i) / n, v = static_cast<double>(j) / n;
-        offer(a + u * (b - a) + v * (c - a));
+        offer(a + u * (b - a) + v * (c - a), normal);
       }
   }
   std::vector<Eigen::Vector3f> out;
   out.reserve(accepted.size());
   for (const auto& p : accepted) out.push_back(p.cast<float>());
+  if (normals) {
+    normals->clear();
+    for (const auto& n : accepted_normal) normals->push_back(n.cast<float>());
+  }
   return out;
 }
 

@@ -65,7 +65,10 @@ MassProperties massProperties(const TriMesh& mesh);
 /// chosen greedily (in triangle order, so deterministic) from dense candidates on every triangle.
 /// Every point of the surface is then within 0.8 * spacing of a particle, inside the reach of the
 /// fluid's boundary contact force (dx), so the wall has no gap a fluid particle fits through.
-std::vector<Eigen::Vector3f> sampleSurface(const TriMesh& mesh, double spacing);
+/// With `normals`, also the outward unit normal at each particle (the triangle's; at a mesh
+/// vertex, the area-weighted mean of its triangles').
+std::vector<Eigen::Vector3f> sampleSurface(const TriMesh& mesh, double spacing,
+                                           std::vector<Eigen::Vector3f>* normals = nullptr);
 
 // --- Dynamics --------------------------------------------------------------------------------
 
