@@ -1,6 +1,7 @@
 #include "cli/runner.h"
 
 #include "core/errors.h"
+#include "io/bodies_writer.h"
 #include "io/h5part_writer.h"
 #include "io/run_json.h"
 #include "io/scene_loader.h"
@@ -65,6 +66,7 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
 
   // Output state, so that a failure can mark the run as failed.
   std::unique_ptr<io::H5PartWriter> h5;
+  std::unique_ptr<io::BodiesCsvWriter> bodies_csv;
   fs::path out_dir, h5_partial, h5_final;
   io::RunInfo info;
   Clock::time_point t_start = Clock::now();
@@ -73,6 +75,7 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
     res.exit_code = code;
     res.message = message;
     if (h5) h5->close();
+    if (bodies_csv) bodies_csv->close();
     if (!out_dir.empty() && opt.write_output) {
       info.status = status;
       info.message = message;
@@ -118,7 +121,7 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
     {
       std::ostringstream s;
       s << "scene: " << compiled.initial.size() << " fluid particles (budget " << model.capacity << "), "
-        << model.boundary.size() << " boundary particles, dx = " << model.dx << " m, h = " << model.h
+        << model.boundary.size() << " boundary particles, " << model.bodies.size() << " rigid bodies, dx = " << model.dx << " m, h = " << model.h
         << " m, c0 = " << model.c0 << " m/s, " << model.num_frames << " frames at " << spec.simulation.frame_rate
         << " fps";
       log(s.str());
@@ -139,6 +142,10 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
       h5_partial = out_dir / "particles.h5part.partial";
       fs::remove(h5_final, ec);
       fs::remove(out_dir / "run.json", ec);
+      fs::remove(out_dir / "bodies.csv", ec);
+      for (const auto& entry : fs::directory_iterator(out_dir, ec))  // an earlier run's body meshes
+        if (entry.path().filename().string().rfind("body_", 0) == 0 && entry.path().extension() == ".obj")
+          fs::remove(entry.path(), ec);
       info.scene_file = spec.source_file;
       info.scene_json = io::sceneToJson(spec);
       info.device = cl.info().str();
@@ -147,6 +154,7 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
       info.status = "running";
       io::writeRunJson((out_dir / "run.json").string(), info);
       if (spec.output.particles) h5 = std::make_unique<io::H5PartWriter>(h5_partial.string());
+      if (!model.bodies.empty()) bodies_csv = std::make_unique<io::BodiesCsvWriter>((out_dir / "bodies.csv").string());
       res.out_dir = out_dir.string();
     }
 
@@ -154,9 +162,12 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
     g_interrupted = false;
     auto old_handler = std::signal(SIGINT, onSigint);
     auto write_frame = [&] {
-      if (!h5) return;
       const auto t0 = Clock::now();
-      h5->writeStep(sim.readFrame());
+      if (h5) h5->writeStep(sim.readFrame());
+      if (bodies_csv) {
+        bodies_csv->writeFrame(sim.time(), model.bodies, sim.bodies());
+        io::writeBodyObjs(out_dir.string(), sim.frame(), model.bodies, sim.bodies());
+      }
       res.output_seconds += since(t0);
     };
     write_frame();  // Step#0: the initial state

@@ -32,6 +32,20 @@ double meshArea(const TriMesh& m) {
   return area;
 }
 
+double windingNumber(const TriMesh& m, const Eigen::Vector3d& p) {
+  double total = 0.0;
+  for (const auto& t : m.triangles) {
+    const Eigen::Vector3d a = m.positions[t[0]].cast<double>() - p;
+    const Eigen::Vector3d b = m.positions[t[1]].cast<double>() - p;
+    const Eigen::Vector3d c = m.positions[t[2]].cast<double>() - p;
+    const double la = a.norm(), lb = b.norm(), lc = c.norm();
+    const double numerator = a.dot(b.cross(c));
+    const double denominator = la * lb * lc + a.dot(b) * lc + b.dot(c) * la + c.dot(a) * lb;
+    total += 2.0 * std::atan2(numerator, denominator);
+  }
+  return total / (4.0 * M_PI);
+}
+
 EdgeReport checkEdges(const TriMesh& m) {
   // Directed edge counts keyed by (min, max) with the count of each direction.
   std::map<std::pair<uint32_t, uint32_t>, std::array<uint32_t, 2>> edges;

@@ -27,6 +27,11 @@ double meshVolume(const TriMesh& m);
 /// Total triangle area. (unit: m^2)
 double meshArea(const TriMesh& m);
 
+/// Generalised winding number of a closed mesh around point p (Jacobson et al. 2013): the sum of
+/// the signed solid angles of the triangles seen from p over 4 pi (Van Oosterom & Strackee 1983).
+/// About 1 inside an outward-facing closed mesh, 0 outside; use > 0.5 as "inside".
+double windingNumber(const TriMesh& m, const Eigen::Vector3d& p);
+
 /// Edge topology: a closed (watertight) mesh has every undirected edge in exactly two triangles,
 /// used once in each direction.
 struct EdgeReport {

@@ -181,6 +181,110 @@ Compiled compile(const SceneSpec& spec) {
   }
   if (!issues.empty()) throw InputError(issues);
 
+  // --- Rigid bodies: shape -> mesh -> mass properties; surface particles at the fluid spacing ---
+  const int kernel_id = sim.kernel == KernelType::WendlandC2 ? SPH_KERNEL_WENDLAND_C2 : SPH_KERNEL_CUBIC_SPLINE;
+  for (const RigidBodySpec& bs : spec.rigid_bodies) {
+    rigid::RigidBody body;
+    body.spec = bs;
+    body.spec.mesh_data = TriMesh{};
+    body.kind = bs.dynamic ? rigid::BodyKind::Dynamic
+                           : (bs.motion.type != MotionType::None ? rigid::BodyKind::Kinematic : rigid::BodyKind::Static);
+    if (bs.shape == BodyShape::Mesh && bs.mesh_data.triangles.empty()) {
+      fail(bs.loc, "rigid body '" + bs.name + "': shape mesh but no mesh was loaded");
+      continue;
+    }
+    TriMesh mesh = rigid::shapeMesh(bs, m.dx);
+    const rigid::MassProperties mp = rigid::massProperties(mesh);
+    if (!(mp.volume > 0.0)) {
+      fail(bs.loc, "rigid body '" + bs.name + "' encloses no volume (" + fmt(mp.volume) + " m^3)");
+      continue;
+    }
+    // Mass from the density, or the density from the mass (uniform either way).
+    const double density = bs.mass > 0.0 ? bs.mass / mp.volume : bs.density;
+    body.volume = mp.volume;
+    body.mass = density * mp.volume;
+    body.inertia = density * mp.inertia;
+    body.inv_inertia = body.inertia.inverse();
+    // Body frame: origin at the centre of mass.
+    body.origin_offset = -mp.centre;
+    for (auto& p : mesh.positions) p -= mp.centre.cast<float>();
+    body.mesh = std::move(mesh);
+    // Particles half a spacing inside the surface, as the walls' first layer lies dx/2 behind the
+    // wall plane: fluid rests about dx from boundary particles, so its edge (dx/2 beyond its
+    // particles) then meets the body's true surface, and the displaced volume is the body's.
+    std::vector<Eigen::Vector3f> normals;
+    body.particles = rigid::sampleSurface(body.mesh, m.dx, &normals);
+    for (std::size_t i = 0; i < body.particles.size(); ++i) body.particles[i] -= 0.5f * static_cast<float>(m.dx) * normals[i];
+    // Akinci et al. 2012 eq. 4 over the body's own particles: a single sampled layer gets the
+    // volume of the missing ones.
+    const std::vector<float> vol = akinciVolumes(body.particles, static_cast<float>(m.support), kernel_id);
+    const double V0 = m.dx * m.dx * m.dx;
+    body.volumes.resize(vol.size());
+    for (std::size_t i = 0; i < vol.size(); ++i) body.volumes[i] = static_cast<float>(vol[i] / V0);
+    m.bodies.push_back(std::move(body));
+  }
+  if (!issues.empty()) throw InputError(issues);
+  for (RigidBodySpec& b : m.spec.rigid_bodies) b.mesh_data = TriMesh{};  // the Model keeps body.mesh
+
+  // Fluid placed where a body is: particles inside a body, or closer than dx to one of its
+  // boundary particles (where the contact repulsion of pressure.cl would act at once), are removed.
+  if (!m.bodies.empty() && out.initial.size() > 0) {
+    const float cell = static_cast<float>(m.dx);
+    HostGrid near{cell, {}};
+    std::vector<Eigen::Vector3f> world;
+    struct Placed { Eigen::Vector3d x; Eigen::Quaterniond q; double reach; };
+    std::vector<Placed> placed;
+    for (const rigid::RigidBody& body : m.bodies) {
+      const rigid::BodyState s0 = rigid::initialState(body);
+      double reach = 0.0;
+      for (const auto& v : body.mesh.positions) reach = std::max(reach, static_cast<double>(v.norm()));
+      placed.push_back({s0.x, s0.q, reach});
+      for (const auto& p : body.particles) {
+        const Eigen::Vector3f w = s0.toWorld(p.cast<double>()).cast<float>();
+        const Eigen::Vector3i c = near.coord(w);
+        near.cells[HostGrid::key(c.x(), c.y(), c.z())].push_back(static_cast<uint32_t>(world.size()));
+        world.push_back(w);
+      }
+    }
+    HostParticles kept;
+    std::size_t removed = 0;
+    for (std::size_t i = 0; i < out.initial.size(); ++i) {
+      const Eigen::Vector3f x = out.initial.pos[i].head<3>();
+      bool clash = false;
+      const Eigen::Vector3i c = near.coord(x);
+      for (int dz = -1; dz <= 1 && !clash; ++dz)
+        for (int dy = -1; dy <= 1 && !clash; ++dy)
+          for (int dxc = -1; dxc <= 1 && !clash; ++dxc) {
+            auto it = near.cells.find(HostGrid::key(c.x() + dxc, c.y() + dy, c.z() + dz));
+            if (it == near.cells.end()) continue;
+            for (uint32_t j : it->second)
+              if ((world[j] - x).squaredNorm() < cell * cell) { clash = true; break; }
+          }
+      for (std::size_t b = 0; b < m.bodies.size() && !clash; ++b) {
+        const Eigen::Vector3d local = placed[b].q.inverse() * (x.cast<double>() - placed[b].x);
+        if (local.norm() <= placed[b].reach) clash = windingNumber(m.bodies[b].mesh, local) > 0.5;
+      }
+      if (clash) {
+        ++removed;
+        continue;
+      }
+      kept.push(x, out.initial.vel[i].head<3>(), out.initial.colour[i].head<3>(), out.initial.phase[i],
+                static_cast<uint32_t>(kept.size()));
+    }
+    if (removed > 0) {
+      m.notes.push_back(std::to_string(removed) + " fluid particles inside or within dx of rigid bodies removed");
+      out.initial = std::move(kept);
+    }
+  }
+  {
+    std::size_t moving = 0;
+    for (const auto& b : m.bodies) moving += b.kind != rigid::BodyKind::Static;
+    if (moving > 0 && (!fl.blocks.empty() || !fl.inflows.empty()))
+      m.notes.push_back(std::to_string(moving) +
+                        " moving rigid bod(ies): coupled to the fluid by pressure and contact (no viscous "
+                        "coupling yet); contact with the closed walls, none between bodies yet");
+  }
+
   // --- Particle budget: initial + what the nozzles emit over their active time ---------------
   double emitted = 0.0;
   for (const Emitter& e : m.emitters) {
@@ -196,7 +300,7 @@ Compiled compile(const SceneSpec& spec) {
     m.capacity = out.initial.size() + static_cast<std::size_t>(emitted);
     if (!m.emitters.empty()) m.notes.push_back("particle budget: " + std::to_string(m.capacity) + " (automatic)");
   }
-  if (m.capacity == 0) fail(fl.loc, "the scene has no fluid: no blocks and no inflows");
+  if (m.capacity == 0 && m.bodies.empty()) fail(fl.loc, "the scene has no fluid and no rigid bodies: no blocks and no inflows");
   if (!issues.empty()) throw InputError(issues);
 
   // --- Speed of sound: 10x the largest expected speed keeps density errors near 1 % --------
@@ -257,11 +361,21 @@ Compiled compile(const SceneSpec& spec) {
     const int kernel = sim.kernel == KernelType::WendlandC2 ? SPH_KERNEL_WENDLAND_C2 : SPH_KERNEL_CUBIC_SPLINE;
     const double V0 = m.dx * m.dx * m.dx;
     const bool complete = layers >= static_cast<int>(std::ceil(sim.support_ratio - 1e-9));
-    const std::vector<float> vol = complete ? std::vector<float>(pts.size(), static_cast<float>(V0))
-                                            : akinciVolumes(pts, static_cast<float>(m.support), kernel);
+    std::vector<float> vol = complete ? std::vector<float>(pts.size(), static_cast<float>(V0))
+                                      : akinciVolumes(pts, static_cast<float>(m.support), kernel);
     if (!complete)
       m.notes.push_back("boundary: " + std::to_string(layers) + " layer(s) for a support of " +
                         fmt(sim.support_ratio) + " dx: Akinci volumes compensate the missing layers");
+    // Static rigid bodies: their particles, placed in the world, join the walls' (volumes from
+    // the body alone, computed at compile above).
+    for (const rigid::RigidBody& body : m.bodies) {
+      if (body.kind != rigid::BodyKind::Static) continue;
+      const rigid::BodyState s0 = rigid::initialState(body);
+      for (std::size_t i = 0; i < body.particles.size(); ++i) {
+        pts.push_back(s0.toWorld(body.particles[i].cast<double>()).cast<float>());
+        vol.push_back(static_cast<float>(body.volumes[i] * V0));
+      }
+    }
     // Sort by cell (stable: ties keep lattice order) and build the cell start table.
     std::vector<std::pair<uint32_t, uint32_t>> keyed(pts.size());
     for (uint32_t i = 0; i < pts.size(); ++i) {
@@ -320,6 +434,10 @@ Compiled compile(const SceneSpec& spec) {
   m.stages.set(Stage::Viscosity, laminar ? m.max_viscosity > 0.0 : fl.artificial_viscosity > 0.0);
   m.stages.set(Stage::ColourDiffusion, fl.colour_diffusion > 0.0);
   m.stages.set(Stage::Integrate, true);
+  bool moving_bodies = false;
+  for (const auto& b : m.bodies) moving_bodies = moving_bodies || b.kind != rigid::BodyKind::Static;
+  m.stages.set(Stage::RigidDynamics, moving_bodies);
+  m.stages.set(Stage::RigidCoupling, moving_bodies && m.capacity > 0);
   m.stages.set(Stage::Diagnostics, true);
 
   // Fixed build options: the kernel and viscosity model are compile-time constants on the device.

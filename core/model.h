@@ -4,6 +4,7 @@
 // The initial particles come out of compile() as HostParticles, which the Simulation uploads.
 #pragma once
 
+#include "core/rigid.h"
 #include "core/scene_spec.h"
 #include "core/stages.h"
 #include "kernels/shared/sim_params.h"
@@ -51,9 +52,12 @@ struct Model {
   StageMask stages;
   std::string program_options;  ///< OpenCL build options (kernel choice, viscosity model)
 
-  /// Static boundary particles, sorted by grid cell: xyz (unit: m), w = V_b / V0 (Akinci 2012 volume).
+  /// Static boundary particles (closed walls and static rigid bodies), sorted by grid cell: xyz (unit: m), w = V_b / V0 (Akinci 2012 volume).
   std::vector<Eigen::Vector4f> boundary;
   std::vector<uint32_t> boundary_cell_start;  ///< num_cells + 1 entries
+
+  /// Rigid bodies (scene order). Static bodies' particles are also part of `boundary` above.
+  std::vector<rigid::RigidBody> bodies;
 
   std::vector<Emitter> emitters;
   std::size_t capacity = 0;   ///< particle budget (device buffers are this large)

@@ -8,6 +8,8 @@
 // Units are SI throughout (m, s, kg); Z is up. Every default here must match the schema table.
 #pragma once
 
+#include "core/mesh.h"
+
 #include <Eigen/Core>
 
 #include <array>
@@ -31,6 +33,8 @@ enum class ViscosityModel { Artificial, Laminar };
 enum class TimeStepControl { Subdivide, Warn };
 enum class NumericalPolicy { Warn, Abort };
 enum class NozzleShape { Rectangle, Circle };
+enum class BodyShape { Mesh, Sphere, Box, Cylinder, Capsule };
+enum class MotionType { None, Constant };
 
 struct SimulationSpec {
   double duration = 2.0;                        ///< simulated time to run (unit: s)
@@ -106,6 +110,45 @@ struct FluidSpec {
   SourceLoc loc;
 };
 
+/// A scripted (kinematic) motion. With type `constant` the body translates at `velocity` and
+/// turns at `angular_velocity` about its centre of mass, whatever acts on it.
+struct MotionSpec {
+  MotionType type = MotionType::None;
+  Eigen::Vector3d velocity{0.0, 0.0, 0.0};          ///< (unit: m/s)
+  Eigen::Vector3d angular_velocity{0.0, 0.0, 0.0};  ///< world frame (unit: rad/s)
+};
+
+/// A rigid body: a closed surface (an OBJ mesh or a primitive) placed in the world.
+/// Body frame: the mesh's (or primitive's) own coordinates, scaled by `scale`; its pose in the
+/// world is x_world = position + R(orientation) * (scale * x_body). Orientation is a rotation of
+/// `orientation_angle` degrees about `orientation_axis` (right-handed).
+/// Kinds: static (dynamic false, no motion), kinematic (motion.type constant), dynamic (dynamic true).
+struct RigidBodySpec {
+  std::string name;                                 ///< unique; names the output files
+  BodyShape shape = BodyShape::Sphere;
+  std::string mesh;                                 ///< OBJ file for shape mesh (absolute after loading)
+  double radius = 0.05;                             ///< sphere, cylinder, capsule radius (unit: m)
+  Eigen::Vector3d size{0.1, 0.1, 0.1};              ///< box edge lengths along the body axes (unit: m)
+  double height = 0.1;                              ///< cylinder length; capsule distance between cap centres (unit: m)
+  Eigen::Vector3d position{0.0, 0.0, 0.0};          ///< where the body origin goes (unit: m)
+  Eigen::Vector3d orientation_axis{0.0, 0.0, 1.0};  ///< rotation axis (normalised on compile)
+  double orientation_angle = 0.0;                   ///< rotation about the axis (unit: deg)
+  double scale = 1.0;                               ///< uniform scale of the shape (unit: 1)
+  double density = 0.0;                             ///< 0 = not given; exactly one of density, mass (unit: kg/m^3)
+  double mass = 0.0;                                ///< 0 = not given (unit: kg)
+  bool dynamic = false;                             ///< moved by forces (true) or static / scripted (false)
+  Eigen::Vector3d velocity{0.0, 0.0, 0.0};          ///< initial velocity of the centre of mass (unit: m/s)
+  Eigen::Vector3d angular_velocity{0.0, 0.0, 0.0};  ///< initial angular velocity, world frame (unit: rad/s)
+  double friction = 0.5;                            ///< Coulomb friction coefficient for contact (unit: 1)
+  double restitution = 0.2;                         ///< normal restitution for contact (unit: 1)
+  Eigen::Vector3d colour{0.7, 0.7, 0.7};            ///< linear RGB in [0,1]
+  bool grabbable = false;                           ///< the haptic device may grab it
+  MotionSpec motion;                                ///< scripted motion (kinematic bodies)
+  SourceLoc loc;
+  SourceLoc mesh_loc;                               ///< where `mesh` was given (errors raised after loading)
+  TriMesh mesh_data;                                ///< shape mesh: the welded, closed OBJ (filled by io::loadScene; not a key)
+};
+
 struct OutputSpec {
   std::string directory;      ///< output folder; empty = ./out/<scene stem>; relative to the scene file
   bool particles = true;      ///< write particles.h5part
@@ -117,6 +160,7 @@ struct SceneSpec {
   SimulationSpec simulation;
   DomainSpec domain;
   FluidSpec fluid;
+  std::vector<RigidBodySpec> rigid_bodies;
   OutputSpec output;
 };
 

@@ -65,12 +65,48 @@ Simulation::Simulation(const Model& model, const HostParticles& initial, ClConte
   cell_start_ = makeBuffer((cells + 1) * 4);
   scan_chunks_ = static_cast<uint32_t>(std::max<std::size_t>(1, (cells + 1023) / 1024));
   scan_sums_ = makeBuffer((scan_chunks_ + 1) * 4);
-  bpos_ = makeBuffer(model_.boundary.size() * 16);
+  // Moving bodies: their particles follow the static boundary particles (kernels/rigid.cl).
+  n_static_ = static_cast<uint32_t>(model_.boundary.size());
+  std::vector<Eigen::Vector4f> local;
+  std::vector<uint32_t> body_of, range;
+  for (std::size_t b = 0; b < model_.bodies.size(); ++b) {
+    const rigid::RigidBody& body = model_.bodies[b];
+    if (body.kind == rigid::BodyKind::Static || !stages_.on(Stage::RigidCoupling)) continue;
+    range.push_back(static_cast<uint32_t>(local.size()));
+    range.push_back(static_cast<uint32_t>(body.particles.size()));
+    double reach = 0.0;
+    for (std::size_t i = 0; i < body.particles.size(); ++i) {
+      const Eigen::Vector3f& x = body.particles[i];
+      local.emplace_back(x.x(), x.y(), x.z(), body.volumes[i]);
+      body_of.push_back(static_cast<uint32_t>(moving_.size()));
+      reach = std::max(reach, static_cast<double>(x.norm()));
+    }
+    moving_.push_back(b);
+    moving_reach_.push_back(reach);
+  }
+  n_moving_ = static_cast<uint32_t>(local.size());
+  const std::size_t n_bnd = n_static_ + n_moving_;
+  bpos_ = makeBuffer(n_bnd * 16);
   bcell_start_ = makeBuffer((cells + 1) * 4);
   crossings_ = makeBuffer(4);
   max_speed_ = makeBuffer(4);
   diag_groups_ = 64;
   diag_ = makeBuffer(diag_groups_ * 32);
+
+  if (n_moving_ > 0) {
+    bsrc_ = makeBuffer(n_bnd * 16);
+    blocal_ = makeBuffer(n_moving_ * 16);
+    bbody_ = makeBuffer(n_moving_ * 4);
+    bslot_ = makeBuffer(n_bnd * 4);
+    bpose_ = makeBuffer(moving_.size() * 32);
+    bforce_ = makeBuffer(n_moving_ * 16);
+    brange_ = makeBuffer(range.size() * 4);
+    bsum_ = makeBuffer(moving_.size() * 32);
+    bcell_ = makeBuffer(n_bnd * 4);
+    brank_ = makeBuffer(n_bnd * 4);
+    bsorted_ = makeBuffer(n_bnd * 4);
+    bcount_ = makeBuffer(cells * 4);
+  }
 
   // Upload the static boundary and the initial particles.
   auto& q = cl_.queue();
@@ -78,6 +114,18 @@ Simulation::Simulation(const Model& model, const HostParticles& initial, ClConte
     if (!model_.boundary.empty())
       q.enqueueWriteBuffer(bpos_, CL_TRUE, 0, model_.boundary.size() * 16, model_.boundary.data());
     q.enqueueWriteBuffer(bcell_start_, CL_TRUE, 0, (cells + 1) * 4, model_.boundary_cell_start.data());
+    if (n_moving_ > 0) {
+      // Until the first sort the moving particles sit unsorted after the static ones, outside
+      // every cell of bcell_start (invisible); their slots are their own indices.
+      std::vector<uint32_t> identity(n_bnd);
+      for (uint32_t k = 0; k < n_bnd; ++k) identity[k] = k;
+      q.enqueueWriteBuffer(bslot_, CL_TRUE, 0, n_bnd * 4, identity.data());
+      if (n_static_ > 0) q.enqueueCopyBuffer(bpos_, bsrc_, 0, 0, n_static_ * 16);
+      q.enqueueWriteBuffer(blocal_, CL_TRUE, 0, n_moving_ * 16, local.data());
+      q.enqueueWriteBuffer(bbody_, CL_TRUE, 0, n_moving_ * 4, body_of.data());
+      q.enqueueWriteBuffer(brange_, CL_TRUE, 0, range.size() * 4, range.data());
+      q.finish();
+    }
     const uint32_t zero = 0;
     q.enqueueWriteBuffer(crossings_, CL_TRUE, 0, 4, &zero);
     q.enqueueWriteBuffer(overflow_, CL_TRUE, 0, 4, &zero);
@@ -93,6 +141,7 @@ Simulation::Simulation(const Model& model, const HostParticles& initial, ClConte
     return 0;
   });
   next_id_ = static_cast<uint32_t>(n_);
+  for (const rigid::RigidBody& body : model_.bodies) bodies_.push_back(rigid::initialState(body));
   emitter_travel_.assign(model_.emitters.size(), model_.dx);  // the first layer leaves at the start time
 }
 
@@ -124,15 +173,20 @@ void Simulation::step(double dt) {
   if (on(Stage::Inflow)) emitInflow(dt);  // new particles enter at the nozzles
   params_.n_fluid = static_cast<sph_uint>(n_);
   if (n_ > 0) {
-    if (!lists_valid_ || travel_since_build_ > 0.5 * model_.skin)
+    if (on(Stage::RigidCoupling)) placeBodyParticles(); // moving bodies' particles at their pose
+    if (!lists_valid_ || travel_since_build_ > 0.5 * model_.skin) {
+      if (on(Stage::RigidCoupling)) sortBoundary();    // moved body particles change cells
       buildGrid();                                     // sort by cell, reorder, Verlet lists
+    }
     computeDensity();                                  // number density, rho, p (S&P 2008, Akinci 2012)
     pressureForces();                                  // -grad p / rho + g (+ viscosity, fused, when on)
     if (on(Stage::Viscosity) && !on(Stage::Pressure))
       viscosityForces();                               // Monaghan or Morris, on its own
     if (on(Stage::ColourDiffusion)) diffuseColour();   // colour mixing
+    if (on(Stage::RigidCoupling)) gatherBodyForces();  // fluid -> bodies: 6 numbers per body to the host
     integrate();                                       // semi-implicit Euler, closed walls
   }
+  if (on(Stage::RigidDynamics)) integrateBodies(dt);   // rigid bodies: momenta, poses (host)
   time_ += dt;
   ++profile_.steps;
   profile_.particle_steps += n_;
@@ -142,7 +196,8 @@ FrameReport Simulation::advanceFrame() {
   const SimulationSpec& sim = model_.spec.simulation;
   // Time-step control: the scene's substeps, checked against the CFL and viscous limits
   // (Monaghan 1992: dt <= cfl h / (c0 + |v|max); Morris et al. 1997: dt <= 0.125 h^2 / nu).
-  double limit = sim.cfl * model_.h / (model_.c0 + last_max_speed_);
+  // A scene without fluid (rigid bodies alone) has no CFL limit: the scene's substeps stand.
+  double limit = model_.capacity == 0 ? INFINITY : sim.cfl * model_.h / (model_.c0 + last_max_speed_);
   if (on(Stage::Viscosity) && model_.spec.fluid.viscosity_model == ViscosityModel::Laminar && model_.max_viscosity > 0)
     limit = std::min(limit, 0.125 * model_.h * model_.h / model_.max_viscosity);
   int steps = sim.substeps;
@@ -306,7 +361,116 @@ void Simulation::integrate() {
   });
   float vmax;
   std::memcpy(&vmax, &bits, 4);
-  travel_since_build_ += std::isfinite(vmax) ? vmax * params_.dt : INFINITY;
+  // Moving boundary particles count too: fluid-body pairs close in at most twice the larger speed.
+  const double fastest = std::max(static_cast<double>(vmax), body_speed_);
+  travel_since_build_ += std::isfinite(vmax) ? fastest * params_.dt : INFINITY;
+}
+
+// --- Rigid coupling (kernels/rigid.cl) ----------------------------------------------------------
+
+void Simulation::placeBodyParticles() {
+  StageTimer timer(*this, Stage::RigidCoupling);
+  // Poses of the moving bodies (centre of mass, orientation x y z w) and the fastest particle.
+  std::vector<Eigen::Vector4f> pose(2 * moving_.size());
+  body_speed_ = 0.0;
+  for (std::size_t m = 0; m < moving_.size(); ++m) {
+    const rigid::BodyState& s = bodies_[moving_[m]];
+    pose[2 * m] = Eigen::Vector4f(float(s.x.x()), float(s.x.y()), float(s.x.z()), 0.0f);
+    pose[2 * m + 1] = Eigen::Vector4f(float(s.q.x()), float(s.q.y()), float(s.q.z()), float(s.q.w()));
+    body_speed_ = std::max(body_speed_, s.v.norm() + s.w.norm() * moving_reach_[m]);
+  }
+  clCall("uploading body poses",
+         [&] { return cl_.queue().enqueueWriteBuffer(bpose_, CL_TRUE, 0, pose.size() * 16, pose.data()); });
+  cl::Kernel& k = kernels_["rigid_transform"];
+  k.setArg(0, n_moving_);
+  k.setArg(1, n_static_);
+  k.setArg(2, blocal_);
+  k.setArg(3, bbody_);
+  k.setArg(4, bpose_);
+  k.setArg(5, bslot_);
+  k.setArg(6, bsrc_);
+  k.setArg(7, bpos_);
+  kernels_.enqueue("rigid_transform", n_moving_, kLocal);
+}
+
+void Simulation::sortBoundary() {
+  StageTimer timer(*this, Stage::RigidCoupling);
+  // The same counting sort as the fluid's (grid.cl), over all boundary particles.
+  SimParams pb = params_;
+  pb.n_fluid = n_static_ + n_moving_;
+  const uint32_t zero = 0;
+  clCall("clearing the boundary cell counts",
+         [&] { return cl_.queue().enqueueFillBuffer(bcount_, zero, 0, std::size_t(params_.num_cells) * 4); });
+  cl::Kernel& assign = kernels_["grid_assign"];
+  assign.setArg(0, sizeof(SimParams), &pb);
+  assign.setArg(1, bsrc_);
+  assign.setArg(2, bcell_);
+  assign.setArg(3, brank_);
+  assign.setArg(4, bcount_);
+  kernels_.enqueue("grid_assign", pb.n_fluid, kLocal);
+  scan(bcount_, bcell_start_, params_.num_cells);
+  cl::Kernel& scatter = kernels_["grid_scatter"];
+  scatter.setArg(0, sizeof(SimParams), &pb);
+  scatter.setArg(1, bcell_);
+  scatter.setArg(2, brank_);
+  scatter.setArg(3, bcell_start_);
+  scatter.setArg(4, bsorted_);
+  kernels_.enqueue("grid_scatter", pb.n_fluid, kLocal);
+  cl::Kernel& order = kernels_["grid_order_cells"];
+  order.setArg(0, sizeof(SimParams), &pb);
+  order.setArg(1, bcell_);
+  order.setArg(2, bcell_start_);
+  order.setArg(3, bsorted_);
+  kernels_.enqueue("grid_order_cells", pb.n_fluid, kLocal);
+  cl::Kernel& re = kernels_["rigid_boundary_reorder"];
+  re.setArg(0, pb.n_fluid);
+  re.setArg(1, bsorted_);
+  re.setArg(2, bsrc_);
+  re.setArg(3, bpos_);
+  re.setArg(4, bslot_);
+  kernels_.enqueue("rigid_boundary_reorder", pb.n_fluid, kLocal);
+}
+
+void Simulation::gatherBodyForces() {
+  StageTimer timer(*this, Stage::RigidCoupling);
+  cl::Kernel& f = kernels_["rigid_fluid_forces"];
+  f.setArg(0, sizeof(SimParams), &params_);
+  f.setArg(1, n_moving_);
+  f.setArg(2, n_static_);
+  f.setArg(3, bsrc_);
+  f.setArg(4, pos_[cur_]);
+  f.setArg(5, phase_[cur_]);
+  f.setArg(6, pterm_);
+  f.setArg(7, cell_start_);
+  f.setArg(8, bforce_);
+  kernels_.enqueue("rigid_fluid_forces", n_moving_, kLocal);
+  const uint32_t nb = static_cast<uint32_t>(moving_.size());
+  cl::Kernel& r = kernels_["rigid_reduce"];
+  r.setArg(0, nb);
+  r.setArg(1, n_static_);
+  r.setArg(2, brange_);
+  r.setArg(3, bpose_);
+  r.setArg(4, bsrc_);
+  r.setArg(5, bforce_);
+  r.setArg(6, bsum_);
+  kernels_.enqueue("rigid_reduce", nb);
+  // Only force and torque per body cross to the host.
+  std::vector<Eigen::Vector4f> sums(2 * nb);
+  clCall("reading body forces",
+         [&] { return cl_.queue().enqueueReadBuffer(bsum_, CL_TRUE, 0, sums.size() * 16, sums.data()); });
+  for (uint32_t m = 0; m < nb; ++m) {
+    rigid::BodyState& s = bodies_[moving_[m]];
+    s.fluid_force = sums[2 * m].head<3>().cast<double>();
+    s.fluid_torque = sums[2 * m + 1].head<3>().cast<double>();
+  }
+}
+
+void Simulation::integrateBodies(double dt) {
+  StageTimer timer(*this, Stage::RigidDynamics);
+  // Gravity at the start of the step, as the fluid sees it (in double: the host integrates in double).
+  const Eigen::Vector3d g = gravityAt(model_.spec.simulation, time_);
+  for (std::size_t b = 0; b < bodies_.size(); ++b)
+    rigid::integrate(model_.bodies[b], bodies_[b], g, dt, &model_.spec.domain);  // contact with the closed walls
 }
 
 FrameReport Simulation::runDiagnostics() {

@@ -67,6 +67,9 @@ class Simulation {
   const Profile& profile() const { return profile_; }
   const std::map<std::string, uint64_t>& dispatchCounts() const { return kernels_.dispatchCounts(); }
 
+  /// Rigid bodies: the compiled bodies (model().bodies) and their current states, same order.
+  const std::vector<rigid::BodyState>& bodies() const { return bodies_; }
+
   /// Copies the fluid particles to the host.
   ParticleFrame readFrame();
   /// FNV-1a hash of positions, velocities, colours, phases and ids (bitwise determinism checks).
@@ -83,6 +86,10 @@ class Simulation {
   void viscosityForces();
   void diffuseColour();
   void integrate();
+  void integrateBodies(double dt);
+  void placeBodyParticles();
+  void sortBoundary();
+  void gatherBodyForces();
   FrameReport runDiagnostics();
   void scan(cl::Buffer& in, cl::Buffer& out, uint32_t n);
   cl::Buffer makeBuffer(std::size_t bytes);
@@ -112,6 +119,13 @@ class Simulation {
   std::vector<std::string> pending_messages_;
   bool budget_reported_ = false;
   std::size_t device_bytes_ = 0;
+  std::vector<rigid::BodyState> bodies_;  // one per model_.bodies
+  // Moving (dynamic, kinematic) bodies as boundary particles after the static ones (kernels/rigid.cl).
+  std::vector<std::size_t> moving_;       // indices into model_.bodies
+  std::vector<double> moving_reach_;      // farthest particle from the centre of mass (unit: m)
+  uint32_t n_static_ = 0, n_moving_ = 0;  // boundary particles: static, moving
+  double body_speed_ = 0.0;               // fastest moving body particle this step (unit: m/s)
+  cl::Buffer bsrc_, blocal_, bbody_, bslot_, bpose_, bforce_, brange_, bsum_, bcell_, brank_, bsorted_, bcount_;
 
   // Per-particle fields, double-buffered for the reorder (cur_ is the live half).
   int cur_ = 0;

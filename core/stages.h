@@ -17,7 +17,9 @@ enum class Stage : int {
   Pressure,         ///< pressure force (and gravity)
   Viscosity,        ///< artificial or laminar viscosity
   ColourDiffusion,  ///< colour mixing between particles
+  RigidCoupling,    ///< moving bodies' particles follow their pose; fluid forces on them, summed per body
   Integrate,        ///< semi-implicit Euler, closed walls
+  RigidDynamics,    ///< rigid bodies: momenta and poses on the host (Eigen); scripted bodies follow their motion
   Diagnostics,      ///< NaN/inf, escapes, CFL violations (once per frame)
   Count
 };

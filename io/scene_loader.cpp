@@ -11,6 +11,7 @@
 #include "io/scene_loader.h"
 
 #include "core/errors.h"
+#include "io/obj_io.h"
 #include "io/schema_table.h"
 
 #include <yaml-cpp/yaml.h>
@@ -300,7 +301,9 @@ bool applyOverride(YAML::Node& root, const Override& ov, std::vector<InputIssue>
 
 class Loader {
  public:
-  explicit Loader(std::string file) : file_(std::move(file)) {}
+  /// `file` names the scene in messages; `anchor` (absolute, may be empty) is the scene file that
+  /// relative paths inside it (meshes) are relative to.
+  Loader(std::string file, fs::path anchor) : file_(std::move(file)), anchor_(std::move(anchor)) {}
 
   /// Parses, applies overrides, reads and checks. Throws InputError when anything is wrong.
   SceneSpec load(const std::string& text, const std::vector<std::string>& override_texts) {
@@ -685,9 +688,114 @@ class Loader {
                   ".start' = " + numberText(inflow.start));
       }
     }
+
+    checkBodies(spec);
+  }
+
+  // Rigid bodies: unique names, exactly one of density and mass, a nonzero orientation axis, no
+  // script on a dynamic body, and for shape mesh a readable, closed, outward-facing OBJ file
+  // (read here, so that a bad mesh is reported at its key like any other bad value).
+  void checkBodies(SceneSpec& spec) {
+    std::vector<std::string> names;
+    for (std::size_t i = 0; i < spec.rigid_bodies.size(); ++i) {
+      RigidBodySpec& body = spec.rigid_bodies[i];
+      const std::string item = indexed("rigid_bodies", i);
+      if (!usable(item)) continue;
+      const std::string label = "rigid body '" + body.name + "'";
+      if (given(item + ".name")) {
+        if (body.name.empty()) {
+          issue(item + ".name", markOf(item + ".name"), "'" + item + ".name' must not be empty");
+        } else if (auto j = std::find(names.begin(), names.end(), body.name); j != names.end()) {
+          issue(item + ".name", markOf(item + ".name"),
+                "duplicate rigid body name '" + body.name + "' (already the name of " +
+                    indexed("rigid_bodies", static_cast<std::size_t>(j - names.begin())) + ")");
+        }
+      }
+      names.push_back(body.name);
+
+      const bool has_density = marks_.count(item + ".density") > 0, has_mass = marks_.count(item + ".mass") > 0;
+      if (has_density && has_mass)
+        issue(item + ".mass", markOf(item + ".mass"),
+              label + ": give either 'density' or 'mass', not both");
+      else if (!has_density && !has_mass)
+        issue(item, markOf(item), label + ": give its 'density' (kg/m^3) or its 'mass' (kg)");
+
+      if (usable(item + ".orientation_axis") && body.orientation_axis.norm() == 0.0)
+        issue(item + ".orientation_axis", markOf(item + ".orientation_axis"),
+              "'" + item + ".orientation_axis' must be nonzero");
+      if (body.dynamic && body.motion.type != MotionType::None && marks_.count(item + ".motion.type"))
+        issue(item + ".motion.type", markOf(item + ".motion.type"),
+              label + " is dynamic, so it cannot follow a scripted motion (set 'dynamic: false' for a kinematic body)");
+
+      const std::string mesh_key = item + ".mesh";
+      if (body.shape != BodyShape::Mesh) {
+        if (marks_.count(mesh_key))
+          issue(mesh_key, markOf(mesh_key), label + ": 'mesh' is only used with 'shape: mesh' (shape is " +
+                                                std::string(enumName(body.shape)) + ")");
+        continue;
+      }
+      if (!marks_.count(mesh_key)) {
+        if (usable(item + ".shape")) issue(item, markOf(item), label + ": 'shape: mesh' needs a 'mesh' file (OBJ)");
+        continue;
+      }
+      if (!usable(mesh_key)) continue;
+      body.mesh_loc = locAt(mesh_key, markOf(mesh_key));
+      loadBodyMesh(body, mesh_key, label);
+    }
+  }
+
+  void loadBodyMesh(RigidBodySpec& body, const std::string& mesh_key, const std::string& label) {
+    const YAML::Mark mark = markOf(mesh_key);
+    // Relative to the scene file's folder (to the working directory when given with --set).
+    fs::path path(body.mesh);
+    if (path.is_relative()) {
+      std::error_code ec;
+      const bool from_command_line = !overrideFor(mesh_key).empty();
+      const fs::path base = from_command_line || anchor_.empty() ? fs::current_path(ec) : anchor_.parent_path();
+      path = base / path;
+    }
+    path = path.lexically_normal();
+    std::error_code ec;
+    if (!fs::is_regular_file(path, ec)) {
+      issue(mesh_key, mark, label + ": mesh file '" + body.mesh + "' not found (looked for " + path.string() + ")");
+      return;
+    }
+    body.mesh = path.string();
+    TriMesh mesh;
+    try {
+      mesh = readObj(path.string());
+    } catch (const InputError& e) {
+      std::string why;
+      for (const InputIssue& i : e.issues()) why += (why.empty() ? "" : "; ") + i.str();
+      issue(mesh_key, mark, label + ": " + why);
+      return;
+    }
+    // OBJ exporters often repeat a vertex for each face: weld within a millionth of the size.
+    Eigen::Vector3f lo = mesh.positions[0], hi = mesh.positions[0];
+    for (const auto& p : mesh.positions) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
+    weldVertices(mesh, 1e-6f * (hi - lo).norm());
+    const EdgeReport edges = checkEdges(mesh);
+    if (!edges.closed()) {
+      std::string what;
+      if (edges.boundary) what += std::to_string(edges.boundary) + " open (boundary) edge(s)";
+      if (edges.nonmanifold) what += (what.empty() ? "" : ", ") + std::to_string(edges.nonmanifold) + " non-manifold edge(s)";
+      if (edges.misoriented)
+        what += (what.empty() ? "" : ", ") + std::to_string(edges.misoriented) + " edge(s) with inconsistent winding";
+      issue(mesh_key, mark, label + ": mesh " + path.string() + " is not closed: " + what + " (rigid bodies need a watertight mesh)");
+      return;
+    }
+    if (meshVolume(mesh) <= 0.0) {
+      issue(mesh_key, mark, label + ": mesh " + path.string() +
+                                " encloses a negative volume: its triangles face inward (reverse their winding)");
+      return;
+    }
+    mesh.normals.clear();  // the body frame's geometry is all that is kept
+    mesh.colours.clear();
+    body.mesh_data = std::move(mesh);
   }
 
   std::string file_;                                 // as shown in messages
+  fs::path anchor_;                                  // the scene file (absolute), or empty
   std::vector<InputIssue> issues_;
   std::map<std::string, YAML::Mark> marks_;          // concrete path -> where its value is
   std::set<std::string> bad_;                        // concrete paths whose value was rejected
@@ -698,7 +806,7 @@ class Loader {
 /// file that relative paths inside it are relative to.
 SceneSpec loadText(const std::string& text, const std::string& file, const fs::path& anchor,
                    const std::vector<std::string>& overrides) {
-  Loader loader(file);
+  Loader loader(file, anchor);
   SceneSpec spec = loader.load(text, overrides);
   spec.source_file = anchor.string();
 

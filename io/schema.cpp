@@ -159,6 +159,14 @@ struct InInflows {
   static auto& item(S& s, std::size_t i) { return s.fluid.inflows.at(i); }
 };
 
+struct InBodies {
+  using Item = RigidBodySpec;
+  template <class S>
+  static auto& list(S& s) { return s.rigid_bodies; }
+  template <class S>
+  static auto& item(S& s, std::size_t i) { return s.rigid_bodies.at(i); }
+};
+
 /// Fluent builder for one KeyDef (see buildTable()).
 class Key {
  public:
@@ -325,6 +333,58 @@ std::vector<KeyDef> buildTable() {
   add(field<InInflows>("fluid.inflows[].stop", [](auto& f) -> auto& { return f.stop; })
           .unit("s").greaterThan(0).allowInfinity().doc("emission stop time (> start); .inf = never"));
 
+  // rigid bodies: meshes and primitives, static, scripted or dynamic -------------------------
+  add(list<InBodies>("rigid_bodies").defaultNote("[]")
+          .doc("rigid bodies (static, kinematic or dynamic); pose: x_world = position + R(axis, angle) (scale x_body)"));
+  add(field<InBodies>("rigid_bodies[].name", [](auto& b) -> auto& { return b.name; })
+          .required().doc("unique body name (output files body_<name>_NNNN.obj)"));
+  add(field<InBodies>("rigid_bodies[].shape", [](auto& b) -> auto& { return b.shape; })
+          .doc("mesh (uses mesh), sphere (radius), box (size), cylinder and capsule (radius, height; axis = body z)"));
+  add(field<InBodies>("rigid_bodies[].mesh", [](auto& b) -> auto& { return b.mesh; })
+          .defaultNote("(required for shape mesh)")
+          .doc("closed, outward-oriented OBJ file, relative to the scene file; body frame = the file's coordinates"));
+  add(field<InBodies>("rigid_bodies[].radius", [](auto& b) -> auto& { return b.radius; })
+          .unit("m").greaterThan(0).doc("sphere, cylinder and capsule radius"));
+  add(field<InBodies>("rigid_bodies[].size", [](auto& b) -> auto& { return b.size; })
+          .unit("m").greaterThan(0).doc("box edge lengths along the body axes (centred on the body origin)"));
+  add(field<InBodies>("rigid_bodies[].height", [](auto& b) -> auto& { return b.height; })
+          .unit("m").greaterThan(0).doc("cylinder length; capsule distance between its cap centres (along body z)"));
+  add(field<InBodies>("rigid_bodies[].position", [](auto& b) -> auto& { return b.position; })
+          .unit("m").required().doc("world position of the body origin (the primitive's centre, the mesh's origin)"));
+  add(field<InBodies>("rigid_bodies[].orientation_axis", [](auto& b) -> auto& { return b.orientation_axis; })
+          .unit("1").doc("axis of the initial rotation, nonzero (normalised when compiled)"));
+  add(field<InBodies>("rigid_bodies[].orientation_angle", [](auto& b) -> auto& { return b.orientation_angle; })
+          .unit("deg").doc("initial rotation about orientation_axis, right-handed"));
+  add(field<InBodies>("rigid_bodies[].scale", [](auto& b) -> auto& { return b.scale; })
+          .unit("1").greaterThan(0).doc("uniform scale applied to the shape in the body frame"));
+  add(field<InBodies>("rigid_bodies[].density", [](auto& b) -> auto& { return b.density; })
+          .unit("kg/m^3").greaterThan(0).defaultNote("(give density or mass)")
+          .doc("body density; give exactly one of density and mass"));
+  add(field<InBodies>("rigid_bodies[].mass", [](auto& b) -> auto& { return b.mass; })
+          .unit("kg").greaterThan(0).defaultNote("(give density or mass)")
+          .doc("body mass; give exactly one of density and mass"));
+  add(field<InBodies>("rigid_bodies[].dynamic", [](auto& b) -> auto& { return b.dynamic; })
+          .doc("true: moved by gravity and forces; false: static, or scripted by motion"));
+  add(field<InBodies>("rigid_bodies[].velocity", [](auto& b) -> auto& { return b.velocity; })
+          .unit("m/s").doc("initial velocity of the centre of mass (dynamic bodies)"));
+  add(field<InBodies>("rigid_bodies[].angular_velocity", [](auto& b) -> auto& { return b.angular_velocity; })
+          .unit("rad/s").doc("initial angular velocity, world frame (dynamic bodies)"));
+  add(field<InBodies>("rigid_bodies[].friction", [](auto& b) -> auto& { return b.friction; })
+          .unit("1").atLeast(0).doc("Coulomb friction coefficient for contacts"));
+  add(field<InBodies>("rigid_bodies[].restitution", [](auto& b) -> auto& { return b.restitution; })
+          .unit("1").atLeast(0).atMost(1).doc("coefficient of restitution for contacts"));
+  add(field<InBodies>("rigid_bodies[].colour", [](auto& b) -> auto& { return b.colour; })
+          .unit("1").atLeast(0).atMost(1).doc("linear RGB colour, each component in [0, 1]"));
+  add(field<InBodies>("rigid_bodies[].grabbable", [](auto& b) -> auto& { return b.grabbable; })
+          .doc("the haptic device may grab this body"));
+  add(section("rigid_bodies[].motion", nullptr).doc("scripted motion: makes a non-dynamic body kinematic"));
+  add(field<InBodies>("rigid_bodies[].motion.type", [](auto& b) -> auto& { return b.motion.type; })
+          .doc("none (static) or constant (constant velocity and angular velocity)"));
+  add(field<InBodies>("rigid_bodies[].motion.velocity", [](auto& b) -> auto& { return b.motion.velocity; })
+          .unit("m/s").doc("velocity of the centre of mass (type constant)"));
+  add(field<InBodies>("rigid_bodies[].motion.angular_velocity", [](auto& b) -> auto& { return b.motion.angular_velocity; })
+          .unit("rad/s").doc("angular velocity about the centre of mass, world frame (type constant)"));
+
   // output ------------------------------------------------------------------------------------
   add(section("output", [](SceneSpec& s) { return &s.output.loc; }).doc("what to write, and where"));
   add(field<InScene>("output.directory", [](auto& s) -> auto& { return s.output.directory; })
@@ -368,6 +428,7 @@ std::string defaultText(const KeyDef& key) {
   defaults.fluid.phases.resize(1);
   defaults.fluid.blocks.resize(1);
   defaults.fluid.inflows.resize(1);
+  defaults.rigid_bodies.resize(1);
   const Value value = key.get(defaults, 0);
   if (key.type == KeyType::String) return "\"" + std::get<std::string>(value) + "\"";
   return valueText(value);

@@ -4,7 +4,7 @@
 // "fluid.phases[].rest_density"; "[]" stands for "every item of the list"), says its type, unit,
 // allowed values and doc, and binds it to its SceneSpec field through get/set functions. The
 // defaults are never written here: they are read from a default-constructed SceneSpec (and
-// PhaseSpec, BlockSpec, InflowSpec), so core/scene_spec.h stays the one place that defines them.
+// PhaseSpec, BlockSpec, InflowSpec, RigidBodySpec), so core/scene_spec.h stays the one place that defines them.
 //
 // Users of the table: the scene loader (which keys exist, their types and ranges, where to store
 // them), schemaText() (`sphaptics schema`) and sceneToJson() (run.json).
@@ -63,6 +63,20 @@ template <>
 struct EnumNames<NozzleShape> {
   static constexpr std::pair<NozzleShape, const char*> values[] = {{NozzleShape::Circle, "circle"},
                                                                      {NozzleShape::Rectangle, "rectangle"}};
+};
+
+template <>
+struct EnumNames<BodyShape> {
+  static constexpr std::pair<BodyShape, const char*> values[] = {{BodyShape::Mesh, "mesh"},
+                                                                   {BodyShape::Sphere, "sphere"},
+                                                                   {BodyShape::Box, "box"},
+                                                                   {BodyShape::Cylinder, "cylinder"},
+                                                                   {BodyShape::Capsule, "capsule"}};
+};
+template <>
+struct EnumNames<MotionType> {
+  static constexpr std::pair<MotionType, const char*> values[] = {{MotionType::None, "none"},
+                                                                    {MotionType::Constant, "constant"}};
 };
 
 /// The YAML spelling of an enum value, e.g. enumName(KernelType::WendlandC2) == "wendland_c2".

@@ -209,6 +209,7 @@ TEST_CASE("the schema defaults are read from core/scene_spec.h", "[io]") {
   d.fluid.phases.resize(1);
   d.fluid.blocks.resize(1);
   d.fluid.inflows.resize(1);
+  d.rigid_bodies.resize(1);
   for (const auto& key : sph::io::schemaTable()) {
     if (!key.isLeaf() || key.required || !key.default_note.empty()) continue;
     INFO(key.path);
@@ -499,7 +500,7 @@ TEST_CASE("bad --set keys and values are InputErrors against '--set'", "[io]") {
   REQUIRE_SET_ISSUE(section, "did you mean 'simulation.cfl'?");
 
   const auto nonsense = issuesOf(yaml, {"zzz=1"});
-  REQUIRE_SET_ISSUE(nonsense, "unknown key 'zzz'", "known keys at the top level: simulation, domain, fluid, output");
+  REQUIRE_SET_ISSUE(nonsense, "unknown key 'zzz'", "known keys at the top level: simulation, domain, fluid, rigid_bodies, output");
 
   REQUIRE_SET_ISSUE(issuesOf(yaml, {"simulation.cfl"}), "expected key.path=value");
   REQUIRE_SET_ISSUE(issuesOf(yaml, {"simulation.gravity.x=1"}), "has no sub-keys");
@@ -543,8 +544,14 @@ TEST_CASE("the schema text lists every key with type, default, unit and range", 
       "fluid.blocks", "fluid.blocks[].phase", "fluid.blocks[].min", "fluid.blocks[].max", "fluid.blocks[].velocity",
       "fluid.inflows", "fluid.inflows[].name", "fluid.inflows[].phase", "fluid.inflows[].shape",
       "fluid.inflows[].position", "fluid.inflows[].direction", "fluid.inflows[].radius", "fluid.inflows[].width",
-      "fluid.inflows[].height", "fluid.inflows[].speed", "fluid.inflows[].start", "fluid.inflows[].stop", "output",
-      "output.directory", "output.particles"};
+      "fluid.inflows[].height", "fluid.inflows[].speed", "fluid.inflows[].start", "fluid.inflows[].stop",
+      "rigid_bodies", "rigid_bodies[].name", "rigid_bodies[].shape", "rigid_bodies[].mesh", "rigid_bodies[].radius",
+      "rigid_bodies[].size", "rigid_bodies[].height", "rigid_bodies[].position", "rigid_bodies[].orientation_axis",
+      "rigid_bodies[].orientation_angle", "rigid_bodies[].scale", "rigid_bodies[].density", "rigid_bodies[].mass",
+      "rigid_bodies[].dynamic", "rigid_bodies[].velocity", "rigid_bodies[].angular_velocity",
+      "rigid_bodies[].friction", "rigid_bodies[].restitution", "rigid_bodies[].colour", "rigid_bodies[].grabbable",
+      "rigid_bodies[].motion", "rigid_bodies[].motion.type", "rigid_bodies[].motion.velocity",
+      "rigid_bodies[].motion.angular_velocity", "output", "output.directory", "output.particles"};
   const auto& table = sph::io::schemaTable();
   REQUIRE(table.size() == expected.size());
   for (std::size_t i = 0; i < expected.size(); ++i) {
@@ -583,7 +590,7 @@ TEST_CASE("sceneToJson writes every key of the resolved scene", "[io]") {
   INFO(json);
   // Every key name of the table appears (list items because the scene has one of each but blocks).
   for (const auto& key : sph::io::schemaTable()) {
-    if (key.path.rfind("fluid.blocks[]", 0) == 0) continue;
+    if (key.path.rfind("fluid.blocks[]", 0) == 0 || key.path.rfind("rigid_bodies[]", 0) == 0) continue;
     CHECK(json.find("\"" + key.name() + "\":") != std::string::npos);
   }
   CHECK(json.find("\"source_file\": ") != std::string::npos);

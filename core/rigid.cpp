@@ -1,0 +1,396 @@
+#include "core/rigid.h"
+
+#include "core/errors.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <unordered_map>
+
+namespace sph::rigid {
+
+// ---------------------------------------------------------------------------------------------
+// Shapes
+// ---------------------------------------------------------------------------------------------
+
+TriMesh lathe(const std::vector<Eigen::Vector2d>& profile, int segments) {
+  SPH_ASSERT(profile.size() >= 2 && segments >= 3, "lathe needs two profile points and three segments");
+  TriMesh m;
+  // Vertices: one per axis point, a ring per off-axis point. ring[i] is the first vertex of point i.
+  std::vector<uint32_t> first(profile.size());
+  std::vector<bool> on_axis(profile.size());
+  for (std::size_t i = 0; i < profile.size(); ++i) {
+    const double r = profile[i].x(), z = profile[i].y();
+    first[i] = static_cast<uint32_t>(m.positions.size());
+    on_axis[i] = r <= 0.0;
+    if (on_axis[i]) {
+      m.positions.emplace_back(0.0f, 0.0f, static_cast<float>(z));
+      continue;
+    }
+    for (int k = 0; k < segments; ++k) {
+      const double phi = 2.0 * M_PI * k / segments;
+      m.positions.emplace_back(static_cast<float>(r * std::cos(phi)), static_cast<float>(r * std::sin(phi)),
+                               static_cast<float>(z));
+    }
+  }
+  // Bands between consecutive profile points: with a the earlier and b the later point, the
+  // triangles (a_k, a_k+1, b_k+1) and (a_k, b_k+1, b_k) face outward for a profile that keeps the
+  // solid on its left (checked on the sphere's equator: the normal is +r).
+  auto ring = [&](std::size_t i, int k) { return on_axis[i] ? first[i] : first[i] + static_cast<uint32_t>(k % segments); };
+  for (std::size_t i = 0; i + 1 < profile.size(); ++i) {
+    const std::size_t a = i, b = i + 1;
+    if (on_axis[a] && on_axis[b]) continue;
+    for (int k = 0; k < segments; ++k) {
+      if (!on_axis[a]) m.triangles.push_back({ring(a, k), ring(a, k + 1), ring(b, k + 1)});
+      if (!on_axis[b]) m.triangles.push_back({ring(a, k), ring(b, k + 1), ring(b, k)});
+    }
+  }
+  return m;
+}
+
+int segmentsFor(double radius, double edge) {
+  return std::max(16, static_cast<int>(std::ceil(2.0 * M_PI * radius / std::max(edge, 1e-12))));
+}
+
+TriMesh sphereMesh(double radius, double edge) {
+  // Rings at polar angles (j + 1/2) pi / rings, closed by a flat polygon at each pole: a sphere
+  // meshed with a vertex at the bottom would balance on it (and roll off), one with a flat bottom
+  // rests on it.
+  const int n = segmentsFor(radius, edge);
+  const int rings = std::max(8, n / 2);
+  const double delta = M_PI / rings;
+  std::vector<Eigen::Vector2d> profile;
+  profile.emplace_back(0.0, -radius * std::cos(0.5 * delta));
+  for (int j = 0; j < rings; ++j) {
+    const double theta = (j + 0.5) * delta;  // from the south pole
+    profile.emplace_back(radius * std::sin(theta), -radius * std::cos(theta));
+  }
+  profile.emplace_back(0.0, radius * std::cos(0.5 * delta));
+  return lathe(profile, n);
+}
+
+TriMesh boxMesh(const Eigen::Vector3d& size) {
+  TriMesh m;
+  const Eigen::Vector3d h = 0.5 * size;
+  for (int c = 0; c < 8; ++c)
+    m.positions.emplace_back(static_cast<float>(c & 1 ? h.x() : -h.x()), static_cast<float>(c & 2 ? h.y() : -h.y()),
+                             static_cast<float>(c & 4 ? h.z() : -h.z()));
+  // Corner c has bit 0 = +x, bit 1 = +y, bit 2 = +z. Each face as a quad, counter-clockwise from outside.
+  const uint32_t quads[6][4] = {{0, 2, 3, 1}, {4, 5, 7, 6},   // -z, +z
+                                {0, 1, 5, 4}, {2, 6, 7, 3},   // -y, +y
+                                {0, 4, 6, 2}, {1, 3, 7, 5}};  // -x, +x
+  for (const auto& q : quads) {
+    m.triangles.push_back({q[0], q[1], q[2]});
+    m.triangles.push_back({q[0], q[2], q[3]});
+  }
+  return m;
+}
+
+TriMesh cylinderMesh(double radius, double height, double edge) {
+  const int n = segmentsFor(radius, edge);
+  const double hz = 0.5 * height;
+  return lathe({{0.0, -hz}, {radius, -hz}, {radius, hz}, {0.0, hz}}, n);
+}
+
+TriMesh capsuleMesh(double radius, double height, double edge) {
+  const int n = segmentsFor(radius, edge);
+  const int quarter = std::max(4, n / 4);
+  const double hz = 0.5 * height;
+  std::vector<Eigen::Vector2d> profile;
+  for (int j = 0; j <= quarter; ++j) {  // bottom cap: south pole to equator
+    const double theta = 0.5 * M_PI * j / quarter;
+    profile.emplace_back(j == 0 ? 0.0 : radius * std::sin(theta), -hz - radius * std::cos(theta));
+  }
+  for (int j = 0; j <= quarter; ++j) {  // top cap: equator to north pole
+    const double theta = 0.5 * M_PI * j / quarter;
+    profile.emplace_back(j == quarter ? 0.0 : radius * std::cos(theta), hz + radius * std::sin(theta));
+  }
+  return lathe(profile, n);
+}
+
+TriMesh shapeMesh(const RigidBodySpec& spec, double spacing) {
+  const double edge = 0.5 * spacing / spec.scale;  // edges of spacing / 2 after scaling
+  TriMesh m;
+  switch (spec.shape) {
+    case BodyShape::Mesh: m = spec.mesh_data; break;
+    case BodyShape::Sphere: m = sphereMesh(spec.radius, edge); break;
+    case BodyShape::Box: m = boxMesh(spec.size); break;
+    case BodyShape::Cylinder: m = cylinderMesh(spec.radius, spec.height, edge); break;
+    case BodyShape::Capsule: m = capsuleMesh(spec.radius, spec.height, edge); break;
+  }
+  for (auto& p : m.positions) p *= static_cast<float>(spec.scale);
+  m.normals.clear();
+  m.colours.clear();
+  return m;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Mass properties
+// ---------------------------------------------------------------------------------------------
+//
+// Split the solid into signed tetrahedra (o, a, b, c), one per triangle, from a reference point o
+// (the vertex mean, to keep the numbers small). With a, b, c relative to o, the tetrahedron has
+//     V = a . (b x c) / 6,
+// and, mapping it to the unit simplex (x = A u, |det A| = 6 V) where the monomial integrals are
+// the Dirichlet values  int u_i = 1/24,  int u_i^2 = 1/60,  int u_i u_j = 1/120,
+//     int x dV      = V (a + b + c) / 4
+//     int x x^T dV  = V / 20 (a a^T + b b^T + c c^T + s s^T),   s = a + b + c.
+// Signed volumes make the parts outside the solid cancel (divergence theorem), so the sums are the
+// solid's volume, first and second moments about o. Then, with C = int x x^T dV about the centre
+// of mass c (parallel-axis shift C_c = C_o - V c c^T), the inertia tensor per unit density is
+//     I = trace(C) 1 - C.
+MassProperties massProperties(const TriMesh& mesh) {
+  Eigen::Vector3d o = Eigen::Vector3d::Zero();
+  for (const auto& p : mesh.positions) o += p.cast<double>();
+  if (!mesh.positions.empty()) o /= static_cast<double>(mesh.positions.size());
+
+  double volume = 0.0;
+  Eigen::Vector3d first = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d second = Eigen::Matrix3d::Zero();
+  for (const auto& t : mesh.triangles) {
+    const Eigen::Vector3d a = mesh.positions[t[0]].cast<double>() - o;
+    const Eigen::Vector3d b = mesh.positions[t[1]].cast<double>() - o;
+    const Eigen::Vector3d c = mesh.positions[t[2]].cast<double>() - o;
+    const double V = a.dot(b.cross(c)) / 6.0;
+    const Eigen::Vector3d s = a + b + c;
+    volume += V;
+    first += V * s / 4.0;
+    second += V / 20.0 * (a * a.transpose() + b * b.transpose() + c * c.transpose() + s * s.transpose());
+  }
+  MassProperties mp;
+  mp.volume = volume;
+  if (volume <= 0.0) return mp;
+  const Eigen::Vector3d centre = first / volume;  // relative to o
+  const Eigen::Matrix3d C = second - volume * centre * centre.transpose();
+  mp.centre = o + centre;
+  mp.inertia = C.trace() * Eigen::Matrix3d::Identity() - C;
+  return mp;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Sampling
+// ---------------------------------------------------------------------------------------------
+
+std::vector<Eigen::Vector3f> sampleSurface(const TriMesh& mesh, double spacing, std::vector<Eigen::Vector3f>* normals) {
+  const double r = 0.8 * spacing;    // Poisson-disk radius
+  const double dense = 0.2 * spacing; // candidate spacing on each triangle
+  const double r2 = r * r;
+  // Hash grid of cell r over the accepted points.
+  auto key = [r](const Eigen::Vector3d& p) {
+    return Eigen::Vector3i(static_cast<int>(std::floor(p.x() / r)), static_cast<int>(std::floor(p.y() / r)),
+                           static_cast<int>(std::floor(p.z() / r)));
+  };
+  auto hash = [](const Eigen::Vector3i& k) {
+    return (static_cast<int64_t>(k.x()) + (1 << 20)) | ((static_cast<int64_t>(k.y()) + (1 << 20)) << 21) |
+           ((static_cast<int64_t>(k.z()) + (1 << 20)) << 42);
+  };
+  std::unordered_map<int64_t, std::vector<uint32_t>> grid;
+  std::vector<Eigen::Vector3d> accepted, accepted_normal;
+  auto offer = [&](const Eigen::Vector3d& p, const Eigen::Vector3d& n) {
+    const Eigen::Vector3i k = key(p);
+    for (int dz = -1; dz <= 1; ++dz)
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) {
+          auto it = grid.find(hash(k + Eigen::Vector3i(dx, dy, dz)));
+          if (it == grid.end()) continue;
+          for (uint32_t j : it->second)
+            if ((accepted[j] - p).squaredNorm() < r2) return;
+        }
+    grid[hash(k)].push_back(static_cast<uint32_t>(accepted.size()));
+    accepted.push_back(p);
+    accepted_normal.push_back(n);
+  };
+  // Area-weighted vertex normals (the cross product's length is twice the area).
+  std::vector<Eigen::Vector3d> vertex_normal(mesh.positions.size(), Eigen::Vector3d::Zero());
+  for (const auto& t : mesh.triangles) {
+    const Eigen::Vector3d a = mesh.positions[t[0]].cast<double>();
+    const Eigen::Vector3d n = (mesh.positions[t[1]].cast<double>() - a).cross(mesh.positions[t[2]].cast<double>() - a);
+    for (uint32_t v : t) vertex_normal[v] += n;
+  }
+  // Vertices first (corners and creases are where gaps would open), then each triangle's
+  // barycentric grid of candidates.
+  for (std::size_t v = 0; v < mesh.positions.size(); ++v)
+    offer(mesh.positions[v].cast<double>(), vertex_normal[v].normalized());
+  for (const auto& t : mesh.triangles) {
+    const Eigen::Vector3d a = mesh.positions[t[0]].cast<double>();
+    const Eigen::Vector3d b = mesh.positions[t[1]].cast<double>();
+    const Eigen::Vector3d c = mesh.positions[t[2]].cast<double>();
+    const Eigen::Vector3d normal = (b - a).cross(c - a).normalized();
+    const double longest = std::max({(b - a).norm(), (c - b).norm(), (a - c).norm()});
+    const int n = std::max(1, static_cast<int>(std::ceil(longest / dense)));
+    for (int i = 0; i <= n; ++i)
+      for (int j = 0; i + j <= n; ++j) {
+        const double u = static_cast<double>(i) / n, v = static_cast<double>(j) / n;
+        offer(a + u * (b - a) + v * (c - a), normal);
+      }
+  }
+  std::vector<Eigen::Vector3f> out;
+  out.reserve(accepted.size());
+  for (const auto& p : accepted) out.push_back(p.cast<float>());
+  if (normals) {
+    normals->clear();
+    for (const auto& n : accepted_normal) normals->push_back(n.cast<float>());
+  }
+  return out;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Dynamics
+// ---------------------------------------------------------------------------------------------
+
+BodyState initialState(const RigidBody& body) {
+  BodyState s;
+  const RigidBodySpec& spec = body.spec;
+  s.q = Eigen::Quaterniond(Eigen::AngleAxisd(spec.orientation_angle * M_PI / 180.0, spec.orientation_axis.normalized()));
+  // The scene places the shape's origin; the state tracks the centre of mass.
+  s.x = spec.position - s.q * body.origin_offset;
+  if (body.kind == BodyKind::Dynamic) {
+    s.v = spec.velocity;
+    s.w = spec.angular_velocity;
+    const Eigen::Matrix3d R = s.q.toRotationMatrix();
+    s.L = R * body.inertia * R.transpose() * s.w;
+  } else if (body.kind == BodyKind::Kinematic) {
+    s.v = spec.motion.velocity;
+    s.w = spec.motion.angular_velocity;
+  }
+  return s;
+}
+
+Eigen::Matrix3d worldInverseInertia(const RigidBody& body, const Eigen::Quaterniond& q) {
+  const Eigen::Matrix3d R = q.toRotationMatrix();
+  return R * body.inv_inertia * R.transpose();
+}
+
+namespace {
+/// q rotated by the rotation vector `theta` (unit: rad), applied in the world frame.
+Eigen::Quaterniond rotated(const Eigen::Quaterniond& q, const Eigen::Vector3d& theta) {
+  const double angle = theta.norm();
+  if (angle == 0.0) return q;
+  return (Eigen::Quaterniond(Eigen::AngleAxisd(angle, theta / angle)) * q).normalized();
+}
+}  // namespace
+
+int wallContacts(const RigidBody& body, BodyState& s, const DomainSpec& walls, const Eigen::Vector3d& g, double dt) {
+  struct Contact {
+    Eigen::Vector3d r, n;                              // arm from the centre of mass, wall normal (into the domain)
+    double target = 0;                                 // lowest allowed normal velocity (unit: m/s)
+    double lambda = 0;                                 // accumulated normal impulse (unit: N s)
+    Eigen::Vector3d friction = Eigen::Vector3d::Zero(); // accumulated tangential impulse (unit: N s)
+  };
+  const Eigen::Matrix3d R = s.q.toRotationMatrix();
+  const Eigen::Matrix3d Iinv = worldInverseInertia(body, s.q);
+  // Below this approach speed a contact is resting (gravity adds |g| dt per step): no bounce.
+  const double v_bounce = 2.0 * g.norm() * dt;
+  std::vector<Contact> contacts;
+  for (int a = 0; a < 3; ++a)
+    for (int side = 0; side < 2; ++side) {
+      if (!walls.closed[static_cast<std::size_t>(2 * a + side)]) continue;
+      const Eigen::Vector3d n = (side == 0 ? 1.0 : -1.0) * Eigen::Vector3d::Unit(a);
+      for (const auto& vertex : body.mesh.positions) {
+        const Eigen::Vector3d r = R * vertex.cast<double>();
+        const Eigen::Vector3d p = s.x + r;
+        const double gap = side == 0 ? p[a] - walls.min[a] : walls.max[a] - p[a];
+        const double vn = n.dot(s.v + s.w.cross(r));
+        if (gap + dt * std::min(vn, 0.0) > 0.0) continue;  // stays clear of the wall this step
+        Contact c;
+        c.r = r;
+        c.n = n;
+        // Speculative: close the gap in this step at most; touching or inside: do not approach.
+        c.target = gap > 0.0 ? -gap / dt : 0.0;
+        if (-vn > v_bounce) c.target = std::max(c.target, -body.spec.restitution * vn);
+        contacts.push_back(c);
+      }
+    }
+  s.contact_force.setZero();
+  s.contact_torque.setZero();
+  if (contacts.empty()) return 0;
+
+  auto apply = [&](const Eigen::Vector3d& r, const Eigen::Vector3d& P) {
+    s.v += P / body.mass;
+    s.L += r.cross(P);
+    s.w = Iinv * s.L;
+  };
+  auto effectiveMassInv = [&](const Eigen::Vector3d& r, const Eigen::Vector3d& d) {
+    const Eigen::Vector3d rd = r.cross(d);
+    return 1.0 / body.mass + rd.dot(Iinv * rd);
+  };
+  // Sequential impulses: each contact in turn, a fixed number of sweeps (deterministic order).
+  for (int sweep = 0; sweep < 10; ++sweep)
+    for (Contact& c : contacts) {
+      // Normal: accumulated impulse >= 0 (walls push, never pull).
+      const double vn = c.n.dot(s.v + s.w.cross(c.r));
+      const double lambda = std::max(c.lambda + (c.target - vn) / effectiveMassInv(c.r, c.n), 0.0);
+      apply(c.r, (lambda - c.lambda) * c.n);
+      c.lambda = lambda;
+      // Friction: stop the sliding, within the Coulomb cone |F_t| <= mu F_n.
+      const Eigen::Vector3d vp = s.v + s.w.cross(c.r);
+      const Eigen::Vector3d vt = vp - c.n.dot(vp) * c.n;
+      const double slide = vt.norm();
+      if (slide <= 0.0) continue;
+      const Eigen::Vector3d t = vt / slide;
+      Eigen::Vector3d f = c.friction - slide / effectiveMassInv(c.r, t) * t;
+      const double limit = body.spec.friction * c.lambda;
+      if (f.norm() > limit) f *= limit / f.norm();
+      apply(c.r, f - c.friction);
+      c.friction = f;
+    }
+  for (const Contact& c : contacts) {
+    const Eigen::Vector3d P = c.lambda * c.n + c.friction;
+    s.contact_force += P / dt;
+    s.contact_torque += c.r.cross(P) / dt;
+  }
+  return static_cast<int>(contacts.size());
+}
+
+void integrate(const RigidBody& body, BodyState& s, const Eigen::Vector3d& g, double dt, const DomainSpec* walls) {
+  switch (body.kind) {
+    case BodyKind::Static: return;
+    case BodyKind::Kinematic:
+      // Constant velocity and angular velocity: exact for any dt.
+      s.x += dt * s.v;
+      s.q = rotated(s.q, dt * s.w);
+      return;
+    case BodyKind::Dynamic: {
+      // Momenta first (forces at the start of the step), then positions with the new velocities.
+      // (Contact acts by impulses below; contact_force only records them.)
+      const Eigen::Vector3d force = body.mass * g + s.fluid_force;
+      const Eigen::Vector3d torque = s.fluid_torque;
+      s.v += dt * force / body.mass;
+      s.L += dt * torque;
+      s.w = worldInverseInertia(body, s.q) * s.L;
+      if (walls) wallContacts(body, s, *walls, g, dt);
+      // q <- exp(dt w / 2) q: the exact rotation by w dt (a unit quaternion), renormalised against
+      // rounding; the linearised update q + dt/2 (0, w) q would grow |q| by O(dt^2) each step.
+      s.q = rotated(s.q, dt * s.w);
+      s.x += dt * s.v;
+      s.w = worldInverseInertia(body, s.q) * s.L;  // consistent with the new orientation
+      if (walls) {
+        // Rounding (or a contact the sweeps did not fully resolve) may leave a vertex inside a
+        // wall: move the body out along the wall normal; velocities are left alone (no energy).
+        const Eigen::Matrix3d R = s.q.toRotationMatrix();
+        for (int a = 0; a < 3; ++a) {
+          double below = 0.0, above = 0.0;
+          for (const auto& vertex : body.mesh.positions) {
+            const double pa = s.x[a] + (R * vertex.cast<double>())[a];
+            below = std::max(below, walls->min[a] - pa);
+            above = std::max(above, pa - walls->max[a]);
+          }
+          if (walls->closed[static_cast<std::size_t>(2 * a)] && below > 0.0) s.x[a] += below;
+          else if (walls->closed[static_cast<std::size_t>(2 * a + 1)] && above > 0.0) s.x[a] -= above;
+        }
+      }
+      return;
+    }
+  }
+}
+
+TriMesh worldMesh(const RigidBody& body, const BodyState& s) {
+  TriMesh m = body.mesh;
+  const Eigen::Matrix3f R = s.q.toRotationMatrix().cast<float>();
+  const Eigen::Vector3f x = s.x.cast<float>();
+  for (auto& p : m.positions) p = x + R * p;
+  m.colours.assign(m.positions.size(), body.spec.colour.cast<float>());
+  return m;
+}
+
+}  // namespace sph::rigid

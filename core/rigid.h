@@ -1,0 +1,134 @@
+// Rigid bodies on the host: shapes to closed meshes, mass properties by polyhedral integration,
+// boundary-particle sampling of the surface, and the rigid-body integrator.
+//
+//   RigidBodySpec ──shapeMesh──► TriMesh (body frame) ──massProperties──► m, centre, inertia
+//                                   │
+//                                   └──sampleSurface──► particles (body frame, about the centre of mass)
+//                                                       + Akinci 2012 volumes (model.cpp)
+//
+// Frames: a body's mesh and particles are stored in its body frame with the origin at the centre
+// of mass; the state holds the world position x of the centre of mass and the orientation q
+// (body -> world), so a body point p is at x + R(q) p in the world.
+#pragma once
+
+#include "core/mesh.h"
+#include "core/scene_spec.h"
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include <vector>
+
+namespace sph::rigid {
+
+// --- Shapes ----------------------------------------------------------------------------------
+
+/// A surface of revolution about the z axis from a profile of (r, z) points (r >= 0). The profile
+/// must start and end on the axis (r = 0) to close the surface, and run with the solid on its
+/// left when r points right and z up (a sphere: from the south pole up to the north pole). Points
+/// on the axis become one vertex; others become rings of `segments` vertices. The triangles face
+/// outward (counter-clockwise seen from outside).
+TriMesh lathe(const std::vector<Eigen::Vector2d>& profile, int segments);
+
+/// Segments around a circle of radius r so that chords are at most `edge` long (at least 16).
+int segmentsFor(double radius, double edge);
+
+/// Closed, outward-facing meshes centred on the origin; curved ones have edges of about `edge`
+/// (unit: m) along their circles; the sphere has a small flat polygon at each pole (so that it rests
+/// on the floor instead of balancing on a vertex). The cylinder and capsule axes are z; `height` is the cylinder's
+/// length and the distance between the capsule's cap centres.
+TriMesh sphereMesh(double radius, double edge);
+TriMesh boxMesh(const Eigen::Vector3d& size);
+TriMesh cylinderMesh(double radius, double height, double edge);
+TriMesh capsuleMesh(double radius, double height, double edge);
+
+/// The body's shape in its own frame, scaled: the primitive at a resolution tied to `spacing`
+/// (edges of spacing / 2 along curves), or the loaded mesh of shape mesh (spec.mesh_data).
+TriMesh shapeMesh(const RigidBodySpec& spec, double spacing);
+
+// --- Mass properties -------------------------------------------------------------------------
+
+/// Mass properties of the solid enclosed by a closed, outward-facing mesh, at unit density.
+struct MassProperties {
+  double volume = 0;                                    ///< (unit: m^3)
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();     ///< centre of mass (unit: m)
+  Eigen::Matrix3d inertia = Eigen::Matrix3d::Zero();    ///< about the centre, per unit density (unit: m^5)
+};
+
+/// Polyhedral integration (the divergence theorem as in Mirtich 1996, here as a sum of signed
+/// tetrahedra from a reference point): exact for the polyhedron, in double precision.
+MassProperties massProperties(const TriMesh& mesh);
+
+// --- Sampling --------------------------------------------------------------------------------
+
+/// Boundary particles on the surface: a Poisson-disk set with minimum distance 0.8 * spacing,
+/// chosen greedily (in triangle order, so deterministic) from dense candidates on every triangle.
+/// Every point of the surface is then within 0.8 * spacing of a particle, inside the reach of the
+/// fluid's boundary contact force (dx), so the wall has no gap a fluid particle fits through.
+/// With `normals`, also the outward unit normal at each particle (the triangle's; at a mesh
+/// vertex, the area-weighted mean of its triangles').
+std::vector<Eigen::Vector3f> sampleSurface(const TriMesh& mesh, double spacing,
+                                           std::vector<Eigen::Vector3f>* normals = nullptr);
+
+// --- Dynamics --------------------------------------------------------------------------------
+
+enum class BodyKind { Static, Kinematic, Dynamic };
+
+/// One body, compiled (part of the Model; fixed during a run).
+struct RigidBody {
+  RigidBodySpec spec;                     ///< as written (mesh_data cleared)
+  BodyKind kind = BodyKind::Static;
+  TriMesh mesh;                           ///< body frame, origin at the centre of mass (unit: m)
+  double mass = 0;                        ///< (unit: kg)
+  double volume = 0;                      ///< (unit: m^3)
+  Eigen::Matrix3d inertia = Eigen::Matrix3d::Zero();      ///< body frame, about the centre (unit: kg m^2)
+  Eigen::Matrix3d inv_inertia = Eigen::Matrix3d::Zero();  ///< its inverse (unit: 1/(kg m^2))
+  Eigen::Vector3d origin_offset = Eigen::Vector3d::Zero(); ///< scene origin of the shape in the body frame (unit: m)
+  std::vector<Eigen::Vector3f> particles; ///< boundary particles, body frame (unit: m)
+  std::vector<float> volumes;             ///< Akinci 2012 volume / dx^3 of each particle (unit: 1)
+};
+
+/// The moving part of a body (the Simulation's; read by outputs and, later, haptics).
+struct BodyState {
+  Eigen::Vector3d x = Eigen::Vector3d::Zero();   ///< centre of mass, world (unit: m)
+  Eigen::Quaterniond q = Eigen::Quaterniond::Identity();  ///< body -> world, unit length
+  Eigen::Vector3d v = Eigen::Vector3d::Zero();   ///< velocity of the centre of mass (unit: m/s)
+  Eigen::Vector3d L = Eigen::Vector3d::Zero();   ///< angular momentum about the centre, world (unit: kg m^2/s)
+  Eigen::Vector3d w = Eigen::Vector3d::Zero();   ///< angular velocity, world (unit: rad/s)
+  Eigen::Vector3d fluid_force = Eigen::Vector3d::Zero();   ///< from the fluid, this step (unit: N)
+  Eigen::Vector3d fluid_torque = Eigen::Vector3d::Zero();  ///< about the centre of mass (unit: N m)
+  Eigen::Vector3d contact_force = Eigen::Vector3d::Zero(); ///< from contacts, this step (unit: N)
+  Eigen::Vector3d contact_torque = Eigen::Vector3d::Zero();///< (unit: N m)
+  /// A body-frame point in the world.
+  Eigen::Vector3d toWorld(const Eigen::Vector3d& p) const { return x + q * p; }
+};
+
+/// The initial state of a compiled body (its scene pose and velocities).
+BodyState initialState(const RigidBody& body);
+
+/// World-frame inertia R I R^T and its inverse.
+Eigen::Matrix3d worldInverseInertia(const RigidBody& body, const Eigen::Quaterniond& q);
+
+/// Advances one body by dt (unit: s) under gravity g (unit: m/s^2) and the forces in the state.
+/// Dynamic: symplectic (semi-implicit) Euler on momenta,
+///     v += dt F / m,   L += dt tau,   w = R I^-1 R^T L,   q <- exp(dt w / 2) q (renormalised),   x += dt v,
+/// so a free fall gives x_n = x0 + v0 t + g t^2 / 2 + g t dt / 2 (first order in dt), and without
+/// torque L is conserved exactly. With `walls` (the domain; null = none), contacts with its closed
+/// walls act between the momentum and the position updates (see wallContacts). Kinematic: the
+/// scripted velocities, integrated exactly. Static: nothing moves.
+void integrate(const RigidBody& body, BodyState& s, const Eigen::Vector3d& g, double dt,
+               const DomainSpec* walls = nullptr);
+
+/// Contact of a dynamic body with the closed walls of the domain box, on the mesh vertices:
+/// speculative velocity-level contacts (sequential impulses, as in Box2D): a vertex whose gap to a
+/// wall would close within dt may approach it by at most gap / dt, so it lands on the wall without
+/// passing it; on impact (approach faster than 2 |g| dt, which resting contact never reaches) the
+/// normal velocity is reversed times the restitution; Coulomb friction (friction coefficient) acts on the tangential
+/// velocity with the impulse bound mu * normal impulse. Changes v, L, w; records the contact force
+/// (impulse / dt) in the state. Returns the number of vertices in contact.
+int wallContacts(const RigidBody& body, BodyState& s, const DomainSpec& walls, const Eigen::Vector3d& g, double dt);
+
+/// The body's mesh in world coordinates (for output).
+TriMesh worldMesh(const RigidBody& body, const BodyState& s);
+
+}  // namespace sph::rigid

@@ -1,0 +1,101 @@
+/* Two-way coupling of moving (dynamic and kinematic) rigid bodies with the fluid (stage: rigid_coupling).
+ *
+ * Design: a moving body is a set of boundary particles like a wall (Akinci et al. 2012), so the
+ * fluid kernels need no change. The boundary buffer holds the static particles, then the moving
+ * ones; the source copy `bsrc` is in that order, the copy the fluid reads (`bpos`) is sorted by
+ * grid cell with the cell table `bcell_start`:
+ *
+ *   bsrc: [ static (fixed) ........ | body 0 | body 1 | ... ]   <- rigid_transform, every step
+ *            \ counting sort by cell at each neighbour-list rebuild (grid.cl kernels) /
+ *   bpos: [ cell 0 | cell 1 | ... ]  slot[k] = where bsrc[k] went   <- rigid_transform too
+ *
+ * Each step: (1) rigid_transform places the moving particles from their body's pose;
+ * (2) after the fluid's pressure pass, rigid_fluid_forces gathers on each moving particle the
+ * reaction to the force it exerts on its fluid neighbours (equal and opposite, so momentum is
+ * exchanged exactly up to rounding); (3) rigid_reduce sums force and torque per body in particle
+ * order (a fixed order: deterministic), and only those 6 numbers per body go to the host. */
+
+/* Rotates v by the unit quaternion q = (x, y, z, w). */
+inline float3 sph_rotate(const float4 q, const float3 v) {
+  const float3 u = q.xyz;
+  const float3 t = 2.0f * cross(u, v);
+  return v + q.w * t + cross(u, t);
+}
+
+/* (1) World positions of the moving particles k (0..n-1): pose[2b] = centre of mass,
+ * pose[2b+1] = orientation (x, y, z, w) of body b = body[k]; body_local[k] = body-frame position and
+ * volume ratio (w). Written to bsrc[n_static + k] and to its sorted slot in bpos. */
+__kernel void rigid_transform(const uint n, const uint n_static, __global const float4* body_local,
+                              __global const uint* body, __global const float4* pose, __global const uint* slot,
+                              __global float4* bsrc, __global float4* bpos) {
+  const uint k = get_global_id(0);
+  if (k >= n) return;
+  const uint b = body[k];
+  const float4 l = body_local[k];
+  const float3 x = pose[2 * b].xyz + sph_rotate(pose[2 * b + 1], l.xyz);
+  const float4 out = (float4)(x, l.w);
+  bsrc[n_static + k] = out;
+  bpos[slot[n_static + k]] = out;
+}
+
+/* Gathers the boundary particles into cell order after a counting sort (grid.cl) of bsrc, and
+ * records where each one went. */
+__kernel void rigid_boundary_reorder(const uint n, __global const uint* sorted, __global const float4* bsrc,
+                                     __global float4* bpos, __global uint* slot) {
+  const uint s = get_global_id(0);
+  if (s >= n) return;
+  const uint k = sorted[s];
+  bpos[s] = bsrc[k];
+  slot[k] = s;
+}
+
+/* (2) Force of the fluid on each moving particle: the opposite of the boundary terms of
+ * pressure.cl that this particle contributes to each fluid neighbour i within H:
+ *     pressure (Akinci 2012 eq. 10):   F_b = + (V_b/V0) (p_i/delta_i^2) gradW-factor (x_i - x_b)
+ *     contact  (pressure.cl):          F_b = - m_i (V_b/V0) k_c c0^2/dx (1 - r/dx) (x_i - x_b) / r
+ * Fluid neighbours come from the fluid grid of the last list rebuild: its cells are H + skin
+ * wide and no particle has moved skin/2 since, so the 27 cells hold every neighbour within H. */
+__kernel void rigid_fluid_forces(const SimParams p, const uint n, const uint n_static, __global const float4* bsrc,
+                                 __global const float4* pos, __global const uint* phase,
+                                 __global const float* pterm, __global const uint* cell_start,
+                                 __global float4* force) {
+  const uint k = get_global_id(0);
+  if (k >= n) return;
+  const float4 bb = bsrc[n_static + k];
+  const float3 xb = bb.xyz;
+  const float H = p.support;
+  const float H2 = H * H;
+  const float dx = cbrt(p.rest_volume);
+  float3 f = (float3)(0.0f);
+  SPH_FOR_NEIGHBOURS(&p, cell_start, xb, i) {
+    const float3 d = pos[i].xyz - xb;
+    const float r2 = dot(d, d);
+    if (r2 < H2) {
+      const float r = sqrt(r2);
+      f += bb.w * pterm[i] * sph_grad_factor(SPH_KERNEL, r, H) * d;
+      if (r < dx && r > 1e-6f * dx)
+        f -= p.phase_mass[phase[i]] * bb.w * (5.0f * p.c0 * p.c0 / dx) * (1.0f - r / dx) / r * d;
+    }
+  }
+  SPH_END_NEIGHBOURS
+  force[k] = (float4)(f, 0.0f);
+}
+
+/* (3) Per body b: particles range[2b] .. range[2b] + range[2b+1] - 1, summed in order.
+ * out[2b] = force (unit: N), out[2b+1] = torque about the centre of mass (unit: N m). */
+__kernel void rigid_reduce(const uint n_bodies, const uint n_static, __global const uint* range,
+                           __global const float4* pose, __global const float4* bsrc,
+                           __global const float4* force, __global float4* out) {
+  const uint b = get_global_id(0);
+  if (b >= n_bodies) return;
+  const float3 c = pose[2 * b].xyz;
+  float3 F = (float3)(0.0f), T = (float3)(0.0f);
+  const uint begin = range[2 * b], end = begin + range[2 * b + 1];
+  for (uint k = begin; k < end; ++k) {
+    const float3 f = force[k].xyz;
+    F += f;
+    T += cross(bsrc[n_static + k].xyz - c, f);
+  }
+  out[2 * b] = (float4)(F, 0.0f);
+  out[2 * b + 1] = (float4)(T, 0.0f);
+}
