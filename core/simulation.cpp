@@ -381,16 +381,7 @@ void Simulation::placeBodyParticles() {
   }
   clCall("uploading body poses",
          [&] { return cl_.queue().enqueueWriteBuffer(bpose_, CL_TRUE, 0, pose.size() * 16, pose.data()); });
-  cl::Kernel& k = kernels_["rigid_transform"];
-  k.setArg(0, n_moving_);
-  k.setArg(1, n_static_);
-  k.setArg(2, blocal_);
-  k.setArg(3, bbody_);
-  k.setArg(4, bpose_);
-  k.setArg(5, bslot_);
-  k.setArg(6, bsrc_);
-  k.setArg(7, bpos_);
-  kernels_.enqueue("rigid_transform", n_moving_, kLocal);
+  kernels_.call("rigid_transform", n_moving_, kLocal, n_moving_, n_static_, blocal_, bbody_, bpose_, bslot_, bsrc_, bpos_);
 }
 
 void Simulation::sortBoundary() {
@@ -401,59 +392,18 @@ void Simulation::sortBoundary() {
   const uint32_t zero = 0;
   clCall("clearing the boundary cell counts",
          [&] { return cl_.queue().enqueueFillBuffer(bcount_, zero, 0, std::size_t(params_.num_cells) * 4); });
-  cl::Kernel& assign = kernels_["grid_assign"];
-  assign.setArg(0, sizeof(SimParams), &pb);
-  assign.setArg(1, bsrc_);
-  assign.setArg(2, bcell_);
-  assign.setArg(3, brank_);
-  assign.setArg(4, bcount_);
-  kernels_.enqueue("grid_assign", pb.n_fluid, kLocal);
+  kernels_.call("grid_assign", pb.n_fluid, kLocal, pb, bsrc_, bcell_, brank_, bcount_);
   scan(bcount_, bcell_start_, params_.num_cells);
-  cl::Kernel& scatter = kernels_["grid_scatter"];
-  scatter.setArg(0, sizeof(SimParams), &pb);
-  scatter.setArg(1, bcell_);
-  scatter.setArg(2, brank_);
-  scatter.setArg(3, bcell_start_);
-  scatter.setArg(4, bsorted_);
-  kernels_.enqueue("grid_scatter", pb.n_fluid, kLocal);
-  cl::Kernel& order = kernels_["grid_order_cells"];
-  order.setArg(0, sizeof(SimParams), &pb);
-  order.setArg(1, bcell_);
-  order.setArg(2, bcell_start_);
-  order.setArg(3, bsorted_);
-  kernels_.enqueue("grid_order_cells", pb.n_fluid, kLocal);
-  cl::Kernel& re = kernels_["rigid_boundary_reorder"];
-  re.setArg(0, pb.n_fluid);
-  re.setArg(1, bsorted_);
-  re.setArg(2, bsrc_);
-  re.setArg(3, bpos_);
-  re.setArg(4, bslot_);
-  kernels_.enqueue("rigid_boundary_reorder", pb.n_fluid, kLocal);
+  kernels_.call("grid_scatter", pb.n_fluid, kLocal, pb, bcell_, brank_, bcell_start_, bsorted_);
+  kernels_.call("grid_order_cells", pb.n_fluid, kLocal, pb, bcell_, bcell_start_, bsorted_);
+  kernels_.call("rigid_boundary_reorder", pb.n_fluid, kLocal, pb.n_fluid, bsorted_, bsrc_, bpos_, bslot_);
 }
 
 void Simulation::gatherBodyForces() {
   StageTimer timer(*this, Stage::RigidCoupling);
-  cl::Kernel& f = kernels_["rigid_fluid_forces"];
-  f.setArg(0, sizeof(SimParams), &params_);
-  f.setArg(1, n_moving_);
-  f.setArg(2, n_static_);
-  f.setArg(3, bsrc_);
-  f.setArg(4, pos_[cur_]);
-  f.setArg(5, phase_[cur_]);
-  f.setArg(6, pterm_);
-  f.setArg(7, cell_start_);
-  f.setArg(8, bforce_);
-  kernels_.enqueue("rigid_fluid_forces", n_moving_, kLocal);
+  kernels_.call("rigid_fluid_forces", n_moving_, kLocal, params_, n_moving_, n_static_, bsrc_, pos_[cur_], phase_[cur_], pterm_, cell_start_, bforce_);
   const uint32_t nb = static_cast<uint32_t>(moving_.size());
-  cl::Kernel& r = kernels_["rigid_reduce"];
-  r.setArg(0, nb);
-  r.setArg(1, n_static_);
-  r.setArg(2, brange_);
-  r.setArg(3, bpose_);
-  r.setArg(4, bsrc_);
-  r.setArg(5, bforce_);
-  r.setArg(6, bsum_);
-  kernels_.enqueue("rigid_reduce", nb);
+  kernels_.call("rigid_reduce", nb, 0, nb, n_static_, brange_, bpose_, bsrc_, bforce_, bsum_);
   // Only force and torque per body cross to the host.
   std::vector<Eigen::Vector4f> sums(2 * nb);
   clCall("reading body forces",
