@@ -63,8 +63,7 @@ Simulation::Simulation(const Model& model, const HostParticles& initial, ClConte
   // Grid tables; the scan works in chunks of ~1k cells.
   cell_count_ = makeBuffer(cells * 4);
   cell_start_ = makeBuffer((cells + 1) * 4);
-  scan_chunks_ = static_cast<uint32_t>(std::max<std::size_t>(1, (cells + 1023) / 1024));
-  scan_sums_ = makeBuffer((scan_chunks_ + 1) * 4);
+  prefix_sum_ = PrefixSum(cl_, kernels_);
   bpos_ = makeBuffer(model_.boundary.size() * 16);
   bcell_start_ = makeBuffer((cells + 1) * 4);
   crossings_ = makeBuffer(4);
@@ -231,28 +230,6 @@ void Simulation::emitInflow(double dt) {
   lists_valid_ = false;  // new particles need neighbours
 }
 
-void Simulation::scan(cl::Buffer& in, cl::Buffer& out, uint32_t n) {
-  const uint32_t chunk = (n + scan_chunks_ - 1) / scan_chunks_;
-  cl::Kernel& sums = kernels_["scan_chunk_sums"];
-  sums.setArg(0, n);
-  sums.setArg(1, chunk);
-  sums.setArg(2, in);
-  sums.setArg(3, scan_sums_);
-  kernels_.enqueue("scan_chunk_sums", scan_chunks_);
-  cl::Kernel& offs = kernels_["scan_chunk_offsets"];
-  offs.setArg(0, scan_chunks_);
-  offs.setArg(1, scan_sums_);
-  kernels_.enqueue("scan_chunk_offsets", 1);
-  cl::Kernel& apply = kernels_["scan_chunk_apply"];
-  apply.setArg(0, n);
-  apply.setArg(1, chunk);
-  apply.setArg(2, scan_chunks_);
-  apply.setArg(3, in);
-  apply.setArg(4, scan_sums_);
-  apply.setArg(5, out);
-  kernels_.enqueue("scan_chunk_apply", scan_chunks_);
-}
-
 void Simulation::buildGrid() {
   StageTimer timer(*this, Stage::Grid);
   auto& q = cl_.queue();
@@ -267,7 +244,7 @@ void Simulation::buildGrid() {
   assign.setArg(3, rank_);
   assign.setArg(4, cell_count_);
   kernels_.enqueue("grid_assign", n_, kLocal);
-  scan(cell_count_, cell_start_, params_.num_cells);
+  prefix_sum_.run(cell_count_, cell_start_, params_.num_cells);
   cl::Kernel& scatter = kernels_["grid_scatter"];
   scatter.setArg(0, sizeof(SimParams), &params_);
   scatter.setArg(1, cell_);
@@ -475,6 +452,21 @@ FrameReport Simulation::runDiagnostics() {
   }
   last_max_speed_ = std::isfinite(rep.max_speed) ? rep.max_speed : 0.0f;
   return rep;
+}
+
+// --- Isosurface (once per output frame, when the scene asks for it) ---------------------------
+
+std::vector<TriMesh> Simulation::surfaceMeshes(const IsoSettings& settings) {
+  if (!mesher_) mesher_ = std::make_unique<SurfaceMesher>(cl_, kernels_);
+  ParticleView view;
+  view.params = &params_;
+  view.pos = &pos_[cur_];
+  view.phase = &phase_[cur_];
+  view.colour = &colour_[cur_];
+  view.cell_start = &cell_start_;
+  view.count = n_;
+  view.num_phases = static_cast<uint32_t>(std::max<std::size_t>(1, model_.spec.fluid.phases.size()));
+  return mesher_->meshParticles(view, settings);
 }
 
 // --- Read-back ---------------------------------------------------------------------------------
