@@ -1,7 +1,10 @@
 #include "cli/runner.h"
 
 #include "core/errors.h"
+#include "io/async_writer.h"
 #include "io/h5part_writer.h"
+#include "io/obj_io.h"
+#include "io/surface_export.h"
 #include "io/run_json.h"
 #include "io/scene_loader.h"
 
@@ -65,13 +68,23 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
 
   // Output state, so that a failure can mark the run as failed.
   std::unique_ptr<io::H5PartWriter> h5;
+  std::unique_ptr<io::AsyncWriter> writer;  // after h5: destroyed (joined) before it
   fs::path out_dir, h5_partial, h5_final;
   io::RunInfo info;
   Clock::time_point t_start = Clock::now();
 
-  auto finish = [&](int code, const std::string& status, const std::string& message) {
+  std::function<RunResult(int, const std::string&, const std::string&)> finish;
+  finish = [&](int code, const std::string& status, const std::string& message) {
     res.exit_code = code;
     res.message = message;
+    if (writer) {  // finish the frames already handed over (each file is written whole)
+      const std::string err = writer->close();
+      res.writer_seconds = writer->busySeconds();
+      if (!err.empty() && code == kExitOk) {
+        std::cerr << "error: writing output failed: " << err << "\n";
+        return finish(1, "failed", "writing output failed: " + err);
+      }
+    }
     if (h5) h5->close();
     if (!out_dir.empty() && opt.write_output) {
       info.status = status;
@@ -104,6 +117,15 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
     Compiled compiled = compile(spec);
     const Model& model = compiled.model;
     for (const std::string& note : model.notes) log("note: " + note);
+
+    // Isosurface: only when the scene asks for it (output.isosurface).
+    const IsosurfaceSpec& iso = spec.output.isosurface;
+    IsoSettings iso_settings;
+    iso_settings.spacing = iso.spacing > 0 ? iso.spacing : kAutoIsoSpacingRatio * model.dx;
+    iso_settings.iso = static_cast<float>(iso.iso);
+    iso_settings.vertex_colours = iso.vertex_colours;
+    if (iso.enabled && (iso.vdb || iso.vdb_level_set))
+      log("note: output.isosurface.vdb is not written by this version (OBJ only)");
 
     // --- Device and simulation -----------------------------------------------------------
     ClContext cl(opt.device);
@@ -139,6 +161,10 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
       h5_partial = out_dir / "particles.h5part.partial";
       fs::remove(h5_final, ec);
       fs::remove(out_dir / "run.json", ec);
+      for (const auto& entry : fs::directory_iterator(out_dir, ec)) {  // an earlier run's surfaces
+        const std::string name = entry.path().filename().string();
+        if (name.rfind("fluid_", 0) == 0 && entry.path().extension() == ".obj") fs::remove(entry.path(), ec);
+      }
       info.scene_file = spec.source_file;
       info.scene_json = io::sceneToJson(spec);
       info.device = cl.info().str();
@@ -147,19 +173,53 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
       info.status = "running";
       io::writeRunJson((out_dir / "run.json").string(), info);
       if (spec.output.particles) h5 = std::make_unique<io::H5PartWriter>(h5_partial.string());
+      writer = std::make_unique<io::AsyncWriter>(3);
       res.out_dir = out_dir.string();
     }
 
     // --- Frames ---------------------------------------------------------------------------
     g_interrupted = false;
     auto old_handler = std::signal(SIGINT, onSigint);
-    auto write_frame = [&] {
-      if (!h5) return;
+    // Per output frame: read back what is exported (the device work happens here), then hand the
+    // files to the writer thread, which formats and writes them while the simulation goes on.
+    const bool write_obj = writer && iso.enabled && iso.obj;
+    auto write_frame = [&](int frame, bool timed) {
+      std::shared_ptr<std::vector<TriMesh>> meshes;
+      if (iso.enabled) {
+        const auto t0 = Clock::now();
+        meshes = std::make_shared<std::vector<TriMesh>>(sim.surfaceMeshes(iso_settings));
+        if (timed) res.iso_seconds += since(t0);
+        res.surface_vertices = res.surface_triangles = 0;
+        for (const TriMesh& m : *meshes) {
+          res.surface_vertices += m.numVertices();
+          res.surface_triangles += m.numTriangles();
+        }
+      }
+      if (!writer || (!h5 && !write_obj)) return;
       const auto t0 = Clock::now();
-      h5->writeStep(sim.readFrame());
+      std::shared_ptr<ParticleFrame> particles;
+      if (h5) particles = std::make_shared<ParticleFrame>(sim.readFrame());
+      if (!write_obj) meshes.reset();
+      const double grid_spacing = sim.lastSurfaceGrid() ? sim.lastSurfaceGrid()->spacing : iso_settings.spacing;
+      io::SurfaceObjInfo header{model.dx, sim.time(), frame, "", iso.iso, grid_spacing};
+      const std::vector<PhaseSpec>& phases = spec.fluid.phases;
+      io::H5PartWriter* h5_raw = h5.get();
+      const fs::path dir = out_dir;
+      writer->push([=] {
+        if (particles) h5_raw->writeStep(*particles);
+        if (meshes)
+          for (std::size_t ph = 0; ph < meshes->size() && ph < phases.size(); ++ph) {
+            io::SurfaceObjInfo info = header;
+            info.phase = phases[ph].name;
+            io::writeObj((dir / io::surfaceObjName(info.phase, frame)).string(), (*meshes)[ph],
+                         io::surfaceObjComment(info));
+          }
+      });
       res.output_seconds += since(t0);
+      if (const std::string err = writer->error(); !err.empty()) throw std::runtime_error("writing output failed: " + err);
     };
-    write_frame();  // Step#0: the initial state
+    write_frame(0, false);  // Step#0 / fluid_*_0000.obj: the initial state
+    res.output_seconds = 0;
     t_start = Clock::now();
     double last_log = 0.0;
     const int frames = std::max(1, static_cast<int>(std::lround(spec.simulation.duration * spec.simulation.frame_rate)));
@@ -178,13 +238,13 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
       res.frames = f + 1;
       res.sim_time = sim.time();
       res.particles = sim.numFluid();
-      write_frame();
+      write_frame(f + 1, true);
       if (on_frame) on_frame(sim, rep);
 
       // Progress: a live line on a terminal, a plain line every 10 s otherwise.
       const double wall = since(t_start);
       if (!opt.quiet && (tty || wall - last_log > 10.0 || f + 1 == frames)) {
-        const double sim_wall = wall - res.output_seconds;
+        const double sim_wall = wall - res.output_seconds - res.iso_seconds;
         const double fps = res.frames / std::max(wall, 1e-9);
         const double pss = sim.profile().particle_steps / std::max(sim_wall, 1e-9);
         const double eta = (frames - res.frames) / std::max(fps, 1e-9);
@@ -198,7 +258,8 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
     }
     std::signal(SIGINT, old_handler);
     if (tty) std::cerr << "\n";
-    res.wall_seconds = since(t_start) - res.output_seconds;
+    res.loop_seconds = since(t_start);
+    res.wall_seconds = res.loop_seconds - res.output_seconds - res.iso_seconds;
     res.profile = sim.profile();
     res.device_bytes = sim.deviceBytes();
     res.dispatch_counts = sim.dispatchCounts();

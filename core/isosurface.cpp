@@ -113,6 +113,7 @@ std::vector<TriMesh> SurfaceMesher::meshParticles(const ParticleView& in, const 
   ip.num_nodes = static_cast<sph_uint>(dims[0] * dims[1] * dims[2]);
   ip.num_fields = in.num_phases;
   ip.with_colour = s.vertex_colours ? 1u : 0u;
+  ip.reach = static_cast<float>(p.support + in.drift);
 
   // 3. The field of every phase in one gather over the neighbour grid.
   {

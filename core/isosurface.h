@@ -31,6 +31,7 @@ struct ParticleView {
   const cl::Buffer* cell_start = nullptr;
   std::size_t count = 0;
   uint32_t num_phases = 1;
+  double drift = 0;  ///< largest particle travel since the grid was built (unit: m)
 };
 
 /// The grid of one extraction (no values; for reports and tests).

@@ -458,6 +458,10 @@ FrameReport Simulation::runDiagnostics() {
 
 std::vector<TriMesh> Simulation::surfaceMeshes(const IsoSettings& settings) {
   if (!mesher_) mesher_ = std::make_unique<SurfaceMesher>(cl_, kernels_);
+  // Before the first step there is no grid yet: build it (the first step then finds it valid and
+  // produces the same state as without this call, as long as no inflow emits at t = 0).
+  params_.n_fluid = static_cast<sph_uint>(n_);
+  if (!lists_valid_ && n_ > 0) buildGrid();
   ParticleView view;
   view.params = &params_;
   view.pos = &pos_[cur_];
@@ -466,6 +470,8 @@ std::vector<TriMesh> Simulation::surfaceMeshes(const IsoSettings& settings) {
   view.cell_start = &cell_start_;
   view.count = n_;
   view.num_phases = static_cast<uint32_t>(std::max<std::size_t>(1, model_.spec.fluid.phases.size()));
+  // bounds every particle's distance from where it was sorted (capped: a NaN run must not hang here)
+  view.drift = std::min(travel_since_build_, 4.0 * model_.support);
   return mesher_->meshParticles(view, settings);
 }
 

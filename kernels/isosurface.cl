@@ -18,8 +18,8 @@
  *   mc_emit_triangles cell -> its triangles, in cell order, as indices of the shared vertices
  */
 
-/* Neighbour-grid cells that can hold a particle within `reach` of x (particles may have drifted
- * up to skin / 2 from the cell they were sorted into, hence the caller's reach). */
+/* Neighbour-grid cells that can hold a particle within `reach` of x. Particles move after they are
+ * sorted into cells (Verlet lists), so the host passes reach = H + the largest drift since. */
 inline void iso_cell_range(const SimParams* p, float3 x, float reach, int3* lo, int3* hi) {
   const float3 o = (float3)(p->grid_origin[0], p->grid_origin[1], p->grid_origin[2]);
   const int3 top = (int3)(p->grid_dims[0] - 1, p->grid_dims[1] - 1, p->grid_dims[2] - 1);
@@ -56,7 +56,7 @@ __kernel void iso_field(const SimParams p, const IsoParams q, __global const flo
   float acc[SPH_MAX_PHASES];
   for (uint f = 0; f < SPH_MAX_PHASES; ++f) acc[f] = 0.0f;
   int3 lo, hi;
-  iso_cell_range(&p, x, H + 0.5f * (p.cell_size - H), &lo, &hi);
+  iso_cell_range(&p, x, q.reach, &lo, &hi);
   for (int cz = lo.z; cz <= hi.z; ++cz)
     for (int cy = lo.y; cy <= hi.y; ++cy) {
       const uint row = (uint)(p.grid_dims[0] * (cy + p.grid_dims[1] * cz));
@@ -158,7 +158,7 @@ __kernel void mc_emit_vertices(const SimParams p, const IsoParams q, __global co
       float4 c = (float4)(0.0f);
       float wsum = 0.0f;
       int3 lo, hi;
-      iso_cell_range(&p, x, H + 0.5f * (p.cell_size - H), &lo, &hi);
+      iso_cell_range(&p, x, q.reach, &lo, &hi);
       for (int cz = lo.z; cz <= hi.z; ++cz)
         for (int cy = lo.y; cy <= hi.y; ++cy) {
           const uint row = (uint)(p.grid_dims[0] * (cy + p.grid_dims[1] * cz));

@@ -16,7 +16,8 @@ typedef struct IsoParams {
   sph_uint num_fields;    /* fields stored one after the other (one per phase) */
   sph_uint field;         /* the field being meshed */
   sph_uint with_colour;   /* 1: vertex colours from the particles of phase `field` */
-  sph_uint pad[2];
+  float reach;            /* gather radius: H + the largest drift since the neighbour grid was built (unit: m) */
+  sph_uint pad;
 } IsoParams;
 
 #endif
