@@ -281,6 +281,14 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
                     humanRate(info.particle_steps_per_second).c_str());
       log(buf);
       log(profileLine(res.profile));
+      if (spec.output.isosurface.enabled) {
+        std::snprintf(buf, sizeof buf,
+                      "isosurface: %.3f s per frame on the device (%.0f%% of the frame loop), last frame %zu vertices, "
+                      "%zu triangles; output hand-off %.3f s per frame",
+                      res.iso_seconds / std::max(res.frames, 1), 100.0 * res.iso_seconds / std::max(res.loop_seconds, 1e-9),
+                      res.surface_vertices, res.surface_triangles, res.output_seconds / std::max(res.frames, 1));
+        log(buf);
+      }
       if (!out_dir.empty()) log("output: " + out_dir.string());
     }
     return finish(kExitOk, "complete", "");

@@ -44,7 +44,7 @@ struct RunResult {
 
 /// Surface grid spacing when output.isosurface.spacing is 0, as a fraction of the particle spacing
 /// (README "Isosurfaces" gives the measurement behind it).
-inline constexpr double kAutoIsoSpacingRatio = 0.75;
+inline constexpr double kAutoIsoSpacingRatio = 0.5;
 
 /// Runs a scene; every error becomes an exit code and message (2 bad input, 3 device, 4 numerical).
 /// `on_frame` (optional) sees the simulation after each frame, e.g. for tests that probe the state.

@@ -339,7 +339,7 @@ std::vector<KeyDef> buildTable() {
           .defaultNote("true in the section, off without it")
           .doc("mesh the fluid surface each output frame, one mesh per phase"));
   add(field<InScene>("output.isosurface.spacing", [](auto& s) -> auto& { return s.output.isosurface.spacing; })
-          .unit("m").atLeast(0).doc("surface grid spacing; 0 = automatic (0.75 x particle spacing)"));
+          .unit("m").atLeast(0).doc("surface grid spacing; 0 = automatic (0.5 x particle spacing)"));
   add(field<InScene>("output.isosurface.iso", [](auto& s) -> auto& { return s.output.isosurface.iso; })
           .unit("1").greaterThan(0).lessThan(1)
           .doc("surface value of the normalised field sum V0 W (1 inside, 0 outside; 0.5 = half a spacing out)"));
