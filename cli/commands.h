@@ -22,6 +22,8 @@ struct BenchOptions {
   int repeats = 3;
   bool speed_only = false;
   bool accuracy_only = false;
+  bool iso = true;        // the isosurface table (off / on / on + export)
+  bool iso_only = false;  // only the isosurface table
 };
 
 /// Speed table (dam break at several sizes and substep counts) and accuracy-versus-time table
