@@ -201,7 +201,12 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
       if (h5) particles = std::make_shared<ParticleFrame>(sim.readFrame());
       if (!write_obj) meshes.reset();
       const double grid_spacing = sim.lastSurfaceGrid() ? sim.lastSurfaceGrid()->spacing : iso_settings.spacing;
-      io::SurfaceObjInfo header{model.dx, sim.time(), frame, "", iso.iso, grid_spacing};
+      io::SurfaceObjInfo header;
+      header.particle_spacing = model.dx;
+      header.time = sim.time();
+      header.frame = frame;
+      header.iso = iso.iso;
+      header.grid_spacing = grid_spacing;
       const std::vector<PhaseSpec>& phases = spec.fluid.phases;
       io::H5PartWriter* h5_raw = h5.get();
       const fs::path dir = out_dir;
@@ -211,6 +216,7 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
           for (std::size_t ph = 0; ph < meshes->size() && ph < phases.size(); ++ph) {
             io::SurfaceObjInfo info = header;
             info.phase = phases[ph].name;
+            for (int a = 0; a < 3; ++a) info.colour[a] = static_cast<float>(phases[ph].colour[a]);
             io::writeObj((dir / io::surfaceObjName(info.phase, frame)).string(), (*meshes)[ph],
                          io::surfaceObjComment(info));
           }

@@ -22,9 +22,11 @@ std::string surfaceObjComment(const SurfaceObjInfo& info) {
                 "time: %.9g s\n"
                 "frame: %d\n"
                 "phase: %s\n"
+                "colour: %.4g %.4g %.4g\n"
                 "iso: %.6g\n"
                 "grid_spacing: %.9g m",
-                SPHAPTICS_VERSION, info.particle_spacing, info.time, info.frame, info.phase.c_str(), info.iso,
+                SPHAPTICS_VERSION, info.particle_spacing, info.time, info.frame, info.phase.c_str(), info.colour[0],
+                info.colour[1], info.colour[2], info.iso,
                 info.grid_spacing);
   return buf;
 }

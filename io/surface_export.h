@@ -15,6 +15,7 @@ struct SurfaceObjInfo {
   double time = 0;              ///< simulated time of the frame (unit: s)
   int frame = 0;                ///< output frame index
   std::string phase;            ///< phase name
+  float colour[3] = {0, 0, 0};  ///< the phase's colour, linear RGB in [0, 1]
   double iso = 0.5;             ///< iso value of the normalised field (unit: 1)
   double grid_spacing = 0;      ///< surface grid spacing (unit: m)
 };
