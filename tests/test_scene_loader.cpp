@@ -544,7 +544,9 @@ TEST_CASE("the schema text lists every key with type, default, unit and range", 
       "fluid.inflows", "fluid.inflows[].name", "fluid.inflows[].phase", "fluid.inflows[].shape",
       "fluid.inflows[].position", "fluid.inflows[].direction", "fluid.inflows[].radius", "fluid.inflows[].width",
       "fluid.inflows[].height", "fluid.inflows[].speed", "fluid.inflows[].start", "fluid.inflows[].stop", "output",
-      "output.directory", "output.particles"};
+      "output.directory", "output.particles", "output.isosurface", "output.isosurface.enabled",
+      "output.isosurface.spacing", "output.isosurface.iso", "output.isosurface.vertex_colours", "output.isosurface.obj",
+      "output.isosurface.vdb", "output.isosurface.vdb_level_set"};
   const auto& table = sph::io::schemaTable();
   REQUIRE(table.size() == expected.size());
   for (std::size_t i = 0; i < expected.size(); ++i) {
