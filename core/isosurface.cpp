@@ -112,6 +112,7 @@ std::vector<TriMesh> SurfaceMesher::meshParticles(const ParticleView& in, const 
   ip.iso = s.iso;
   ip.num_nodes = static_cast<sph_uint>(dims[0] * dims[1] * dims[2]);
   ip.num_fields = in.num_phases;
+  last_fields_ = in.num_phases;
   ip.with_colour = s.vertex_colours ? 1u : 0u;
   ip.reach = static_cast<float>(p.support + in.drift);
 
@@ -149,6 +150,7 @@ TriMesh SurfaceMesher::meshGrid(const DenseGrid& grid, float iso) {
   ip.iso = iso;
   ip.num_nodes = static_cast<sph_uint>(grid.values.size());
   ip.num_fields = 1;
+  last_fields_ = 1;
   cl::Buffer& field = ensure(field_, grid.values.size() * 4);
   clCall("uploading a surface field",
          [&] { return cl_.queue().enqueueWriteBuffer(field, CL_TRUE, 0, grid.values.size() * 4, grid.values.data()); });
@@ -156,6 +158,19 @@ TriMesh SurfaceMesher::meshGrid(const DenseGrid& grid, float iso) {
   last_grid_.spacing = grid.spacing;
   last_grid_.dims = grid.dims;
   return march(ip, nullptr);
+}
+
+DenseGrid SurfaceMesher::readField(uint32_t phase) {
+  DenseGrid g;
+  g.origin = last_grid_.origin;
+  g.spacing = last_grid_.spacing;
+  g.dims = last_grid_.dims;
+  const std::size_t n = static_cast<std::size_t>(g.dims[0]) * g.dims[1] * g.dims[2];
+  if (phase >= last_fields_ || n == 0) return g;
+  g.values.resize(n);
+  clCall("reading the surface field",
+         [&] { return cl_.queue().enqueueReadBuffer(field_.buf, CL_TRUE, phase * n * 4, n * 4, g.values.data()); });
+  return g;
 }
 
 TriMesh SurfaceMesher::march(IsoParams ip, const ParticleView* particles) {

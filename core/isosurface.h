@@ -56,6 +56,8 @@ class SurfaceMesher {
   TriMesh meshGrid(const DenseGrid& grid, float iso);
 
   const SurfaceGridShape& lastGrid() const { return last_grid_; }
+  /// The field of `phase` from the last meshParticles() call, on the host (for the VDB export).
+  DenseGrid readField(uint32_t phase);
   /// Device memory held (unit: bytes).
   std::size_t bytes() const;
 
@@ -74,6 +76,7 @@ class SurfaceMesher {
   Grow bounds_, field_, edge_mask_, vert_count_, vert_offset_, tri_count_, tri_offset_;
   Grow vert_pos_, vert_normal_, vert_colour_, tris_;
   SurfaceGridShape last_grid_;
+  uint32_t last_fields_ = 0;  // fields held in field_ by the last extraction
 };
 
 }  // namespace sph

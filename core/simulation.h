@@ -84,6 +84,8 @@ class Simulation {
   std::vector<TriMesh> surfaceMeshes(const IsoSettings& settings);
   /// The surface grid of the last surfaceMeshes() call (null before the first).
   const SurfaceGridShape* lastSurfaceGrid() const { return mesher_ ? &mesher_->lastGrid() : nullptr; }
+  /// The surface field of `phase` from the last surfaceMeshes() call (empty before the first).
+  DenseGrid surfaceField(uint32_t phase) { return mesher_ ? mesher_->readField(phase) : DenseGrid{}; }
 
   /// Device memory held by this simulation's buffers (unit: bytes).
   std::size_t deviceBytes() const {
