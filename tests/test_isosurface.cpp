@@ -331,7 +331,7 @@ TEST_CASE("iso: without output.isosurface no isosurface kernel is enqueued", "[i
   CHECK(on.state_hash == off.state_hash);
 }
 
-TEST_CASE("iso: a scene without the section leaves the isosurface off; the section turns it on", "[iso]") {
+TEST_CASE("iso: a scene without the section leaves the isosurface off, the section turns it on", "[iso]") {
   testing::TempDir tmp;
   const fs::path with = tmp.write("with.yaml", kTinyIsoScene);
   CHECK(io::loadScene(with.string()).output.isosurface.enabled);
