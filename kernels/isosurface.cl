@@ -27,6 +27,29 @@ inline void iso_cell_range(const SimParams* p, float3 x, float reach, int3* lo, 
   *hi = clamp(convert_int3_rtn((x + reach - o) / p->cell_size), (int3)(0), top);
 }
 
+/* Every particle S in the cells within REACH of X, in grid order (one contiguous run per row of
+ * cells, as in neighbours.h).
+ *   ISO_FOR_PARTICLES_NEAR(p, cell_start, x, reach, s) { ... uses s ... } ISO_END_PARTICLES */
+#define ISO_FOR_PARTICLES_NEAR(P, CELL_START, X, REACH, S)                               \
+  {                                                                                      \
+    int3 lo_, hi_;                                                                       \
+    iso_cell_range(P, X, REACH, &lo_, &hi_);                                             \
+    for (int cz_ = lo_.z; cz_ <= hi_.z; ++cz_)                                           \
+      for (int cy_ = lo_.y; cy_ <= hi_.y; ++cy_) {                                       \
+        const uint row_ = (uint)((P)->grid_dims[0] * (cy_ + (P)->grid_dims[1] * cz_));   \
+        const uint end_ = CELL_START[row_ + (uint)hi_.x + 1u];                           \
+        for (uint S = CELL_START[row_ + (uint)lo_.x]; S < end_; ++S)
+
+#define ISO_END_PARTICLES \
+  }                       \
+  }
+
+/* Node n -> (i, j, k). */
+inline int3 iso_node_ijk(const IsoParams* q, uint n) {
+  return (int3)((int)(n % (uint)q->dims[0]), (int)((n / (uint)q->dims[0]) % (uint)q->dims[1]),
+                (int)(n / ((uint)q->dims[0] * (uint)q->dims[1])));
+}
+
 inline float3 iso_node_pos(const IsoParams* q, int i, int j, int k) {
   return (float3)(q->origin[0], q->origin[1], q->origin[2]) + q->spacing * (float3)((float)i, (float)j, (float)k);
 }
@@ -49,24 +72,17 @@ __kernel void iso_field(const SimParams p, const IsoParams q, __global const flo
                         __global const uint* cell_start, __global float* field) {
   const uint n = get_global_id(0);
   if (n >= q.num_nodes) return;
-  const int i = (int)(n % (uint)q.dims[0]), j = (int)((n / (uint)q.dims[0]) % (uint)q.dims[1]);
-  const int k = (int)(n / ((uint)q.dims[0] * (uint)q.dims[1]));
-  const float3 x = iso_node_pos(&q, i, j, k);
+  const int3 c = iso_node_ijk(&q, n);
+  const float3 x = iso_node_pos(&q, c.x, c.y, c.z);
   const float H = p.support, H2 = H * H;
   float acc[SPH_MAX_PHASES];
   for (uint f = 0; f < SPH_MAX_PHASES; ++f) acc[f] = 0.0f;
-  int3 lo, hi;
-  iso_cell_range(&p, x, q.reach, &lo, &hi);
-  for (int cz = lo.z; cz <= hi.z; ++cz)
-    for (int cy = lo.y; cy <= hi.y; ++cy) {
-      const uint row = (uint)(p.grid_dims[0] * (cy + p.grid_dims[1] * cz));
-      const uint end = cell_start[row + (uint)hi.x + 1u];
-      for (uint s = cell_start[row + (uint)lo.x]; s < end; ++s) {
-        const float3 d = x - pos[s].xyz;
-        const float r2 = dot(d, d);
-        if (r2 < H2) acc[min(phase[s], (uint)(SPH_MAX_PHASES - 1))] += sph_w(SPH_KERNEL, sqrt(r2), H);
-      }
-    }
+  ISO_FOR_PARTICLES_NEAR(&p, cell_start, x, q.reach, s) {
+    const float3 d = x - pos[s].xyz;
+    const float r2 = dot(d, d);
+    if (r2 < H2) acc[min(phase[s], (uint)(SPH_MAX_PHASES - 1))] += sph_w(SPH_KERNEL, sqrt(r2), H);
+  }
+  ISO_END_PARTICLES
   for (uint f = 0; f < q.num_fields; ++f) field[(size_t)f * q.num_nodes + n] = p.rest_volume * acc[f];
 }
 
@@ -76,11 +92,10 @@ __kernel void mc_node_edges(const IsoParams q, __global const float* field, __gl
   const uint n = get_global_id(0);
   if (n >= q.num_nodes) return;
   __global const float* F = field + (size_t)q.field * q.num_nodes;
-  const int i = (int)(n % (uint)q.dims[0]), j = (int)((n / (uint)q.dims[0]) % (uint)q.dims[1]);
-  const int k = (int)(n / ((uint)q.dims[0] * (uint)q.dims[1]));
+  const int3 c = iso_node_ijk(&q, n);
   const int in0 = F[n] > q.iso;
   const uint step[3] = {1u, (uint)q.dims[0], (uint)(q.dims[0] * q.dims[1])};
-  const int room[3] = {i + 1 < q.dims[0], j + 1 < q.dims[1], k + 1 < q.dims[2]};
+  const int room[3] = {c.x + 1 < q.dims[0], c.y + 1 < q.dims[1], c.z + 1 < q.dims[2]};
   uint mask = 0;
   for (int a = 0; a < 3; ++a)
     if (room[a] && ((F[n + step[a]] > q.iso) != in0)) mask |= 1u << a;
@@ -138,8 +153,8 @@ __kernel void mc_emit_vertices(const SimParams p, const IsoParams q, __global co
   const uint mask = edge_mask[n];
   if (mask == 0u) return;
   __global const float* F = field + (size_t)q.field * q.num_nodes;
-  const int i = (int)(n % (uint)q.dims[0]), j = (int)((n / (uint)q.dims[0]) % (uint)q.dims[1]);
-  const int k = (int)(n / ((uint)q.dims[0] * (uint)q.dims[1]));
+  const int3 c = iso_node_ijk(&q, n);
+  const int i = c.x, j = c.y, k = c.z;
   const uint step[3] = {1u, (uint)q.dims[0], (uint)(q.dims[0] * q.dims[1])};
   uint out = vert_offset[n];
   const float3 g0 = mc_gradient(&q, F, i, j, k);

@@ -286,7 +286,18 @@ TEST_CASE("iso: a run writes one OBJ per phase and frame that reads back, byte-i
       // The reader sees what the writer wrote: one 'v' and one 'vn' per vertex, one 'f' per triangle.
       std::size_t v = 0, vn = 0, fc = 0;
       std::istringstream lines(text);
+      const Eigen::Vector3f colour = std::string(phase) == "water" ? Eigen::Vector3f(0.2f, 0.4f, 0.9f)
+                                                                   : Eigen::Vector3f(0.9f, 0.6f, 0.1f);
+      float worst_colour = 0;
       for (std::string line; std::getline(lines, line);) {
+        if (line.rfind("v ", 0) == 0) {
+          // Vertex colours: the Shepard average over the phase's own particles. The blocks are 4 cm
+          // apart, so diffusion has nothing to mix: every vertex has the phase's colour.
+          std::istringstream in(line.substr(2));
+          Eigen::Vector3f x, c;
+          in >> x.x() >> x.y() >> x.z() >> c.x() >> c.y() >> c.z();
+          worst_colour = std::max(worst_colour, (c - colour).cwiseAbs().maxCoeff());
+        }
         if (line.rfind("v ", 0) == 0) ++v;
         if (line.rfind("vn ", 0) == 0) ++vn;
         if (line.rfind("f ", 0) == 0) ++fc;
@@ -294,6 +305,7 @@ TEST_CASE("iso: a run writes one OBJ per phase and frame that reads back, byte-i
       CHECK(m.numVertices() == v);
       CHECK(vn == v);
       CHECK(m.numTriangles() == fc);
+      CHECK(worst_colour < 1e-3f);  // 4 significant digits in the file
       if (f == frames) {
         vertices += m.numVertices();
         triangles += m.numTriangles();
