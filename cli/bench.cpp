@@ -6,7 +6,10 @@
 //  2. Accuracy against time: the dam-break surge front against Martin & Moyce (1952) at three
 //     resolutions x two step sizes (Courant number 0.4 and 0.2, i.e. 1x and 2x the steps) x both
 //     equations of state, next to the wall time of each run.
-// Both tables are printed and written as CSV; scripts/plot_bench.py draws error against seconds.
+//  3. Isosurface: the same dam break (by default at 50k, the target size) with the surface off, on (meshed on the
+//     device and read back, nothing written) and on + OBJ export (written on the writer thread):
+//     frames/s of each, the isosurface time per frame and the share of the frame it costs.
+// The tables are printed and written as CSV; scripts/plot_bench.py draws error against seconds.
 #include "cli/analysis.h"
 #include "cli/commands.h"
 #include "cli/runner.h"
@@ -16,6 +19,7 @@
 #include <sys/resource.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -73,7 +77,7 @@ int benchCommand(const BenchOptions& opt) {
     std::cout << "benchmark scene: " << scene << "\n";
 
     // ---- 1. Speed -------------------------------------------------------------------------
-    if (!opt.accuracy_only) {
+    if (!opt.accuracy_only && !opt.iso_only) {
       const fs::path csv = fs::path(opt.out) / "speed.csv";
       std::ofstream out(csv);
       out << "# sphaptics " << SPHAPTICS_VERSION << " speed benchmark: dam break, medians of " << opt.repeats
@@ -95,7 +99,7 @@ int benchCommand(const BenchOptions& opt) {
             ro.quiet = true;
             ro.write_output = false;
             ro.sets = {"fluid.particle_spacing=" + fmtd(spacingFor(base, static_cast<double>(target)), 9),
-                       "simulation.substeps=" + std::to_string(sub)};
+                       "simulation.substeps=" + std::to_string(sub), "output.isosurface.enabled=false"};
             ro.duration = opt.frames / base.simulation.frame_rate;
             last = runScene(ro);
             if (last.exit_code != 0) throw std::runtime_error("benchmark run failed: " + last.message);
@@ -124,7 +128,7 @@ int benchCommand(const BenchOptions& opt) {
     }
 
     // ---- 2. Accuracy against time ---------------------------------------------------------
-    if (!opt.speed_only) {
+    if (!opt.speed_only && !opt.iso_only) {
       const Table mm = readCsvTable(sourcePath("tests/data/martin_moyce_1952_n2_2_front_table2.csv"));
       const std::vector<double> Te = mm.column("T"), Ze = mm.column("Z");
       // Column base a and the time scale T = t sqrt(2 g / a).
@@ -157,7 +161,7 @@ int benchCommand(const BenchOptions& opt) {
             ro.sets = {"fluid.particle_spacing=" + fmtd(dx, 9), "simulation.cfl=" + fmtd(cfl, 2),
                        std::string("fluid.equation_of_state=") + eos,
                        // count problems instead of stopping: the table reports them
-                       "simulation.numerical_errors=warn"};
+                       "simulation.numerical_errors=warn", "output.isosurface.enabled=false"};
             ro.duration = duration;
             std::vector<double> Ts{0.0}, Zs{1.0};
             double front_seconds = 0;
@@ -190,6 +194,66 @@ int benchCommand(const BenchOptions& opt) {
                               (fs::path(opt.out) / "accuracy.png").string();
       if (std::system(cmd.c_str()) != 0)
         std::cerr << "note: plotting failed (needs python3-matplotlib); run: " << cmd << "\n";
+    }
+    // ---- 3. Isosurface cost ----------------------------------------------------------------
+    if (opt.iso && !opt.accuracy_only) {
+      const fs::path csv = fs::path(opt.out) / "isosurface.csv";
+      std::ofstream out(csv);
+      out << "# sphaptics " << SPHAPTICS_VERSION << " isosurface benchmark: dam break, scene substeps, medians of "
+          << opt.repeats << " runs of " << opt.frames << " frames; surface grid spacing = "
+          << kAutoIsoSpacingRatio << " dx (the default)\n";
+      out << "target_particles,particles,frames_per_s_off,frames_per_s_on,frames_per_s_export,iso_ms_per_frame,"
+             "handoff_ms_per_frame,writer_ms_per_frame,triangles,iso_share_on,iso_export_share,iso_export_cost_share\n";
+      std::printf("\n%-9s %-10s %-10s %-10s %-10s %-10s %-10s %-10s %-9s %-9s %-9s\n", "particles", "fr/s off",
+                  "fr/s on", "fr/s +obj", "iso ms/fr", "hand ms/fr", "write ms", "triangles", "iso %", "iso+obj %",
+                  "cost %");
+      for (long target : opt.iso_sizes) {
+        // Modes: 0 off, 1 on (no files), 2 on + OBJ export. Particles are not written in any mode.
+        std::array<std::vector<double>, 3> loop;
+        std::vector<double> iso_ms, hand_ms, write_ms, cost_share;
+        std::size_t particles = 0, triangles = 0;
+        for (int r = 0; r < opt.repeats; ++r) {
+          for (int mode = 0; mode < 3; ++mode) {
+            RunOptions ro;
+            ro.scene = scene;
+            ro.device = opt.device;
+            ro.quiet = true;
+            ro.write_output = mode == 2;
+            ro.out = (fs::path(opt.out) / "isosurface_run").string();
+            ro.sets = {"fluid.particle_spacing=" + fmtd(spacingFor(base, static_cast<double>(target)), 9),
+                       "output.particles=false", "output.isosurface.spacing=0",
+                       std::string("output.isosurface.enabled=") + (mode ? "true" : "false")};
+            ro.duration = opt.frames / base.simulation.frame_rate;
+            const RunResult res = runScene(ro);
+            if (res.exit_code != 0) throw std::runtime_error("benchmark run failed: " + res.message);
+            loop[static_cast<std::size_t>(mode)].push_back(res.loop_seconds / res.frames);
+            particles = res.particles;
+            if (mode == 2) {
+              iso_ms.push_back(1e3 * res.iso_seconds / res.frames);
+              hand_ms.push_back(1e3 * res.output_seconds / res.frames);
+              write_ms.push_back(1e3 * res.writer_seconds / (res.frames + 1));
+              // Within one run (robust on a shared machine): isosurface + hand-off on the main thread
+              // plus the writer thread's busy time, as if it all ran in series, over the frame loop.
+              const double writer_loop = res.writer_seconds * res.frames / (res.frames + 1);
+              cost_share.push_back((res.iso_seconds + res.output_seconds + writer_loop) / res.loop_seconds);
+              triangles = res.surface_triangles;
+            }
+          }
+        }
+        const double off = median(loop[0]), on = median(loop[1]), exp = median(loop[2]);
+        // Share of the frame: the extra loop time over the loop time with the feature on.
+        const double share_on = std::max(0.0, on - off) / on, share_exp = std::max(0.0, exp - off) / exp;
+        out << target << "," << particles << "," << 1 / off << "," << 1 / on << "," << 1 / exp << "," << median(iso_ms)
+            << "," << median(hand_ms) << "," << median(write_ms) << "," << triangles << "," << share_on << ","
+            << share_exp << "," << median(cost_share) << "\n";
+        std::printf("%-9zu %-10.3f %-10.3f %-10.3f %-10.1f %-10.1f %-10.1f %-10zu %-9.1f %-9.1f %-9.1f\n", particles,
+                    1 / off, 1 / on, 1 / exp, median(iso_ms), median(hand_ms), median(write_ms), triangles,
+                    100 * share_on, 100 * share_exp, 100 * median(cost_share));
+        std::fflush(stdout);
+      }
+      std::cout << "wrote " << csv.string()
+                << " (iso % and iso+obj %: (t_on - t_off) / t_on from the medians of separate runs, noisy on a shared "
+                   "machine; cost %: (isosurface + hand-off + writer thread) / frame loop within each export run)\n";
     }
     return kExitOk;
   } catch (const InputError& e) {

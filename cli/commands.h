@@ -22,6 +22,9 @@ struct BenchOptions {
   int repeats = 3;
   bool speed_only = false;
   bool accuracy_only = false;
+  std::vector<long> iso_sizes{50000};  // particle counts for the isosurface table (its target size)
+  bool iso = true;        // the isosurface table (off / on / on + export)
+  bool iso_only = false;  // only the isosurface table
 };
 
 /// Speed table (dam break at several sizes and substep counts) and accuracy-versus-time table

@@ -50,6 +50,10 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   cmd_bench->add_flag("--speed-only", bench.speed_only, "Skip the accuracy benchmark");
   cmd_bench->add_flag("--accuracy-only", bench.accuracy_only, "Skip the speed benchmark");
+  cmd_bench->add_option("--iso-sizes", bench.iso_sizes, "Particle counts for the isosurface table")
+      ->capture_default_str();
+  cmd_bench->add_flag("--iso-only", bench.iso_only, "Only the isosurface table (off / on / on + OBJ export)");
+  cmd_bench->add_flag("!--no-iso", bench.iso, "Skip the isosurface table");
 
   // compare
   app::CompareOptions compare;

@@ -27,8 +27,13 @@ struct RunResult {
   std::string out_dir;
   int frames = 0;
   double sim_time = 0;           ///< (unit: s)
-  double wall_seconds = 0;       ///< simulation loop wall time, output excluded (unit: s)
-  double output_seconds = 0;     ///< time spent reading back and writing output (unit: s)
+  double wall_seconds = 0;       ///< simulation loop wall time, output and isosurface excluded (unit: s)
+  double output_seconds = 0;     ///< main-thread time reading particles back and queueing output (unit: s)
+  double iso_seconds = 0;        ///< isosurface on the device, read-back included, frames 1.. (unit: s)
+  double loop_seconds = 0;       ///< the whole frame loop: simulation + isosurface + output hand-off (unit: s)
+  double writer_seconds = 0;     ///< time the writer thread spent writing files (unit: s)
+  std::size_t surface_vertices = 0;   ///< last frame's surface meshes, all phases
+  std::size_t surface_triangles = 0;  ///< last frame's surface meshes, all phases
   std::size_t particles = 0;     ///< fluid particles at the end
   Profile profile;
   std::size_t device_bytes = 0;
@@ -36,6 +41,10 @@ struct RunResult {
   std::map<std::string, uint64_t> dispatch_counts;
   std::vector<FrameReport> reports;  ///< one per frame
 };
+
+/// Surface grid spacing when output.isosurface.spacing is 0, as a fraction of the particle spacing
+/// (README "Isosurfaces" gives the measurement behind it).
+inline constexpr double kAutoIsoSpacingRatio = 0.5;
 
 /// Runs a scene; every error becomes an exit code and message (2 bad input, 3 device, 4 numerical).
 /// `on_frame` (optional) sees the simulation after each frame, e.g. for tests that probe the state.

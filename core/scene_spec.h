@@ -149,9 +149,24 @@ struct RigidBodySpec {
   TriMesh mesh_data;                                ///< shape mesh: the welded, closed OBJ (filled by io::loadScene; not a key)
 };
 
+/// The fluid surface, meshed per output frame (core/isosurface.h). The stage runs only when the
+/// scene asks for it: writing the `output.isosurface` section turns it on (enabled then defaults
+/// to true), a scene without the section pays nothing.
+struct IsosurfaceSpec {
+  bool enabled = false;        ///< mesh the surface each output frame (the loader sets true when the section is given)
+  double spacing = 0.0;        ///< surface grid spacing; 0 = automatic, a fixed fraction of dx (unit: m)
+  double iso = 0.5;            ///< surface value of the normalised field sum_j V0 W (1 inside, 0 outside) (unit: 1)
+  bool vertex_colours = false; ///< per-vertex colour from the particles' colour field (else none)
+  bool obj = true;             ///< write fluid_<phase>_%04d.obj (Z up, metres, with normals)
+  bool vdb = false;            ///< write the surface field as fluid_%04d.vdb (grid density, per phase density_<phase>)
+  bool vdb_level_set = false;  ///< add a narrow-band level set 'surface' to each .vdb
+  SourceLoc loc;
+};
+
 struct OutputSpec {
   std::string directory;      ///< output folder; empty = ./out/<scene stem>; relative to the scene file
   bool particles = true;      ///< write particles.h5part
+  IsosurfaceSpec isosurface;
   SourceLoc loc;
 };
 

@@ -63,8 +63,7 @@ Simulation::Simulation(const Model& model, const HostParticles& initial, ClConte
   // Grid tables; the scan works in chunks of ~1k cells.
   cell_count_ = makeBuffer(cells * 4);
   cell_start_ = makeBuffer((cells + 1) * 4);
-  scan_chunks_ = static_cast<uint32_t>(std::max<std::size_t>(1, (cells + 1023) / 1024));
-  scan_sums_ = makeBuffer((scan_chunks_ + 1) * 4);
+  prefix_sum_ = PrefixSum(cl_, kernels_);
   // Moving bodies: their particles follow the static boundary particles (kernels/rigid.cl).
   n_static_ = static_cast<uint32_t>(model_.boundary.size());
   std::vector<Eigen::Vector4f> local;
@@ -287,13 +286,6 @@ void Simulation::emitInflow(double dt) {
   lists_valid_ = false;  // new particles need neighbours
 }
 
-void Simulation::scan(cl::Buffer& in, cl::Buffer& out, uint32_t n) {
-  const uint32_t chunk = (n + scan_chunks_ - 1) / scan_chunks_;
-  kernels_.call("scan_chunk_sums", scan_chunks_, 0, n, chunk, in, scan_sums_);
-  kernels_.call("scan_chunk_offsets", 1, 0, scan_chunks_, scan_sums_);
-  kernels_.call("scan_chunk_apply", scan_chunks_, 0, n, chunk, scan_chunks_, in, scan_sums_, out);
-}
-
 void Simulation::buildGrid() {
   StageTimer timer(*this, Stage::Grid);
   auto& q = cl_.queue();
@@ -302,7 +294,7 @@ void Simulation::buildGrid() {
          [&] { return q.enqueueFillBuffer(cell_count_, zero, 0, std::size_t(params_.num_cells) * 4); });
   // cell of each particle and its rank in the cell -> prefix sum -> sorted index -> fixed order
   kernels_.call("grid_assign", n_, kLocal, params_, pos_[cur_], cell_, rank_, cell_count_);
-  scan(cell_count_, cell_start_, params_.num_cells);
+  prefix_sum_.run(cell_count_, cell_start_, params_.num_cells);
   kernels_.call("grid_scatter", n_, kLocal, params_, cell_, rank_, cell_start_, sorted_);
   kernels_.call("grid_order_cells", n_, kLocal, params_, cell_, cell_start_, sorted_);
   // gather every field into cell order, then swap halves
@@ -393,7 +385,7 @@ void Simulation::sortBoundary() {
   clCall("clearing the boundary cell counts",
          [&] { return cl_.queue().enqueueFillBuffer(bcount_, zero, 0, std::size_t(params_.num_cells) * 4); });
   kernels_.call("grid_assign", pb.n_fluid, kLocal, pb, bsrc_, bcell_, brank_, bcount_);
-  scan(bcount_, bcell_start_, params_.num_cells);
+  prefix_sum_.run(bcount_, bcell_start_, params_.num_cells);
   kernels_.call("grid_scatter", pb.n_fluid, kLocal, pb, bcell_, brank_, bcell_start_, bsorted_);
   kernels_.call("grid_order_cells", pb.n_fluid, kLocal, pb, bcell_, bcell_start_, bsorted_);
   kernels_.call("rigid_boundary_reorder", pb.n_fluid, kLocal, pb.n_fluid, bsorted_, bsrc_, bpos_, bslot_);
@@ -476,6 +468,27 @@ FrameReport Simulation::runDiagnostics() {
   }
   last_max_speed_ = std::isfinite(rep.max_speed) ? rep.max_speed : 0.0f;
   return rep;
+}
+
+// --- Isosurface (once per output frame, when the scene asks for it) ---------------------------
+
+std::vector<TriMesh> Simulation::surfaceMeshes(const IsoSettings& settings) {
+  if (!mesher_) mesher_ = std::make_unique<SurfaceMesher>(cl_, kernels_);
+  // Before the first step there is no grid yet: build it (the first step then finds it valid and
+  // produces the same state as without this call, as long as no inflow emits at t = 0).
+  params_.n_fluid = static_cast<sph_uint>(n_);
+  if (!lists_valid_ && n_ > 0) buildGrid();
+  ParticleView view;
+  view.params = &params_;
+  view.pos = &pos_[cur_];
+  view.phase = &phase_[cur_];
+  view.colour = &colour_[cur_];
+  view.cell_start = &cell_start_;
+  view.count = n_;
+  view.num_phases = static_cast<uint32_t>(std::max<std::size_t>(1, model_.spec.fluid.phases.size()));
+  // bounds every particle's distance from where it was sorted (capped: a NaN run must not hang here)
+  view.drift = std::min(travel_since_build_, 4.0 * model_.support);
+  return mesher_->meshParticles(view, settings);
 }
 
 // --- Read-back ---------------------------------------------------------------------------------

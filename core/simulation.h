@@ -4,13 +4,16 @@
 #pragma once
 
 #include "core/cl_context.h"
+#include "core/isosurface.h"
 #include "core/model.h"
 #include "core/particle_frame.h"
+#include "core/prefix_sum.h"
 #include "core/stages.h"
 
 #include <array>
 #include <chrono>
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -49,6 +52,9 @@ class Simulation {
  public:
   /// Uploads the model's boundary and the initial particles; builds the kernels for the model.
   Simulation(const Model& model, const HostParticles& initial, ClContext& cl);
+  // Members point at each other (the prefix sum and the mesher use kernels_): neither copy nor move.
+  Simulation(const Simulation&) = delete;
+  Simulation& operator=(const Simulation&) = delete;
 
   /// Removes a stage (from `--disable`); returns false if the stage is essential (grid, density, integrate).
   bool disable(Stage s);
@@ -75,8 +81,19 @@ class Simulation {
   /// FNV-1a hash of positions, velocities, colours, phases and ids (bitwise determinism checks).
   uint64_t stateHash();
 
+  /// Isosurface of the current state: one mesh per phase (index = phase), from the device
+  /// (core/isosurface.h). The mesher and its buffers are created on the first call, so a run
+  /// without isosurfaces enqueues none of its kernels.
+  std::vector<TriMesh> surfaceMeshes(const IsoSettings& settings);
+  /// The surface grid of the last surfaceMeshes() call (null before the first).
+  const SurfaceGridShape* lastSurfaceGrid() const { return mesher_ ? &mesher_->lastGrid() : nullptr; }
+  /// The surface field of `phase` from the last surfaceMeshes() call (empty before the first).
+  DenseGrid surfaceField(uint32_t phase) { return mesher_ ? mesher_->readField(phase) : DenseGrid{}; }
+
   /// Device memory held by this simulation's buffers (unit: bytes).
-  std::size_t deviceBytes() const { return device_bytes_; }
+  std::size_t deviceBytes() const {
+    return device_bytes_ + prefix_sum_.bytes() + (mesher_ ? mesher_->bytes() : 0);
+  }
 
  private:
   void emitInflow(double dt);
@@ -91,7 +108,6 @@ class Simulation {
   void sortBoundary();
   void gatherBodyForces();
   FrameReport runDiagnostics();
-  void scan(cl::Buffer& in, cl::Buffer& out, uint32_t n);
   cl::Buffer makeBuffer(std::size_t bytes);
 
   // A timed block: waits for the queue at its end so the profile is per stage.
@@ -137,11 +153,13 @@ class Simulation {
   cl::Buffer snbr_, snbr_count_, sbnbr_, sbnbr_count_;
   void allocateNeighbourLists(uint32_t slots);
   // Grid tables and scratch.
-  cl::Buffer cell_count_, cell_start_, scan_sums_, bpos_, bcell_start_, crossings_, diag_, max_speed_;
+  cl::Buffer cell_count_, cell_start_, bpos_, bcell_start_, crossings_, diag_, max_speed_;
   // Verlet lists: rebuilt when particles were added or some particle may have moved skin / 2.
   bool lists_valid_ = false;
   double travel_since_build_ = 0.0;  // sum over steps of max speed * dt (unit: m)
-  uint32_t scan_chunks_ = 0, diag_groups_ = 0;
+  PrefixSum prefix_sum_;
+  std::unique_ptr<SurfaceMesher> mesher_;  // isosurface stage, created on first use
+  uint32_t diag_groups_ = 0;
 };
 
 }  // namespace sph

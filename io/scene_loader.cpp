@@ -600,6 +600,10 @@ class Loader {
   void crossCheck(SceneSpec& spec) {
     FluidSpec& fluid = spec.fluid;
 
+    // output.isosurface: writing the section asks for the surface, unless it says enabled: false.
+    if (marks_.count("output.isosurface") && !marks_.count("output.isosurface.enabled"))
+      spec.output.isosurface.enabled = true;
+
     // Domain: max > min in every component.
     const DomainSpec& domain = spec.domain;
     bool domain_ok = given("domain.min") && given("domain.max");

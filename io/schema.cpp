@@ -182,6 +182,7 @@ class Key {
   Key& greaterThan(double lo) { def.range.lo = lo; def.range.lo_open = true; return *this; }
   Key& atLeast(double lo) { def.range.lo = lo; def.range.lo_open = false; return *this; }
   Key& atMost(double hi) { def.range.hi = hi; def.range.hi_open = false; return *this; }
+  Key& lessThan(double hi) { def.range.hi = hi; def.range.hi_open = true; return *this; }
   KeyDef def;
 };
 
@@ -392,6 +393,24 @@ std::vector<KeyDef> buildTable() {
           .doc("output folder, relative to the scene file; --set values are relative to the working directory"));
   add(field<InScene>("output.particles", [](auto& s) -> auto& { return s.output.particles; })
           .doc("write particles.h5part (H5Part, opens in ParaView)"));
+  add(section("output.isosurface", [](SceneSpec& s) { return &s.output.isosurface.loc; })
+          .doc("fluid surface per output frame (marching cubes on the device); the section turns it on"));
+  add(field<InScene>("output.isosurface.enabled", [](auto& s) -> auto& { return s.output.isosurface.enabled; })
+          .defaultNote("true in the section, off without it")
+          .doc("mesh the fluid surface each output frame, one mesh per phase"));
+  add(field<InScene>("output.isosurface.spacing", [](auto& s) -> auto& { return s.output.isosurface.spacing; })
+          .unit("m").atLeast(0).doc("surface grid spacing; 0 = automatic (0.5 x particle spacing)"));
+  add(field<InScene>("output.isosurface.iso", [](auto& s) -> auto& { return s.output.isosurface.iso; })
+          .unit("1").greaterThan(0).lessThan(1)
+          .doc("surface value of the normalised field sum V0 W (1 inside, 0 outside; 0.5 = half a spacing out)"));
+  add(field<InScene>("output.isosurface.vertex_colours", [](auto& s) -> auto& { return s.output.isosurface.vertex_colours; })
+          .doc("per-vertex colour from the particles' colour field (OBJ 'v x y z r g b')"));
+  add(field<InScene>("output.isosurface.obj", [](auto& s) -> auto& { return s.output.isosurface.obj; })
+          .doc("write fluid_<phase>_%04d.obj per output frame (world coordinates, Z up, normals)"));
+  add(field<InScene>("output.isosurface.vdb", [](auto& s) -> auto& { return s.output.isosurface.vdb; })
+          .doc("write the surface field as fluid_%04d.vdb (grid 'density'; not written yet by this version)"));
+  add(field<InScene>("output.isosurface.vdb_level_set", [](auto& s) -> auto& { return s.output.isosurface.vdb_level_set; })
+          .doc("also write a narrow-band level set 'surface' into each .vdb (not written yet by this version)"));
   return t;
 }
 
