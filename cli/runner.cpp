@@ -6,6 +6,7 @@
 #include "io/h5part_writer.h"
 #include "io/obj_io.h"
 #include "io/surface_export.h"
+#include "io/vdb_writer.h"
 #include "io/run_json.h"
 #include "io/scene_loader.h"
 
@@ -56,6 +57,28 @@ std::string profileLine(const Profile& p) {
   if (p.subdivided_frames) s << "; CFL subdivided " << p.subdivided_frames << " frame(s)";
   if (p.cfl_warned_frames) s << "; ran " << p.cfl_warned_frames << " frame(s) above the CFL limit";
   return s.str();
+}
+
+}  // namespace
+
+namespace {
+
+// fluid_%04d.vdb: grid "density" = the sum of the phases' fields (what Blender's volume material
+// reads), plus "density_<phase>" per phase when there are several, and the level set "surface"
+// of the total field on request. All grids share the surface grid's transform.
+void writeSurfaceVdb(const fs::path& dir, int frame, const std::vector<PhaseSpec>& phases,
+                     const std::vector<DenseGrid>& fields, const IsosurfaceSpec& iso) {
+  DenseGrid total = fields.front();
+  for (std::size_t ph = 1; ph < fields.size(); ++ph)
+    for (std::size_t k = 0; k < total.values.size(); ++k) total.values[k] += fields[ph].values[k];
+  std::vector<io::NamedGrid> grids{{"density", &total}};
+  if (fields.size() > 1)
+    for (std::size_t ph = 0; ph < fields.size() && ph < phases.size(); ++ph)
+      grids.push_back({io::surfaceVdbGridName(phases[ph].name), &fields[ph]});
+  io::VdbOptions opt;
+  opt.level_set = iso.vdb_level_set;
+  opt.iso = static_cast<float>(iso.iso);
+  io::writeVdb((dir / io::surfaceVdbName(frame)).string(), grids, opt);
 }
 
 }  // namespace
@@ -127,8 +150,6 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
     iso_settings.spacing = iso.spacing > 0 ? iso.spacing : kAutoIsoSpacingRatio * model.dx;
     iso_settings.iso = static_cast<float>(iso.iso);
     iso_settings.vertex_colours = iso.vertex_colours;
-    if (iso.enabled && (iso.vdb || iso.vdb_level_set))
-      log("note: output.isosurface.vdb is not written by this version (OBJ only)");
 
     // --- Device and simulation -----------------------------------------------------------
     ClContext cl(opt.device);
@@ -167,7 +188,9 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
       fs::remove(out_dir / "bodies.csv", ec);
       for (const auto& entry : fs::directory_iterator(out_dir, ec)) {  // an earlier run's meshes
         const std::string name = entry.path().filename().string();
-        if ((name.rfind("fluid_", 0) == 0 || name.rfind("body_", 0) == 0) && entry.path().extension() == ".obj")
+        const auto ext = entry.path().extension();
+        if ((name.rfind("fluid_", 0) == 0 && (ext == ".obj" || ext == ".vdb")) ||
+            (name.rfind("body_", 0) == 0 && ext == ".obj"))
           fs::remove(entry.path(), ec);
       }
       info.scene_file = spec.source_file;
@@ -189,6 +212,7 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
     // Per output frame: read back what is exported (the device work happens here), then hand the
     // files to the writer thread, which formats and writes them while the simulation goes on.
     const bool write_obj = writer && iso.enabled && iso.obj;
+    const bool write_vdb = writer && iso.enabled && (iso.vdb || iso.vdb_level_set);
     auto write_frame = [&](int frame, bool timed) {
       std::shared_ptr<std::vector<TriMesh>> meshes;
       if (iso.enabled) {
@@ -206,13 +230,20 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
         bodies_csv->writeFrame(sim.time(), model.bodies, sim.bodies());
         io::writeBodyObjs(out_dir.string(), frame, model.bodies, sim.bodies());
       }
-      if (!writer || (!h5 && !write_obj)) {
+      if (!writer || (!h5 && !write_obj && !write_vdb)) {
         res.output_seconds += since(t0);
         return;
       }
       std::shared_ptr<ParticleFrame> particles;
       if (h5) particles = std::make_shared<ParticleFrame>(sim.readFrame());
       if (!write_obj) meshes.reset();
+      // The surface field of each phase (read back here; summed and written on the writer thread).
+      std::shared_ptr<std::vector<DenseGrid>> fields;
+      if (write_vdb) {
+        fields = std::make_shared<std::vector<DenseGrid>>();
+        for (std::size_t ph = 0; ph < spec.fluid.phases.size(); ++ph)
+          fields->push_back(sim.surfaceField(static_cast<uint32_t>(ph)));
+      }
       const double grid_spacing = sim.lastSurfaceGrid() ? sim.lastSurfaceGrid()->spacing : iso_settings.spacing;
       io::SurfaceObjInfo header;
       header.particle_spacing = model.dx;
@@ -233,6 +264,7 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
             io::writeObj((dir / io::surfaceObjName(info.phase, frame)).string(), (*meshes)[ph],
                          io::surfaceObjComment(info));
           }
+        if (fields && !fields->empty() && !fields->front().values.empty()) writeSurfaceVdb(dir, frame, phases, *fields, iso);
       });
       res.output_seconds += since(t0);
       if (const std::string err = writer->error(); !err.empty()) throw std::runtime_error("writing output failed: " + err);

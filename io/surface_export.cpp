@@ -5,14 +5,27 @@
 
 namespace sph::io {
 
-std::string surfaceObjName(const std::string& phase, int frame) {
+namespace {
+std::string safeName(const std::string& phase) {
   std::string safe = phase;
   for (char& c : safe)
     if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-')) c = '_';
+  return safe;
+}
+std::string frameNumber(int frame) {
   char num[16];
   std::snprintf(num, sizeof num, "%04d", frame);
-  return "fluid_" + safe + "_" + num + ".obj";
+  return num;
 }
+}  // namespace
+
+std::string surfaceObjName(const std::string& phase, int frame) {
+  return "fluid_" + safeName(phase) + "_" + frameNumber(frame) + ".obj";
+}
+
+std::string surfaceVdbName(int frame) { return "fluid_" + frameNumber(frame) + ".vdb"; }
+
+std::string surfaceVdbGridName(const std::string& phase) { return "density_" + safeName(phase); }
 
 std::string surfaceObjComment(const SurfaceObjInfo& info) {
   char buf[512];

@@ -9,6 +9,12 @@ namespace sph::io {
 /// "fluid_<phase>_0007.obj"; characters outside [A-Za-z0-9_-] in the phase name become '_'.
 std::string surfaceObjName(const std::string& phase, int frame);
 
+/// "fluid_0007.vdb": the surface field of every phase in one OpenVDB file per output frame.
+std::string surfaceVdbName(int frame);
+/// The grid name of a phase's field in that file: "density_<phase>" (sanitised as above); the
+/// sum over phases is the grid "density".
+std::string surfaceVdbGridName(const std::string& phase);
+
 /// What a surface OBJ's header records. `sphaptics compare` reads `particle_spacing` from it.
 struct SurfaceObjInfo {
   double particle_spacing = 0;  ///< dx (unit: m)
