@@ -408,9 +408,9 @@ std::vector<KeyDef> buildTable() {
   add(field<InScene>("output.isosurface.obj", [](auto& s) -> auto& { return s.output.isosurface.obj; })
           .doc("write fluid_<phase>_%04d.obj per output frame (world coordinates, Z up, normals)"));
   add(field<InScene>("output.isosurface.vdb", [](auto& s) -> auto& { return s.output.isosurface.vdb; })
-          .doc("write the surface field as fluid_%04d.vdb (grid 'density'; not written yet by this version)"));
+          .doc("write the surface field as fluid_%04d.vdb (fog grids 'density' = all phases, 'density_<phase>')"));
   add(field<InScene>("output.isosurface.vdb_level_set", [](auto& s) -> auto& { return s.output.isosurface.vdb_level_set; })
-          .doc("also write a narrow-band level set 'surface' into each .vdb (not written yet by this version)"));
+          .doc("also write a narrow-band level set 'surface' into each .vdb (3 voxels each side)"));
   return t;
 }
 
