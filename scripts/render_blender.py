@@ -13,7 +13,8 @@
 #   --blend FILE      also save the last frame's scene as a .blend file
 #
 # What it reads from RUN_DIR: every OBJ sequence NAME_%04d.obj (fluid_<phase>_*, body_<name>_*,
-# cloth_*), the VDB sequence NAME_%04d.vdb when --volume is given, and run.json for the domain box
+# cloth_*; a fluid surface takes its phase's colour from the OBJ header, or the per-vertex colours
+# when the file has them), the VDB sequence NAME_%04d.vdb when --volume is given, and run.json for the domain box
 # (camera framing, floor). OBJ files are in simulation coordinates (metres, Z up) and are imported
 # with forward_axis='Y', up_axis='Z' so Blender's world matches the simulation's (and the VDB
 # files, which Blender imports without axis conversion). Debian's Blender has no OpenImageDenoise,
@@ -108,6 +109,21 @@ def material(name, colour, kind):
 
 
 COLOURS = {"fluid": (0.25, 0.5, 0.9), "body": (0.8, 0.6, 0.3), "cloth": (0.8, 0.2, 0.25)}
+
+
+def header_colour(path):
+    """The '# colour: r g b' line sphaptics writes at the top of a surface OBJ (the phase's colour)."""
+    try:
+        with open(path) as f:
+            for line in f:
+                if not line.startswith("#"):
+                    break
+                if line.startswith("# colour:"):
+                    r, g, b = (float(v) for v in line.split(":", 1)[1].split()[:3])
+                    return (r, g, b)
+    except (OSError, ValueError):
+        pass
+    return None
 
 
 def kind_of(name):
@@ -244,9 +260,10 @@ def main():
     os.makedirs(opt["out"], exist_ok=True)
 
     materials = {}
-    for name in objs:
+    for name, seq in objs.items():
         if not opt["volume"] or not name.startswith("fluid"):
-            materials[name] = material(name, COLOURS[kind_of(name)], kind_of(name))
+            colour = header_colour(seq[min(seq)]) or COLOURS[kind_of(name)]
+            materials[name] = material(name, colour, kind_of(name))
     volumes = {}
     for name, seq in vdbs.items():
         volumes[name] = volume_object(scene, name, [seq[f] for f in sorted(seq)])
