@@ -111,14 +111,18 @@ double headerSpacing(const fs::path& file) {
 // 0. The tolerances exist for other CPUs, pocl versions or OpenCL drivers, whose float rounding
 // (fused multiply-add, reduction order inside a kernel, vector width) differs in the last bits.
 // SPH is chaotic, so such differences grow over the steps, most of all where the flow splashes;
-// the scene is therefore short (0.1 s, 5 frames, the drop just meeting the pool) so that last-bit
-// differences stay far below a particle spacing. The defaults then mean something physical: no
-// surface point more than 1 dx from the golden surface (a whole particle layer), a mean surface
-// offset (volume difference over area) under dx/4, area within 5 %. A real change of physics or
-// meshing (a kernel, the wall model, the iso value) moves the surface by a spacing or more within
-// these frames and fails; a change that should move it is a reason to regenerate, reviewed
-// (scripts/make_golden.sh). Tighter tolerances would tie the test to one device's rounding; looser
-// ones would pass a lost particle layer.
+// the scene is therefore short (0.1 s, 5 frames, ending just after the drop meets the pool) so that
+// last-bit differences stay well below a particle spacing. Measured as a stand-in: a rest density
+// changed by 1e-6 (relative) moves the surface by at most 0.002 dx up to frame 4 and 0.16 dx at
+// frame 5 (after the impact); the viscosity changed by 2e-6, 0.10 dx. The defaults (no surface
+// point more than 1 dx, a whole particle layer, from the golden surface; mean surface offset,
+// volume difference over area, under dx/4; area within 5 %) keep a margin of about 6 over that
+// and still mean something physical. What fails (measured): the Wendland kernel in place of the
+// cubic spline (2.7 dx), iso 0.6 in place of 0.5 (area 5.8 %), any change of the mesher's output.
+// What does not: doubling the artificial viscosity (0.48 dx in 0.1 s). So this test guards the
+// pipeline and large changes of physics or meshing, not small parameter changes (the physics tests
+// do that). A change that should move the surface is a reason to regenerate, reviewed
+// (scripts/make_golden.sh). Tighter tolerances would tie the test to one device's rounding.
 TEST_CASE("regression: the surface of regression_surface.yaml matches the golden OBJ sequence", "[regression]") {
   REQUIRE(fs::is_directory(kGolden));
   const std::vector<std::string> golden = objNames(kGolden);
