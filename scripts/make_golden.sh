@@ -13,7 +13,7 @@
 # this script prints first. Never run it to make a failing test pass without knowing why it fails:
 # a failure means the simulation or the mesher changed its output.
 # The goldens were made on the 2-core development machine (pocl, CPU). Another device or driver
-# may differ in the last bits; the test's tolerances (README "Physics and validation") allow that.
+# may differ in the last bits; the test's tolerances allow that (see the comment in tests/test_regression.cpp).
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 root="$(cd "$here/.." && pwd)"
