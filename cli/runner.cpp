@@ -120,6 +120,9 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
       info.wall_seconds = since(t_start);
       info.particles = res.particles;
       info.profile = res.profile;
+      info.isosurface_seconds = res.iso_seconds;
+      info.output_seconds = res.output_seconds;
+      info.writer_seconds = res.writer_seconds;
       // Only a complete run gets the final file name; anything else keeps ".partial".
       std::error_code ec;
       if (status == "complete" && !h5_partial.empty() && fs::exists(h5_partial)) fs::rename(h5_partial, h5_final, ec);

@@ -52,6 +52,9 @@ void writeRunJson(const std::string& path, const RunInfo& info) {
   j << "  \"particles\": " << info.particles << ",\n";
   j << "  \"steps\": " << info.profile.steps << ",\n";
   j << "  \"particle_steps_per_second\": " << info.particle_steps_per_second << ",\n";
+  j << "  \"isosurface_seconds\": " << info.isosurface_seconds << ",\n";
+  j << "  \"output_seconds\": " << info.output_seconds << ",\n";
+  j << "  \"writer_seconds\": " << info.writer_seconds << ",\n";
   j << "  \"cfl_subdivided_frames\": " << info.profile.subdivided_frames << ",\n";
   j << "  \"stage_seconds\": {";
   for (int i = 0; i < kNumStages; ++i)

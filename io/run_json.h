@@ -21,6 +21,9 @@ struct RunInfo {
   double wall_seconds = 0;   ///< (unit: s)
   std::size_t particles = 0;
   double particle_steps_per_second = 0;
+  double isosurface_seconds = 0;  ///< surface field and marching cubes on the device (unit: s)
+  double output_seconds = 0;      ///< main-thread read-back and hand-off of output (unit: s)
+  double writer_seconds = 0;      ///< the writer thread's time writing files (unit: s)
   Profile profile;
 };
 

@@ -74,22 +74,15 @@ __kernel void build_neighbour_lists(const SimParams p, __global const float4* po
   const uint K = p.max_neighbours;
   __global uint* my_nbr = nbr + (size_t)i * K;
   __global uint* my_bnbr = bnbr + (size_t)i * K;
+  /* Row by row, eight candidates at a time (shared/pair_loops.h). */
   uint count = 0;
-  SPH_FOR_NEIGHBOURS(&p, cell_start, xi, j) {
-    const float3 d = xi - pos[j].xyz;
-    if (dot(d, d) < R2 && j != i) {
-      if (count < K) my_nbr[count] = j;
-      ++count;
-    }
+  SPH_FOR_NEIGHBOUR_ROWS(&p, cell_start, xi, begin, end) {
+    count = sph_collect_row(xi, pos, begin, end, R2, i, my_nbr, K, count);
   }
   SPH_END_NEIGHBOURS
   uint bcount = 0;
-  SPH_FOR_NEIGHBOURS(&p, bcell_start, xi, b) {
-    const float3 d = xi - bpos[b].xyz;
-    if (dot(d, d) < R2) {
-      if (bcount < K) my_bnbr[bcount] = b;
-      ++bcount;
-    }
+  SPH_FOR_NEIGHBOUR_ROWS(&p, bcell_start, xi, begin, end) {
+    bcount = sph_collect_row(xi, bpos, begin, end, R2, 0xffffffffu, my_bnbr, K, bcount);
   }
   SPH_END_NEIGHBOURS
   nbr_count[i] = min(count, K);

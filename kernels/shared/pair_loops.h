@@ -100,6 +100,46 @@ inline float sph_list_density(const float3 xi, __global const uint* list, const 
   return sum;
 }
 
+/* ---- neighbour-list build -------------------------------------------------------------------
+ * Appends to out[0..K) every particle k in [begin, end) (a row of sorted particles) with
+ * |x - x_k|^2 < R2, except `self`, in order; returns the new count, which goes on past K when the
+ * list overflows (the caller reports it; only the first K are kept). The stores are unconditional
+ * below K: a slot written for a candidate outside R is overwritten by the next one inside. */
+inline uint sph_collect_row(const float3 xi, __global const float4* pts, const uint begin, const uint end,
+                            const float R2, const uint self, __global uint* out, const uint K, uint count) {
+  uint k = begin;
+  for (; k + 8 <= end; k += 8) {
+    const uint8 j = (uint8)(k) + (uint8)(0, 1, 2, 3, 4, 5, 6, 7);
+    SPH_LOAD8(p, pts, j);
+    const float8 dx = xi.x - SPH_LANES8(p, x), dy = xi.y - SPH_LANES8(p, y), dz = xi.z - SPH_LANES8(p, z);
+    const int8 in = -((dx * dx + dy * dy + dz * dz < R2) & (j != (uint8)(self))); /* 1 inside, 0 outside */
+    if (count + 8 <= K) { /* room for all eight: no per-lane check */
+      out[count] = j.s0; count += in.s0;
+      out[count] = j.s1; count += in.s1;
+      out[count] = j.s2; count += in.s2;
+      out[count] = j.s3; count += in.s3;
+      out[count] = j.s4; count += in.s4;
+      out[count] = j.s5; count += in.s5;
+      out[count] = j.s6; count += in.s6;
+      out[count] = j.s7; count += in.s7;
+    } else {
+      const uint jl[8] = {j.s0, j.s1, j.s2, j.s3, j.s4, j.s5, j.s6, j.s7};
+      const int il[8] = {in.s0, in.s1, in.s2, in.s3, in.s4, in.s5, in.s6, in.s7};
+      for (int l = 0; l < 8; ++l) {
+        if (count < K) out[count] = jl[l];
+        count += (uint)il[l];
+      }
+    }
+  }
+  for (; k < end; ++k) {
+    const float3 d = xi - pts[k].xyz;
+    const uint in = (dot(d, d) < R2) & (k != self);
+    if (count < K) out[count] = k;
+    count += in;
+  }
+  return count;
+}
+
 /* ---- pressure and viscosity between fluid particles ------------------------------------------
  * Over this step's list (neighbours within H, from the density pass) of particle i:
  *   pressure (when `pressure`; Solenthaler & Pajarola 2008 eq. 6, see pressure.cl):
