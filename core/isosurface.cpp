@@ -64,12 +64,7 @@ std::vector<TriMesh> SurfaceMesher::meshParticles(const ParticleView& in, const 
   {
     SimParams pp = p;
     pp.n_fluid = static_cast<sph_uint>(in.count);
-    cl::Kernel& k = kernels_["iso_bounds"];
-    k.setArg(0, sizeof(SimParams), &pp);
-    k.setArg(1, chunk);
-    k.setArg(2, *in.pos);
-    k.setArg(3, bounds);
-    kernels_.enqueue("iso_bounds", kBoundGroups);
+    kernels_.call("iso_bounds", kBoundGroups, 0, pp, chunk, *in.pos, bounds);
     clCall("reading the fluid bounds", [&] { return q.enqueueReadBuffer(bounds, CL_TRUE, 0, part.size() * 4, part.data()); });
   }
   Eigen::Vector3d lo = Eigen::Vector3d::Constant(INFINITY), hi = Eigen::Vector3d::Constant(-INFINITY);
@@ -119,14 +114,7 @@ std::vector<TriMesh> SurfaceMesher::meshParticles(const ParticleView& in, const 
   // 3. The field of every phase in one gather over the neighbour grid.
   {
     cl::Buffer& field = ensure(field_, std::size_t(ip.num_nodes) * in.num_phases * 4);
-    cl::Kernel& k = kernels_["iso_field"];
-    k.setArg(0, sizeof(SimParams), &p);
-    k.setArg(1, sizeof(IsoParams), &ip);
-    k.setArg(2, *in.pos);
-    k.setArg(3, *in.phase);
-    k.setArg(4, *in.cell_start);
-    k.setArg(5, field);
-    kernels_.enqueue("iso_field", ip.num_nodes, kLocal);
+    kernels_.call("iso_field", ip.num_nodes, kLocal, p, ip, *in.pos, *in.phase, *in.cell_start, field);
   }
 
   // 4. Marching cubes, phase by phase.
@@ -185,18 +173,8 @@ TriMesh SurfaceMesher::march(IsoParams ip, const ParticleView* particles) {
   cl::Buffer& toff = ensure(tri_offset_, (std::size_t(cells) + 1) * 4);
 
   // Classify: crossing edges per node, triangles per cell; prefix sums give the output slots.
-  cl::Kernel& ke = kernels_["mc_node_edges"];
-  ke.setArg(0, sizeof(IsoParams), &ip);
-  ke.setArg(1, field);
-  ke.setArg(2, mask);
-  ke.setArg(3, vcount);
-  kernels_.enqueue("mc_node_edges", nodes, kLocal);
-  cl::Kernel& kc = kernels_["mc_cell_count"];
-  kc.setArg(0, sizeof(IsoParams), &ip);
-  kc.setArg(1, field);
-  kc.setArg(2, case_triangles_);
-  kc.setArg(3, tcount);
-  kernels_.enqueue("mc_cell_count", cells, kLocal);
+  kernels_.call("mc_node_edges", nodes, kLocal, ip, field, mask, vcount);
+  kernels_.call("mc_cell_count", cells, kLocal, ip, field, case_triangles_, tcount);
   scan_.run(vcount, voff, nodes);
   scan_.run(tcount, toff, cells);
   uint32_t nv = 0, nt = 0;
@@ -230,16 +208,7 @@ TriMesh SurfaceMesher::march(IsoParams ip, const ParticleView* particles) {
   kv.setArg(10, vnrm);
   kv.setArg(11, vcol);
   kernels_.enqueue("mc_emit_vertices", nodes, kLocal);
-  cl::Kernel& kt = kernels_["mc_emit_triangles"];
-  kt.setArg(0, sizeof(IsoParams), &ip);
-  kt.setArg(1, field);
-  kt.setArg(2, case_triangles_);
-  kt.setArg(3, case_edges_);
-  kt.setArg(4, mask);
-  kt.setArg(5, voff);
-  kt.setArg(6, toff);
-  kt.setArg(7, tris);
-  kernels_.enqueue("mc_emit_triangles", cells, kLocal);
+  kernels_.call("mc_emit_triangles", cells, kLocal, ip, field, case_triangles_, case_edges_, mask, voff, toff, tris);
 
   // Read back into a TriMesh.
   std::vector<Eigen::Vector4f> pos(nv), nrm(nv), col(colours ? nv : 0);

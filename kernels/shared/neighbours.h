@@ -25,21 +25,11 @@ inline uint sph_cell_index(const SimParams* p, int3 c) {
   return (uint)(c.x + p->grid_dims[0] * (c.y + p->grid_dims[1] * c.z));
 }
 
-#define SPH_FOR_NEIGHBOURS(P, CELL_START, XI, J)                                          \
-  {                                                                                       \
-    const int3 c_ = sph_cell_of(P, XI);                                                   \
-    const int xa_ = max(c_.x - 1, 0), xb_ = min(c_.x + 1, (P)->grid_dims[0] - 1);         \
-    for (int z_ = max(c_.z - 1, 0); z_ <= min(c_.z + 1, (P)->grid_dims[2] - 1); ++z_)     \
-      for (int y_ = max(c_.y - 1, 0); y_ <= min(c_.y + 1, (P)->grid_dims[1] - 1); ++y_) { \
-        const uint row_ = (uint)((P)->grid_dims[0] * (y_ + (P)->grid_dims[1] * z_));      \
-        const uint end_ = CELL_START[row_ + (uint)xb_ + 1u];                              \
-        for (uint J = CELL_START[row_ + (uint)xa_]; J < end_; ++J)
-
 #define SPH_END_NEIGHBOURS \
   }                        \
   }
 
-/* The same 9 rows as ranges [BEGIN, END) of sorted particles, for loops that take a range at once. */
+/* The 9 rows as ranges [BEGIN, END) of sorted particles, for loops that take a range at once. */
 #define SPH_FOR_NEIGHBOUR_ROWS(P, CELL_START, XI, BEGIN, END)                             \
   {                                                                                       \
     const int3 c_ = sph_cell_of(P, XI);                                                   \
@@ -49,6 +39,11 @@ inline uint sph_cell_index(const SimParams* p, int3 c) {
         const uint row_ = (uint)((P)->grid_dims[0] * (y_ + (P)->grid_dims[1] * z_));      \
         const uint BEGIN = CELL_START[row_ + (uint)xa_];                                  \
         const uint END = CELL_START[row_ + (uint)xb_ + 1u];
+
+
+/* One particle J at a time over the same rows. */
+#define SPH_FOR_NEIGHBOURS(P, CELL_START, XI, J) \
+  SPH_FOR_NEIGHBOUR_ROWS(P, CELL_START, XI, row_begin_, row_end_) for (uint J = row_begin_; J < row_end_; ++J)
 
 #endif
 #endif
