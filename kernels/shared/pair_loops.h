@@ -53,6 +53,20 @@ inline float8 sph_grad_factor8(const float8 r, const float H) {
   const float4 NAME##0 = ARR[J.s0], NAME##1 = ARR[J.s1], NAME##2 = ARR[J.s2], NAME##3 = ARR[J.s3]; \
   const float4 NAME##4 = ARR[J.s4], NAME##5 = ARR[J.s5], NAME##6 = ARR[J.s6], NAME##7 = ARR[J.s7]
 
+/* Appends the lanes of J whose IN is 1 to OUT at N, in lane order: every lane is stored and N
+ * advances only for those inside, so there is no data-dependent branch. */
+#define SPH_APPEND8(OUT, N, J, IN)  \
+  do {                              \
+    OUT[N] = J.s0; N += IN.s0;      \
+    OUT[N] = J.s1; N += IN.s1;      \
+    OUT[N] = J.s2; N += IN.s2;      \
+    OUT[N] = J.s3; N += IN.s3;      \
+    OUT[N] = J.s4; N += IN.s4;      \
+    OUT[N] = J.s5; N += IN.s5;      \
+    OUT[N] = J.s6; N += IN.s6;      \
+    OUT[N] = J.s7; N += IN.s7;      \
+  } while (0)
+
 inline float sph_hsum8(const float8 a) {
   return ((a.s0 + a.s1) + (a.s2 + a.s3)) + ((a.s4 + a.s5) + (a.s6 + a.s7));
 }
@@ -77,14 +91,7 @@ inline float sph_list_density(const float3 xi, __global const uint* list, const 
     if (weighted) w *= SPH_LANES8(p, w);
     acc += w;
     const int8 in = -(r2 < H2); /* 1 inside, 0 outside */
-    out[m] = j.s0; m += in.s0;
-    out[m] = j.s1; m += in.s1;
-    out[m] = j.s2; m += in.s2;
-    out[m] = j.s3; m += in.s3;
-    out[m] = j.s4; m += in.s4;
-    out[m] = j.s5; m += in.s5;
-    out[m] = j.s6; m += in.s6;
-    out[m] = j.s7; m += in.s7;
+    SPH_APPEND8(out, m, j, in);
   }
   float sum = sph_hsum8(acc);
   for (; k < n; ++k) {
@@ -114,14 +121,7 @@ inline uint sph_collect_row(const float3 xi, __global const float4* pts, const u
     const float8 dx = xi.x - SPH_LANES8(p, x), dy = xi.y - SPH_LANES8(p, y), dz = xi.z - SPH_LANES8(p, z);
     const int8 in = -((dx * dx + dy * dy + dz * dz < R2) & (j != (uint8)(self))); /* 1 inside, 0 outside */
     if (count + 8 <= K) { /* room for all eight: no per-lane check */
-      out[count] = j.s0; count += in.s0;
-      out[count] = j.s1; count += in.s1;
-      out[count] = j.s2; count += in.s2;
-      out[count] = j.s3; count += in.s3;
-      out[count] = j.s4; count += in.s4;
-      out[count] = j.s5; count += in.s5;
-      out[count] = j.s6; count += in.s6;
-      out[count] = j.s7; count += in.s7;
+      SPH_APPEND8(out, count, j, in);
     } else {
       const uint jl[8] = {j.s0, j.s1, j.s2, j.s3, j.s4, j.s5, j.s6, j.s7};
       const int il[8] = {in.s0, in.s1, in.s2, in.s3, in.s4, in.s5, in.s6, in.s7};
