@@ -153,6 +153,7 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
     iso_settings.spacing = iso.spacing > 0 ? iso.spacing : kAutoIsoSpacingRatio * model.dx;
     iso_settings.iso = static_cast<float>(iso.iso);
     iso_settings.vertex_colours = iso.vertex_colours;
+    iso_settings.meshes = iso.obj;  // a VDB-only export needs the field, not the meshes
 
     // --- Device and simulation -----------------------------------------------------------
     ClContext cl(opt.device);

@@ -117,8 +117,8 @@ std::vector<TriMesh> SurfaceMesher::meshParticles(const ParticleView& in, const 
     kernels_.call("iso_field", ip.num_nodes, kLocal, p, ip, *in.pos, *in.phase, *in.cell_start, field);
   }
 
-  // 4. Marching cubes, phase by phase.
-  for (uint32_t f = 0; f < in.num_phases; ++f) {
+  // 4. Marching cubes, phase by phase (unless only the field is wanted: empty meshes then).
+  for (uint32_t f = 0; f < in.num_phases && s.meshes; ++f) {
     ip.field = f;
     meshes[f] = march(ip, &in);
   }

@@ -20,6 +20,7 @@ struct IsoSettings {
   double spacing = 0;           ///< surface grid spacing (unit: m); must be > 0
   float iso = 0.5f;             ///< surface value of the normalised field (unit: 1)
   bool vertex_colours = false;  ///< per-vertex colour from the particles' colour field
+  bool meshes = true;           ///< run marching cubes; false: only the field (for a VDB-only export)
 };
 
 /// The fluid particles as the mesher reads them (device buffers in neighbour-grid order).
