@@ -186,7 +186,7 @@ void Simulation::step(double dt) {
       buildGrid();                                     // sort by cell, reorder, Verlet lists
     }
     computeDensity();                                  // number density, rho, p (S&P 2008, Akinci 2012)
-    pressureForces();                                  // -grad p / rho + g (+ viscosity, fused, when on)
+    pressureForces();                                  // wall pressure (Adami 2012), -grad p / rho + g (+ viscosity, fused)
     if (on(Stage::Viscosity) && !on(Stage::Pressure))
       viscosityForces();                               // Monaghan or Morris, on its own
     if (on(Stage::ColourDiffusion)) diffuseColour();   // colour mixing
