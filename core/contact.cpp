@@ -38,7 +38,8 @@ struct ContactSolver::Shape {
   }
 };
 
-ContactSolver::ContactSolver(const std::vector<RigidBody>& bodies, double slop) : slop_(slop) {
+ContactSolver::ContactSolver(const std::vector<RigidBody>& bodies, double spacing)
+    : slop_(1e-3 * spacing), margin_(0.25 * spacing) {
   for (const RigidBody& body : bodies) {
     const TriMesh& m = body.mesh;
     auto shape = std::make_unique<Shape>(m);
@@ -104,7 +105,8 @@ struct Solid {
   }
 };
 
-constexpr int kSweeps = 16;                // sequential-impulse sweeps over all contacts per step
+constexpr int kMaxSweeps = 256;            // sequential-impulse sweeps over all contacts per step, at most
+constexpr double kTolerance = 1e-6;        // converged: no impulse changed by more than this share of the largest
 constexpr double kPositionFraction = 0.5;  // share of the penetration the split impulses remove per step
 
 }  // namespace
@@ -113,6 +115,7 @@ int ContactSolver::solve(const std::vector<RigidBody>& bodies, std::vector<BodyS
                          const Eigen::Vector3d& g, double dt) {
   contacts_.clear();
   const int n = static_cast<int>(bodies.size());
+  auto dynamic = [&](int i) { return bodies[static_cast<std::size_t>(i)].kind == BodyKind::Dynamic; };
   std::vector<Solid> solid(static_cast<std::size_t>(n));
   std::vector<Eigen::Matrix3d> R(static_cast<std::size_t>(n));
   for (int i = 0; i < n; ++i) {
@@ -127,19 +130,20 @@ int ContactSolver::solve(const std::vector<RigidBody>& bodies, std::vector<BodyS
       solid[static_cast<std::size_t>(i)].inv_inertia = worldInverseInertia(body, s.q);
     }
   }
-  auto dynamic = [&](int i) { return bodies[static_cast<std::size_t>(i)].kind == BodyKind::Dynamic; };
-  // A new contact if the point may reach the surface within this step (speculative).
+  // How far any point of body i may travel this step: its speed bound (the velocities already
+  // hold this step's gravity; a push from another contact may add about as much again) times dt.
+  std::vector<double> travel(static_cast<std::size_t>(n), 0.0);
+  for (int i = 0; i < n; ++i) {
+    const BodyState& s = states[static_cast<std::size_t>(i)];
+    const double speed = s.v.norm() + s.w.norm() * shapes_[static_cast<std::size_t>(i)]->radius;
+    travel[static_cast<std::size_t>(i)] = dt * (speed + (dynamic(i) ? 2.0 * g.norm() * dt : 0.0));
+  }
+  // A contact for every point within reach of a surface (reach = the travel of both bodies plus
+  // the margin, which also keeps contacts that were left penetrating); one that will not close
+  // its gap only limits the approach to gap / dt, which the bodies do not reach.
   auto consider = [&](Contact c) {
-    const Solid& A = solid[static_cast<std::size_t>(c.a)];
-    c.ra = c.point - A.s->x;
-    Eigen::Vector3d vrel = A.velocityAt(c.ra);
-    if (c.b >= 0) {
-      const Solid& B = solid[static_cast<std::size_t>(c.b)];
-      c.rb = c.point - B.s->x;
-      vrel -= B.velocityAt(c.rb);
-    }
-    const double vn = c.n.dot(vrel);
-    if (c.gap + dt * std::min(vn, 0.0) > 0.0) return;
+    c.ra = c.point - states[static_cast<std::size_t>(c.a)].x;
+    if (c.b >= 0) c.rb = c.point - states[static_cast<std::size_t>(c.b)].x;
     contacts_.push_back(c);
   };
 
@@ -148,26 +152,28 @@ int ContactSolver::solve(const std::vector<RigidBody>& bodies, std::vector<BodyS
     for (int i = 0; i < n; ++i) {
       if (!dynamic(i)) continue;
       const BodyState& s = states[static_cast<std::size_t>(i)];
+      const double reach = travel[static_cast<std::size_t>(i)] + margin_;
       for (int ax = 0; ax < 3; ++ax)
         for (int side = 0; side < 2; ++side) {
           if (!walls->closed[static_cast<std::size_t>(2 * ax + side)]) continue;
           Contact c;
           c.a = i;
           c.b = -1;
+          c.other = -1 - (2 * ax + side);
           c.n = (side == 0 ? 1.0 : -1.0) * Eigen::Vector3d::Unit(ax);
           c.mu = bodies[static_cast<std::size_t>(i)].spec.friction;
-          for (const Eigen::Vector3d& v : shapes_[static_cast<std::size_t>(i)]->vertices) {
-            c.point = s.x + R[static_cast<std::size_t>(i)] * v;
+          const auto& vertices = shapes_[static_cast<std::size_t>(i)]->vertices;
+          for (c.vertex = 0; c.vertex < vertices.size(); ++c.vertex) {
+            c.point = s.x + R[static_cast<std::size_t>(i)] * vertices[c.vertex];
             c.gap = side == 0 ? c.point[ax] - walls->min[ax] : walls->max[ax] - c.point[ax];
-            consider(c);
+            if (c.gap <= reach) consider(c);
           }
         }
     }
   }
 
   // Body pairs with a dynamic body whose bounding spheres come within reach this step: the
-  // vertices of each against the other's mesh. `reach` bounds how far any point of one can
-  // approach any point of the other in dt.
+  // vertices of each against the other's mesh.
   auto vertexContacts = [&](int i, int j, double reach) {
     const Shape& sj = *shapes_[static_cast<std::size_t>(j)];
     const BodyState& si = states[static_cast<std::size_t>(i)];
@@ -178,9 +184,11 @@ int ContactSolver::solve(const std::vector<RigidBody>& bodies, std::vector<BodyS
     Contact c;
     c.a = i;
     c.b = j;
+    c.other = j;
     c.mu = std::sqrt(bodies[static_cast<std::size_t>(i)].spec.friction * bodies[static_cast<std::size_t>(j)].spec.friction);
-    for (const Eigen::Vector3d& v : shapes_[static_cast<std::size_t>(i)]->vertices) {
-      const Eigen::Vector3d p = si.x + Ri * v;
+    const auto& vertices = shapes_[static_cast<std::size_t>(i)]->vertices;
+    for (c.vertex = 0; c.vertex < vertices.size(); ++c.vertex) {
+      const Eigen::Vector3d p = si.x + Ri * vertices[c.vertex];
       if ((p - s_j.x).squaredNorm() > (sj.radius + reach) * (sj.radius + reach)) continue;
       const Eigen::Vector3d pj = Rj.transpose() * (p - s_j.x);  // in j's frame
       const SurfaceIndex::Nearest near = sj.index.nearest(pj, reach);
@@ -209,16 +217,17 @@ int ContactSolver::solve(const std::vector<RigidBody>& bodies, std::vector<BodyS
       const BodyState& si = states[static_cast<std::size_t>(i)];
       const BodyState& sj = states[static_cast<std::size_t>(j)];
       const double ri = shapes_[static_cast<std::size_t>(i)]->radius, rj = shapes_[static_cast<std::size_t>(j)]->radius;
-      const double reach = dt * ((si.v - sj.v).norm() + si.w.norm() * ri + sj.w.norm() * rj) + slop_;
+      const double reach = travel[static_cast<std::size_t>(i)] + travel[static_cast<std::size_t>(j)] + margin_;
       if ((si.x - sj.x).norm() > ri + rj + reach) continue;
       vertexContacts(i, j, reach);
       vertexContacts(j, i, reach);
     }
 
   // Targets: a gap may close within the step but not be passed; touching or inside: no approach.
-  // On impact (faster than gravity alone brings in two steps), bounce with the restitution.
+  // On impact (a gap that closes within this step, approached faster than gravity alone brings in
+  // two steps), bounce with the restitution.
   const double v_bounce = 2.0 * g.norm() * dt;
-  auto relativeNormal = [&](const Contact& c) {
+  auto relativeNormal = [&](const Contact& c) -> Eigen::Vector3d {
     Eigen::Vector3d vrel = solid[static_cast<std::size_t>(c.a)].velocityAt(c.ra);
     if (c.b >= 0) vrel -= solid[static_cast<std::size_t>(c.b)].velocityAt(c.rb);
     return vrel;
@@ -228,7 +237,7 @@ int ContactSolver::solve(const std::vector<RigidBody>& bodies, std::vector<BodyS
     double e = bodies[static_cast<std::size_t>(c.a)].spec.restitution;
     if (c.b >= 0) e = std::max(e, bodies[static_cast<std::size_t>(c.b)].spec.restitution);
     c.target = c.gap > 0.0 ? -c.gap / dt : 0.0;
-    if (-vn > v_bounce) c.target = std::max(c.target, -e * vn);
+    if (-vn > v_bounce && c.gap + dt * vn <= 0.0) c.target = std::max(c.target, -e * vn);  // hits this step
   }
 
   // Sequential impulses (Catto 2005): each contact in turn, in a fixed order, a fixed number of
@@ -236,7 +245,13 @@ int ContactSolver::solve(const std::vector<RigidBody>& bodies, std::vector<BodyS
   BodyState wall_state;  // a wall: infinite mass, at rest
   Solid none;
   none.s = &wall_state;
-  for (int sweep = 0; sweep < kSweeps; ++sweep)
+  // Sweeps until no impulse changes by more than a millionth of the largest (or kMaxSweeps):
+  // redundant contacts (a ball's flat bottom on a facet, a chain of bodies down to the floor)
+  // converge slowly, and an unconverged solve leaves a residual velocity that rocks a resting
+  // body. (Warm starting from the last step's impulses was tried and removed: with speculative
+  // contacts it lagged the rocking of a ball on a box and fed it.)
+  for (int sweep = 0; sweep < kMaxSweeps; ++sweep) {
+    double largest = 0, change = 0;
     for (Contact& c : contacts_) {
       const Solid& A = solid[static_cast<std::size_t>(c.a)];
       const Solid& B = c.b >= 0 ? solid[static_cast<std::size_t>(c.b)] : none;
@@ -247,6 +262,8 @@ int ContactSolver::solve(const std::vector<RigidBody>& bodies, std::vector<BodyS
       const Eigen::Vector3d dP = (lambda - c.lambda) * c.n;
       A.apply(c.ra, dP);
       B.apply(c.rb, -dP);
+      change = std::max(change, std::abs(lambda - c.lambda));
+      largest = std::max(largest, lambda);
       c.lambda = lambda;
       // Friction: stop the sliding, within the Coulomb cone |P_t| <= mu P_n.
       const Eigen::Vector3d vrel = relativeNormal(c);
@@ -259,8 +276,11 @@ int ContactSolver::solve(const std::vector<RigidBody>& bodies, std::vector<BodyS
       if (f.norm() > limit) f *= limit / f.norm();
       A.apply(c.ra, f - c.friction);
       B.apply(c.rb, c.friction - f);
+      change = std::max(change, (f - c.friction).norm());
       c.friction = f;
     }
+    if (change <= kTolerance * largest) break;
+  }
 
   // Contact force and torque per body: the impulses over dt (equal and opposite on b).
   for (const Contact& c : contacts_) {
@@ -290,7 +310,7 @@ int ContactSolver::solve(const std::vector<RigidBody>& bodies, std::vector<BodyS
     any = any || depth[k] > 0.0;
   }
   if (!any) return static_cast<int>(contacts_.size());
-  auto pushVelocity = [&](int i, const Eigen::Vector3d& r) {
+  auto pushVelocity = [&](int i, const Eigen::Vector3d& r) -> Eigen::Vector3d {  // not an Eigen expression
     return push_v_[static_cast<std::size_t>(i)] + push_w_[static_cast<std::size_t>(i)].cross(r);
   };
   auto pushApply = [&](int i, const Eigen::Vector3d& r, const Eigen::Vector3d& P) {
@@ -300,7 +320,8 @@ int ContactSolver::solve(const std::vector<RigidBody>& bodies, std::vector<BodyS
     push_L[static_cast<std::size_t>(i)] += r.cross(P);
     push_w_[static_cast<std::size_t>(i)] = S.inv_inertia * push_L[static_cast<std::size_t>(i)];
   };
-  for (int sweep = 0; sweep < kSweeps; ++sweep)
+  for (int sweep = 0; sweep < kMaxSweeps; ++sweep) {
+    double largest = 0, change = 0;
     for (std::size_t k = 0; k < contacts_.size(); ++k) {
       Contact& c = contacts_[k];
       if (c.b < 0) continue;
@@ -311,8 +332,12 @@ int ContactSolver::solve(const std::vector<RigidBody>& bodies, std::vector<BodyS
       const double push = std::max(c.push + (kPositionFraction * depth[k] / dt - vn) / kn, 0.0);
       pushApply(c.a, c.ra, (push - c.push) * c.n);
       pushApply(c.b, c.rb, -(push - c.push) * c.n);
+      change = std::max(change, std::abs(push - c.push));
+      largest = std::max(largest, push);
       c.push = push;
     }
+    if (change <= kTolerance * largest) break;
+  }
   return static_cast<int>(contacts_.size());
 }
 

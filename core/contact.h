@@ -43,6 +43,7 @@
 
 #include <Eigen/Core>
 
+#include <cstdint>
 #include <memory>
 #include <vector>
 
@@ -52,6 +53,8 @@ namespace sph::rigid {
 struct Contact {
   int a = 0;                                          ///< the body pushed along +n (an index into the bodies)
   int b = -1;                                         ///< the body pushed along -n; -1: a wall
+  int other = -1;                                     ///< b, or for a wall -1 - (2 axis + side)
+  uint32_t vertex = 0;                                ///< the vertex of a's mesh
   Eigen::Vector3d point = Eigen::Vector3d::Zero();    ///< the vertex (unit: m)
   Eigen::Vector3d ra = Eigen::Vector3d::Zero();       ///< arm: point - centre of mass of a (unit: m)
   Eigen::Vector3d rb = Eigen::Vector3d::Zero();       ///< arm: point - centre of mass of b (unit: m)
@@ -66,9 +69,11 @@ struct Contact {
 
 class ContactSolver {
  public:
-  /// Builds each body's contact geometry (a surface grid and pseudo-normals in its frame).
-  /// `slop` (unit: m): penetration left alone by the position correction (rounding noise).
-  explicit ContactSolver(const std::vector<RigidBody>& bodies, double slop);
+  /// Builds each body's contact geometry (a surface grid and pseudo-normals in its frame). From
+  /// the particle `spacing` (unit: m): contacts are kept within dx/4 beyond what the bodies can
+  /// travel in a step (so a penetration up to dx/4 is still seen and removed), and penetration
+  /// below dx/1000 (rounding, not geometry) is left alone by the position correction.
+  ContactSolver(const std::vector<RigidBody>& bodies, double spacing);
   ~ContactSolver();
   ContactSolver(const ContactSolver&) = delete;
   ContactSolver& operator=(const ContactSolver&) = delete;
@@ -93,7 +98,8 @@ class ContactSolver {
   std::vector<std::unique_ptr<Shape>> shapes_;  // one per body
   std::vector<Contact> contacts_;
   std::vector<Eigen::Vector3d> push_v_, push_w_;  // split-impulse pseudo-velocities per body (unit: m/s, rad/s)
-  double slop_ = 0;
+  double slop_ = 0;    // (unit: m)
+  double margin_ = 0;  // (unit: m)
 };
 
 }  // namespace sph::rigid

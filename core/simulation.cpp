@@ -141,8 +141,7 @@ Simulation::Simulation(const Model& model, const HostParticles& initial, ClConte
   });
   next_id_ = static_cast<uint32_t>(n_);
   for (const rigid::RigidBody& body : model_.bodies) bodies_.push_back(rigid::initialState(body));
-  // Contact ignores penetration below a thousandth of a spacing (rounding, not geometry).
-  if (on(Stage::RigidDynamics)) contacts_ = std::make_unique<rigid::ContactSolver>(model_.bodies, 1e-3 * model_.dx);
+  if (on(Stage::RigidDynamics)) contacts_ = std::make_unique<rigid::ContactSolver>(model_.bodies, model_.dx);
   emitter_travel_.assign(model_.emitters.size(), model_.dx);  // the first layer leaves at the start time
 }
 
