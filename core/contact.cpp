@@ -106,7 +106,7 @@ struct Solid {
 };
 
 constexpr int kMaxSweeps = 256;            // sequential-impulse sweeps over all contacts per step, at most
-constexpr double kTolerance = 1e-6;        // converged: no impulse changed by more than this share of the largest
+constexpr double kVelocityTolerance = 1e-4;  // converged: no contact's velocity changed by more than this share of |g| dt
 constexpr double kPositionFraction = 0.5;  // share of the penetration the split impulses remove per step
 
 }  // namespace
@@ -245,41 +245,49 @@ int ContactSolver::solve(const std::vector<RigidBody>& bodies, std::vector<BodyS
   BodyState wall_state;  // a wall: infinite mass, at rest
   Solid none;
   none.s = &wall_state;
-  // Sweeps until no impulse changes by more than a millionth of the largest (or kMaxSweeps):
-  // redundant contacts (a ball's flat bottom on a facet, a chain of bodies down to the floor)
-  // converge slowly, and an unconverged solve leaves a residual velocity that rocks a resting
-  // body. (Warm starting from the last step's impulses was tried and removed: with speculative
+  // Sweeps until no sweep changes the velocity at any contact by more than a ten-thousandth of
+  // what gravity adds in a step (|g| dt), or kMaxSweeps: redundant contacts (a ball's flat bottom
+  // on a facet, a chain of bodies down to the floor) converge slowly, and an unconverged solve
+  // leaves a residual velocity that rocks a resting body. Contacts that carry no impulse and
+  // stay clear of their target are cheap: friction is skipped while the normal impulse is zero.
+  // (Warm starting from the last step's impulses was tried and removed: with speculative
   // contacts it lagged the rocking of a ball on a box and fed it.)
+  const double settled = kVelocityTolerance * std::max(g.norm() * dt, 1e-12);
+  for (Contact& c : contacts_)
+    c.kn = solid[static_cast<std::size_t>(c.a)].inverseMass(c.ra, c.n) +
+           (c.b >= 0 ? solid[static_cast<std::size_t>(c.b)].inverseMass(c.rb, c.n) : 0.0);
   for (int sweep = 0; sweep < kMaxSweeps; ++sweep) {
-    double largest = 0, change = 0;
+    double change = 0;  // the largest velocity change at a contact in this sweep (unit: m/s)
     for (Contact& c : contacts_) {
       const Solid& A = solid[static_cast<std::size_t>(c.a)];
       const Solid& B = c.b >= 0 ? solid[static_cast<std::size_t>(c.b)] : none;
       // Normal: push apart only.
-      const double kn = A.inverseMass(c.ra, c.n) + B.inverseMass(c.rb, c.n);
       const double vn = c.n.dot(relativeNormal(c));
-      const double lambda = std::max(c.lambda + (c.target - vn) / kn, 0.0);
-      const Eigen::Vector3d dP = (lambda - c.lambda) * c.n;
-      A.apply(c.ra, dP);
-      B.apply(c.rb, -dP);
-      change = std::max(change, std::abs(lambda - c.lambda));
-      largest = std::max(largest, lambda);
-      c.lambda = lambda;
+      const double lambda = std::max(c.lambda + (c.target - vn) / c.kn, 0.0);
+      if (lambda != c.lambda) {
+        const Eigen::Vector3d dP = (lambda - c.lambda) * c.n;
+        A.apply(c.ra, dP);
+        B.apply(c.rb, -dP);
+        change = std::max(change, std::abs(lambda - c.lambda) * c.kn);
+        c.lambda = lambda;
+      }
       // Friction: stop the sliding, within the Coulomb cone |P_t| <= mu P_n.
+      if (c.lambda == 0.0 && c.friction.isZero()) continue;
       const Eigen::Vector3d vrel = relativeNormal(c);
       const Eigen::Vector3d vt = vrel - c.n.dot(vrel) * c.n;
       const double slide = vt.norm();
       if (slide <= 0.0) continue;
       const Eigen::Vector3d t = vt / slide;
-      Eigen::Vector3d f = c.friction - slide / (A.inverseMass(c.ra, t) + B.inverseMass(c.rb, t)) * t;
+      const double kt = A.inverseMass(c.ra, t) + B.inverseMass(c.rb, t);
+      Eigen::Vector3d f = c.friction - slide / kt * t;
       const double limit = c.mu * c.lambda;
       if (f.norm() > limit) f *= limit / f.norm();
       A.apply(c.ra, f - c.friction);
       B.apply(c.rb, c.friction - f);
-      change = std::max(change, (f - c.friction).norm());
+      change = std::max(change, (f - c.friction).norm() * kt);
       c.friction = f;
     }
-    if (change <= kTolerance * largest) break;
+    if (change <= settled) break;
   }
 
   // Contact force and torque per body: the impulses over dt (equal and opposite on b).
@@ -321,22 +329,19 @@ int ContactSolver::solve(const std::vector<RigidBody>& bodies, std::vector<BodyS
     push_w_[static_cast<std::size_t>(i)] = S.inv_inertia * push_L[static_cast<std::size_t>(i)];
   };
   for (int sweep = 0; sweep < kMaxSweeps; ++sweep) {
-    double largest = 0, change = 0;
+    double change = 0;
     for (std::size_t k = 0; k < contacts_.size(); ++k) {
       Contact& c = contacts_[k];
       if (c.b < 0) continue;
-      const Solid& A = solid[static_cast<std::size_t>(c.a)];
-      const Solid& B = solid[static_cast<std::size_t>(c.b)];
-      const double kn = A.inverseMass(c.ra, c.n) + B.inverseMass(c.rb, c.n);
       const double vn = c.n.dot(pushVelocity(c.a, c.ra) - pushVelocity(c.b, c.rb));
-      const double push = std::max(c.push + (kPositionFraction * depth[k] / dt - vn) / kn, 0.0);
+      const double push = std::max(c.push + (kPositionFraction * depth[k] / dt - vn) / c.kn, 0.0);
+      if (push == c.push) continue;
       pushApply(c.a, c.ra, (push - c.push) * c.n);
       pushApply(c.b, c.rb, -(push - c.push) * c.n);
-      change = std::max(change, std::abs(push - c.push));
-      largest = std::max(largest, push);
+      change = std::max(change, std::abs(push - c.push) * c.kn);
       c.push = push;
     }
-    if (change <= kTolerance * largest) break;
+    if (change <= settled) break;
   }
   return static_cast<int>(contacts_.size());
 }

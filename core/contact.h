@@ -61,6 +61,7 @@ struct Contact {
   Eigen::Vector3d n = Eigen::Vector3d::UnitZ();       ///< unit normal, from b towards a
   double gap = 0;                                     ///< signed distance along n, negative inside (unit: m)
   double target = 0;                                  ///< lowest allowed normal relative velocity (unit: m/s)
+  double kn = 0;                                      ///< inverse effective mass along n (unit: 1/kg)
   double mu = 0;                                      ///< friction coefficient (unit: 1)
   double lambda = 0;                                  ///< accumulated normal impulse (unit: N s)
   Eigen::Vector3d friction = Eigen::Vector3d::Zero(); ///< accumulated tangential impulse (unit: N s)
