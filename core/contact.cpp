@@ -105,7 +105,7 @@ struct Solid {
   }
 };
 
-constexpr int kMaxSweeps = 256;            // sequential-impulse sweeps over all contacts per step, at most
+constexpr int kMaxSweeps = 128;            // sequential-impulse sweeps over all contacts per step, at most
 constexpr double kVelocityTolerance = 1e-4;  // converged: no contact's velocity changed by more than this share of |g| dt
 constexpr double kPositionFraction = 0.5;  // share of the penetration the split impulses remove per step
 
@@ -138,10 +138,13 @@ int ContactSolver::solve(const std::vector<RigidBody>& bodies, std::vector<BodyS
     const double speed = s.v.norm() + s.w.norm() * shapes_[static_cast<std::size_t>(i)]->radius;
     travel[static_cast<std::size_t>(i)] = dt * (speed + (dynamic(i) ? 2.0 * g.norm() * dt : 0.0));
   }
-  // A contact for every point within reach of a surface (reach = the travel of both bodies plus
-  // the margin, which also keeps contacts that were left penetrating); one that will not close
-  // its gap only limits the approach to gap / dt, which the bodies do not reach.
-  auto consider = [&](Contact c) {
+  // A contact for every point that may touch within the step: a gap up to twice the travel of
+  // both bodies (a push from another contact may speed them up), or a penetration up to the
+  // margin (dx/4, so a contact left penetrating is still seen and pushed out). One that will not
+  // close its gap only limits the approach to gap / dt, which the bodies do not reach; leaving out
+  // the ones farther away keeps the sweeps short.
+  auto consider = [&](Contact c, double travel_sum) {
+    if (c.gap > 2.0 * travel_sum + slop_) return;
     c.ra = c.point - states[static_cast<std::size_t>(c.a)].x;
     if (c.b >= 0) c.rb = c.point - states[static_cast<std::size_t>(c.b)].x;
     contacts_.push_back(c);
@@ -166,7 +169,7 @@ int ContactSolver::solve(const std::vector<RigidBody>& bodies, std::vector<BodyS
           for (c.vertex = 0; c.vertex < vertices.size(); ++c.vertex) {
             c.point = s.x + R[static_cast<std::size_t>(i)] * vertices[c.vertex];
             c.gap = side == 0 ? c.point[ax] - walls->min[ax] : walls->max[ax] - c.point[ax];
-            if (c.gap <= reach) consider(c);
+            if (c.gap <= reach) consider(c, travel[static_cast<std::size_t>(i)]);
           }
         }
     }
@@ -208,7 +211,7 @@ int ContactSolver::solve(const std::vector<RigidBody>& bodies, std::vector<BodyS
       }
       c.point = p;
       c.n = Rj * normal;
-      consider(c);
+      consider(c, travel[static_cast<std::size_t>(i)] + travel[static_cast<std::size_t>(j)]);
     }
   };
   for (int i = 0; i < n; ++i)

@@ -19,8 +19,10 @@
 // inside a triangle, else the direction from the closest point to the vertex.
 //
 // All contacts of a step (walls and body pairs) are solved together, each in turn in a fixed
-// order for a fixed number of sweeps (deterministic), with accumulated, clamped impulses: the
-// normal impulse >= 0 and the friction impulse within the Coulomb bound mu * normal impulse.
+// order (deterministic), with accumulated, clamped impulses: the normal impulse >= 0 and the
+// friction impulse within the Coulomb bound mu * normal impulse. The sweeps go on until none
+// changes a contact's velocity by more than 1e-4 |g| dt, at most 128: a ball's ring of vertices
+// on a faceted bowl converges slowly, and fewer sweeps (16, 32) left it rocking by millimetres.
 // Restitution acts on impact only (approach faster than 2 |g| dt, which resting contact never
 // reaches). Material mixing as in Box2D: mu = sqrt(mu_a mu_b), e = max(e_a, e_b); a wall takes
 // the body's own values. Static and kinematic bodies have infinite mass (kinematic ones move at
