@@ -243,8 +243,8 @@ int ContactSolver::solve(const std::vector<RigidBody>& bodies, std::vector<BodyS
     if (-vn > v_bounce && c.gap + dt * vn <= 0.0) c.target = std::max(c.target, -e * vn);  // hits this step
   }
 
-  // Sequential impulses (Catto 2005): each contact in turn, in a fixed order, a fixed number of
-  // sweeps; accumulated impulses clamped (normal >= 0, friction within mu * normal).
+  // Sequential impulses (Catto 2005): each contact in turn, in a fixed order, sweep after sweep;
+  // accumulated impulses clamped (normal >= 0, friction within mu * normal).
   BodyState wall_state;  // a wall: infinite mass, at rest
   Solid none;
   none.s = &wall_state;
