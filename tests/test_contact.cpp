@@ -196,3 +196,33 @@ TEST_CASE("Contact: runs with body-body contact are deterministic (bitwise equal
   CHECK(csv[0] == csv[1]);
   CHECK(x[0] == x[1]);  // bitwise
 }
+
+TEST_CASE("Contact: a kinematic paddle pushes a ball ahead of it and keeps its own motion", "[rigid][contact]") {
+  // scenes/tests/push_ball.yaml: a kinematic paddle (infinite mass) at 0.2 m/s reaches a ball
+  // resting on the floor at 0.3 s. The ball's equator ring (radius r, a vertex pointing at the
+  // paddle) must stay ahead of the paddle's front face: at every frame x_ball - r >= x_front - dx/100
+  // (the speculative contact lets no vertex pass; dx/100 allows the position correction's slop).
+  // The ball is pushed: at the end its centre is beyond where the face has got to. The paddle
+  // moves exactly as scripted (x0 + v t to rounding), and records the ball's reaction.
+  const app::RunOptions o = sceneOptions("push_ball.yaml");
+  const double dx = 0.01, r = 0.03, v = 0.2;
+  double worst_gap = 1e9, reaction = 0, paddle_error = 0, ball_x = 0, front = 0;
+  const app::RunResult run = app::runScene(o, [&](Simulation& sim, const FrameReport&) {
+    const rigid::BodyState& paddle = sim.bodies()[0];
+    const rigid::BodyState& ball = sim.bodies()[1];
+    front = paddle.x.x() + 0.01;
+    worst_gap = std::min(worst_gap, ball.x.x() - r - front);
+    reaction = std::max(reaction, -paddle.contact_force.x());
+    paddle_error = std::max(paddle_error, std::abs(paddle.x.x() - (0.1 + v * sim.time())));
+    ball_x = ball.x.x();
+  });
+  REQUIRE(run.exit_code == 0);
+  INFO("smallest gap between ball and paddle face " << worst_gap << " m; ball at " << ball_x << " m, face at " << front
+                                                     << " m; largest reaction on the paddle " << reaction
+                                                     << " N; paddle off its path by " << paddle_error << " m");
+  CHECK(worst_gap > -dx / 100);
+  CHECK(ball_x - r >= front - dx / 100);
+  CHECK(front > 0.29);  // the paddle got past the ball's starting point
+  CHECK(reaction > 0);
+  CHECK(paddle_error < 1e-12);
+}
