@@ -155,7 +155,7 @@ int ContactSolver::solve(const std::vector<RigidBody>& bodies, std::vector<BodyS
     for (int i = 0; i < n; ++i) {
       if (!dynamic(i)) continue;
       const BodyState& s = states[static_cast<std::size_t>(i)];
-      const double reach = travel[static_cast<std::size_t>(i)] + margin_;
+      const double reach = 2.0 * travel[static_cast<std::size_t>(i)] + margin_;
       for (int ax = 0; ax < 3; ++ax)
         for (int side = 0; side < 2; ++side) {
           if (!walls->closed[static_cast<std::size_t>(2 * ax + side)]) continue;
@@ -220,7 +220,7 @@ int ContactSolver::solve(const std::vector<RigidBody>& bodies, std::vector<BodyS
       const BodyState& si = states[static_cast<std::size_t>(i)];
       const BodyState& sj = states[static_cast<std::size_t>(j)];
       const double ri = shapes_[static_cast<std::size_t>(i)]->radius, rj = shapes_[static_cast<std::size_t>(j)]->radius;
-      const double reach = travel[static_cast<std::size_t>(i)] + travel[static_cast<std::size_t>(j)] + margin_;
+      const double reach = 2.0 * (travel[static_cast<std::size_t>(i)] + travel[static_cast<std::size_t>(j)]) + margin_;
       if ((si.x - sj.x).norm() > ri + rj + reach) continue;
       vertexContacts(i, j, reach);
       vertexContacts(j, i, reach);
