@@ -9,26 +9,30 @@
 namespace sph {
 
 Eigen::Vector3d closestPointOnTriangle(const Eigen::Vector3d& p, const Eigen::Vector3d& a, const Eigen::Vector3d& b,
-                                       const Eigen::Vector3d& c) {
+                                       const Eigen::Vector3d& c, TriangleFeature* feature) {
   // Voronoi regions of the vertices, then of the edges, else the face (barycentric).
+  TriangleFeature unused;
+  TriangleFeature& f = feature ? *feature : unused;
   const Eigen::Vector3d ab = b - a, ac = c - a, ap = p - a;
   const double d1 = ab.dot(ap), d2 = ac.dot(ap);
-  if (d1 <= 0 && d2 <= 0) return a;
+  if (d1 <= 0 && d2 <= 0) return f = TriangleFeature::VertexA, a;
   const Eigen::Vector3d bp = p - b;
   const double d3 = ab.dot(bp), d4 = ac.dot(bp);
-  if (d3 >= 0 && d4 <= d3) return b;
+  if (d3 >= 0 && d4 <= d3) return f = TriangleFeature::VertexB, b;
   const double vc = d1 * d4 - d3 * d2;
-  if (vc <= 0 && d1 >= 0 && d3 <= 0) return a + ab * (d1 / (d1 - d3));
+  if (vc <= 0 && d1 >= 0 && d3 <= 0) return f = TriangleFeature::EdgeAB, a + ab * (d1 / (d1 - d3));
   const Eigen::Vector3d cp = p - c;
   const double d5 = ab.dot(cp), d6 = ac.dot(cp);
-  if (d6 >= 0 && d5 <= d6) return c;
+  if (d6 >= 0 && d5 <= d6) return f = TriangleFeature::VertexC, c;
   const double vb = d5 * d2 - d1 * d6;
-  if (vb <= 0 && d2 >= 0 && d6 <= 0) return a + ac * (d2 / (d2 - d6));
+  if (vb <= 0 && d2 >= 0 && d6 <= 0) return f = TriangleFeature::EdgeCA, a + ac * (d2 / (d2 - d6));
   const double va = d3 * d6 - d5 * d4;
-  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
+  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0)
+    return f = TriangleFeature::EdgeBC, b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
   const double denom = va + vb + vc;
-  if (!(std::abs(denom) > 0)) return a;  // degenerate triangle
+  if (!(std::abs(denom) > 0)) return f = TriangleFeature::VertexA, a;  // degenerate triangle
   const double v = vb / denom, w = vc / denom;
+  f = TriangleFeature::Face;
   return a + ab * v + ac * w;
 }
 
@@ -93,14 +97,19 @@ SurfaceIndex::SurfaceIndex(const TriMesh& mesh) : impl_(std::make_unique<Impl>()
 
 SurfaceIndex::~SurfaceIndex() = default;
 
-double SurfaceIndex::distance(const Eigen::Vector3d& p) const {
+double SurfaceIndex::distance(const Eigen::Vector3d& p) const { return nearest(p).distance; }
+
+SurfaceIndex::Nearest SurfaceIndex::nearest(const Eigen::Vector3d& p, double max_distance) const {
   const Impl& m = *impl_;
-  if (m.tris.empty()) return std::numeric_limits<double>::infinity();
+  Nearest best;
+  if (m.tris.empty()) return best;
   const Eigen::Vector3i c = m.cellOf(p);
   // Distance from p to the grid box: cells beyond ring r are at least r * cell + outside away.
   const Eigen::Vector3d hi = m.lo + m.cell * m.dims.cast<double>();
   const double outside = (m.lo - p).cwiseMax(p - hi).cwiseMax(0.0).norm();
-  double best2 = std::numeric_limits<double>::infinity();
+  if (outside > max_distance) return best;
+  double best2 = max_distance * max_distance;  // only points within reach count
+  bool found = false;
   const int max_ring = m.dims.maxCoeff();
   for (int r = 0; r <= max_ring; ++r) {
     for (int k = c.z() - r; k <= c.z() + r; ++k) {
@@ -113,15 +122,26 @@ double SurfaceIndex::distance(const Eigen::Vector3d& p) const {
           const std::size_t f = m.flat(i, j, k);
           for (uint32_t s = m.start[f]; s < m.start[f + 1]; ++s) {
             const auto& t = m.tris[m.items[s]];
-            best2 = std::min(best2, (closestPointOnTriangle(p, m.v[t[0]], m.v[t[1]], m.v[t[2]]) - p).squaredNorm());
+            TriangleFeature feature;
+            const Eigen::Vector3d q = closestPointOnTriangle(p, m.v[t[0]], m.v[t[1]], m.v[t[2]], &feature);
+            const double d2 = (q - p).squaredNorm();
+            if (d2 < best2 || (!found && d2 <= best2)) {
+              best2 = d2;
+              found = true;
+              best.point = q;
+              best.triangle = m.items[s];
+              best.feature = feature;
+            }
           }
         }
       }
     }
+    // Done when everything unvisited is farther than the best so far (or than the reach).
     const double bound = std::max(static_cast<double>(r) * m.cell, outside);
     if (best2 <= bound * bound) break;
   }
-  return std::sqrt(best2);
+  if (found) best.distance = std::sqrt(best2);
+  return best;
 }
 
 double hausdorffOneSided(const TriMesh& from, const TriMesh& to) {

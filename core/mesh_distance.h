@@ -6,14 +6,21 @@
 
 #include <Eigen/Core>
 
+#include <cstdint>
+#include <limits>
 #include <memory>
 #include <vector>
 
 namespace sph {
 
-/// Closest point to p on triangle (a, b, c) (Ericson, Real-Time Collision Detection, 5.1.5).
+/// The feature of a triangle (a, b, c) that holds a closest point: its interior, a vertex, or an
+/// edge (ab = the edge from a to b).
+enum class TriangleFeature : uint8_t { Face, VertexA, VertexB, VertexC, EdgeAB, EdgeBC, EdgeCA };
+
+/// Closest point to p on triangle (a, b, c) (Ericson, Real-Time Collision Detection, 5.1.5); with
+/// `feature`, also the feature it lies on.
 Eigen::Vector3d closestPointOnTriangle(const Eigen::Vector3d& p, const Eigen::Vector3d& a, const Eigen::Vector3d& b,
-                                       const Eigen::Vector3d& c);
+                                       const Eigen::Vector3d& c, TriangleFeature* feature = nullptr);
 
 /// Nearest-surface queries against one mesh, through a uniform grid of its triangles.
 class SurfaceIndex {
@@ -24,6 +31,16 @@ class SurfaceIndex {
   SurfaceIndex& operator=(const SurfaceIndex&) = delete;
   /// Distance from p to the surface (unit: m); +infinity for a mesh without triangles.
   double distance(const Eigen::Vector3d& p) const;
+
+  /// The closest surface point to p, if one lies within `max_distance` (unit: m).
+  struct Nearest {
+    double distance = std::numeric_limits<double>::infinity();  ///< +infinity: none within reach
+    Eigen::Vector3d point = Eigen::Vector3d::Zero();
+    uint32_t triangle = 0;                                     ///< index into the mesh's triangles
+    TriangleFeature feature = TriangleFeature::Face;
+  };
+  /// Ties go to the triangle found first (cells in a fixed order): deterministic.
+  Nearest nearest(const Eigen::Vector3d& p, double max_distance = std::numeric_limits<double>::infinity()) const;
 
  private:
   struct Impl;

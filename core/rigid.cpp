@@ -270,79 +270,17 @@ Eigen::Quaterniond rotated(const Eigen::Quaterniond& q, const Eigen::Vector3d& t
 }
 }  // namespace
 
-int wallContacts(const RigidBody& body, BodyState& s, const DomainSpec& walls, const Eigen::Vector3d& g, double dt) {
-  struct Contact {
-    Eigen::Vector3d r, n;                              // arm from the centre of mass, wall normal (into the domain)
-    double target = 0;                                 // lowest allowed normal velocity (unit: m/s)
-    double lambda = 0;                                 // accumulated normal impulse (unit: N s)
-    Eigen::Vector3d friction = Eigen::Vector3d::Zero(); // accumulated tangential impulse (unit: N s)
-  };
-  const Eigen::Matrix3d R = s.q.toRotationMatrix();
-  const Eigen::Matrix3d Iinv = worldInverseInertia(body, s.q);
-  // Below this approach speed a contact is resting (gravity adds |g| dt per step): no bounce.
-  const double v_bounce = 2.0 * g.norm() * dt;
-  std::vector<Contact> contacts;
-  for (int a = 0; a < 3; ++a)
-    for (int side = 0; side < 2; ++side) {
-      if (!walls.closed[static_cast<std::size_t>(2 * a + side)]) continue;
-      const Eigen::Vector3d n = (side == 0 ? 1.0 : -1.0) * Eigen::Vector3d::Unit(a);
-      for (const auto& vertex : body.mesh.positions) {
-        const Eigen::Vector3d r = R * vertex.cast<double>();
-        const Eigen::Vector3d p = s.x + r;
-        const double gap = side == 0 ? p[a] - walls.min[a] : walls.max[a] - p[a];
-        const double vn = n.dot(s.v + s.w.cross(r));
-        if (gap + dt * std::min(vn, 0.0) > 0.0) continue;  // stays clear of the wall this step
-        Contact c;
-        c.r = r;
-        c.n = n;
-        // Speculative: close the gap in this step at most; touching or inside: do not approach.
-        c.target = gap > 0.0 ? -gap / dt : 0.0;
-        if (-vn > v_bounce) c.target = std::max(c.target, -body.spec.restitution * vn);
-        contacts.push_back(c);
-      }
-    }
-  s.contact_force.setZero();
-  s.contact_torque.setZero();
-  if (contacts.empty()) return 0;
-
-  auto apply = [&](const Eigen::Vector3d& r, const Eigen::Vector3d& P) {
-    s.v += P / body.mass;
-    s.L += r.cross(P);
-    s.w = Iinv * s.L;
-  };
-  auto effectiveMassInv = [&](const Eigen::Vector3d& r, const Eigen::Vector3d& d) {
-    const Eigen::Vector3d rd = r.cross(d);
-    return 1.0 / body.mass + rd.dot(Iinv * rd);
-  };
-  // Sequential impulses: each contact in turn, a fixed number of sweeps (deterministic order).
-  for (int sweep = 0; sweep < 10; ++sweep)
-    for (Contact& c : contacts) {
-      // Normal: accumulated impulse >= 0 (walls push, never pull).
-      const double vn = c.n.dot(s.v + s.w.cross(c.r));
-      const double lambda = std::max(c.lambda + (c.target - vn) / effectiveMassInv(c.r, c.n), 0.0);
-      apply(c.r, (lambda - c.lambda) * c.n);
-      c.lambda = lambda;
-      // Friction: stop the sliding, within the Coulomb cone |F_t| <= mu F_n.
-      const Eigen::Vector3d vp = s.v + s.w.cross(c.r);
-      const Eigen::Vector3d vt = vp - c.n.dot(vp) * c.n;
-      const double slide = vt.norm();
-      if (slide <= 0.0) continue;
-      const Eigen::Vector3d t = vt / slide;
-      Eigen::Vector3d f = c.friction - slide / effectiveMassInv(c.r, t) * t;
-      const double limit = body.spec.friction * c.lambda;
-      if (f.norm() > limit) f *= limit / f.norm();
-      apply(c.r, f - c.friction);
-      c.friction = f;
-    }
-  for (const Contact& c : contacts) {
-    const Eigen::Vector3d P = c.lambda * c.n + c.friction;
-    s.contact_force += P / dt;
-    s.contact_torque += c.r.cross(P) / dt;
-  }
-  return static_cast<int>(contacts.size());
+void integrateVelocity(const RigidBody& body, BodyState& s, const Eigen::Vector3d& g, double dt) {
+  if (body.kind != BodyKind::Dynamic) return;
+  // Forces at the start of the step. (Contact acts by impulses, core/contact.h; contact_force only
+  // records them.)
+  const Eigen::Vector3d force = body.mass * g + s.fluid_force;
+  s.v += dt * force / body.mass;
+  s.L += dt * s.fluid_torque;
+  s.w = worldInverseInertia(body, s.q) * s.L;
 }
 
-void integrate(const RigidBody& body, BodyState& s, const Eigen::Vector3d& g, double dt, const DomainSpec* walls) {
+void integratePosition(const RigidBody& body, BodyState& s, double dt, const DomainSpec* walls) {
   switch (body.kind) {
     case BodyKind::Static: return;
     case BodyKind::Kinematic:
@@ -351,14 +289,6 @@ void integrate(const RigidBody& body, BodyState& s, const Eigen::Vector3d& g, do
       s.q = rotated(s.q, dt * s.w);
       return;
     case BodyKind::Dynamic: {
-      // Momenta first (forces at the start of the step), then positions with the new velocities.
-      // (Contact acts by impulses below; contact_force only records them.)
-      const Eigen::Vector3d force = body.mass * g + s.fluid_force;
-      const Eigen::Vector3d torque = s.fluid_torque;
-      s.v += dt * force / body.mass;
-      s.L += dt * torque;
-      s.w = worldInverseInertia(body, s.q) * s.L;
-      if (walls) wallContacts(body, s, *walls, g, dt);
       // q <- exp(dt w / 2) q: the exact rotation by w dt (a unit quaternion), renormalised against
       // rounding; the linearised update q + dt/2 (0, w) q would grow |q| by O(dt^2) each step.
       s.q = rotated(s.q, dt * s.w);

@@ -109,24 +109,20 @@ BodyState initialState(const RigidBody& body);
 /// World-frame inertia R I R^T and its inverse.
 Eigen::Matrix3d worldInverseInertia(const RigidBody& body, const Eigen::Quaterniond& q);
 
-/// Advances one body by dt (unit: s) under gravity g (unit: m/s^2) and the forces in the state.
+/// A body's step is split so that contacts (core/contact.h) act between the two halves:
+///     integrateVelocity (all bodies) -> ContactSolver::solve -> integratePosition (all bodies)
+///     -> ContactSolver::correctPositions.
 /// Dynamic: symplectic (semi-implicit) Euler on momenta,
 ///     v += dt F / m,   L += dt tau,   w = R I^-1 R^T L,   q <- exp(dt w / 2) q (renormalised),   x += dt v,
-/// so a free fall gives x_n = x0 + v0 t + g t^2 / 2 + g t dt / 2 (first order in dt), and without
-/// torque L is conserved exactly. With `walls` (the domain; null = none), contacts with its closed
-/// walls act between the momentum and the position updates (see wallContacts). Kinematic: the
-/// scripted velocities, integrated exactly. Static: nothing moves.
-void integrate(const RigidBody& body, BodyState& s, const Eigen::Vector3d& g, double dt,
-               const DomainSpec* walls = nullptr);
-
-/// Contact of a dynamic body with the closed walls of the domain box, on the mesh vertices:
-/// speculative velocity-level contacts (sequential impulses, as in Box2D): a vertex whose gap to a
-/// wall would close within dt may approach it by at most gap / dt, so it lands on the wall without
-/// passing it; on impact (approach faster than 2 |g| dt, which resting contact never reaches) the
-/// normal velocity is reversed times the restitution; Coulomb friction (friction coefficient) acts on the tangential
-/// velocity with the impulse bound mu * normal impulse. Changes v, L, w; records the contact force
-/// (impulse / dt) in the state. Returns the number of vertices in contact.
-int wallContacts(const RigidBody& body, BodyState& s, const DomainSpec& walls, const Eigen::Vector3d& g, double dt);
+/// with gravity g (unit: m/s^2) and the fluid force in the state, so a free fall gives
+/// x_n = x0 + v0 t + g t^2 / 2 + g t dt / 2 (first order in dt), and without torque L is conserved
+/// exactly. Kinematic: the scripted velocities, integrated exactly. Static: nothing moves.
+/// integrateVelocity: the momenta of a dynamic body (nothing for the others).
+void integrateVelocity(const RigidBody& body, BodyState& s, const Eigen::Vector3d& g, double dt);
+/// integratePosition: the pose from the velocities. With `walls` (the domain; null = none), a
+/// dynamic body left inside a closed wall (by rounding or unresolved contacts) is moved out along
+/// the wall's normal, velocities untouched.
+void integratePosition(const RigidBody& body, BodyState& s, double dt, const DomainSpec* walls = nullptr);
 
 /// The body's mesh in world coordinates (for output).
 TriMesh worldMesh(const RigidBody& body, const BodyState& s);

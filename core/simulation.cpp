@@ -149,6 +149,7 @@ Simulation::Simulation(const Model& model, const HostParticles& initial, ClConte
   });
   next_id_ = static_cast<uint32_t>(n_);
   for (const rigid::RigidBody& body : model_.bodies) bodies_.push_back(rigid::initialState(body));
+  if (on(Stage::RigidDynamics)) contacts_ = std::make_unique<rigid::ContactSolver>(model_.bodies, model_.dx);
   emitter_travel_.assign(model_.emitters.size(), model_.dx);  // the first layer leaves at the start time
 }
 
@@ -427,8 +428,13 @@ void Simulation::integrateBodies(double dt) {
   StageTimer timer(*this, Stage::RigidDynamics);
   // Gravity at the start of the step, as the fluid sees it (in double: the host integrates in double).
   const Eigen::Vector3d g = gravityAt(model_.spec.simulation, time_);
-  for (std::size_t b = 0; b < bodies_.size(); ++b)
-    rigid::integrate(model_.bodies[b], bodies_[b], g, dt, &model_.spec.domain);  // contact with the closed walls
+  const DomainSpec* walls = &model_.spec.domain;
+  // Momenta from gravity and the fluid; contact impulses between bodies and with the closed walls
+  // (core/contact.h); poses; penetration removed by split impulses.
+  for (std::size_t b = 0; b < bodies_.size(); ++b) rigid::integrateVelocity(model_.bodies[b], bodies_[b], g, dt);
+  contacts_->solve(model_.bodies, bodies_, walls, g, dt);
+  for (std::size_t b = 0; b < bodies_.size(); ++b) rigid::integratePosition(model_.bodies[b], bodies_[b], dt, walls);
+  contacts_->correctPositions(model_.bodies, bodies_, dt);
 }
 
 FrameReport Simulation::runDiagnostics() {

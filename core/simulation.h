@@ -4,6 +4,7 @@
 #pragma once
 
 #include "core/cl_context.h"
+#include "core/contact.h"
 #include "core/isosurface.h"
 #include "core/model.h"
 #include "core/particle_frame.h"
@@ -136,6 +137,7 @@ class Simulation {
   bool budget_reported_ = false;
   std::size_t device_bytes_ = 0;
   std::vector<rigid::BodyState> bodies_;  // one per model_.bodies
+  std::unique_ptr<rigid::ContactSolver> contacts_;  // with moving bodies: contact between bodies and walls
   // Moving (dynamic, kinematic) bodies as boundary particles after the static ones (kernels/rigid.cl).
   std::vector<std::size_t> moving_;       // indices into model_.bodies
   std::vector<double> moving_reach_;      // farthest particle from the centre of mass (unit: m)
