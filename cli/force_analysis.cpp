@@ -48,7 +48,7 @@ std::vector<double> detrended(const std::vector<double>& t, const std::vector<do
 
 }  // namespace
 
-DragSeries readDragSeries(const std::string& path, const std::string& body, double from, double to) {
+DragSeries readDragSeries(const std::string& path, const std::string& body, double from, double to, bool torque) {
   std::ifstream in(path);
   if (!in) throw InputError(path, 0, 0, "cannot open the force log");
   std::map<std::string, std::size_t> col;
@@ -62,7 +62,8 @@ DragSeries readDragSeries(const std::string& path, const std::string& body, doub
     const std::vector<std::string> cells = splitCsv(line);
     if (col.empty()) {  // the header row
       for (std::size_t c = 0; c < cells.size(); ++c) col[cells[c]] = c;
-      for (const char* need : {"time", "body", "vx", "vy", "vz", "fluid_fx", "fluid_fy", "fluid_fz"})
+      for (const char* need : {"time", "body", "vx", "vy", "vz", "wx", "wy", "wz", "fluid_fx", "fluid_fy", "fluid_fz",
+                               "fluid_tx", "fluid_ty", "fluid_tz"})
         if (!col.count(need)) throw InputError(path, line_no, 1, std::string("no column '") + need + "' (not a forces.csv?)");
       continue;
     }
@@ -73,6 +74,7 @@ DragSeries readDragSeries(const std::string& path, const std::string& body, doub
     seen_body = true;
     double v[7];
     const char* keys[7] = {"time", "vx", "vy", "vz", "fluid_fx", "fluid_fy", "fluid_fz"};
+    if (torque) keys[1] = "wx", keys[2] = "wy", keys[3] = "wz", keys[4] = "fluid_tx", keys[5] = "fluid_ty", keys[6] = "fluid_tz";
     for (int k = 0; k < 7; ++k) {
       char* end = nullptr;
       const std::string& text = cells[col[keys[k]]];
@@ -186,7 +188,7 @@ SmoothnessReport analyseDrag(const DragSeries& series, double cutoff, double fra
 int forcesCommand(const ForcesOptions& opt, std::ostream& out, std::ostream& err) {
   DragSeries series;
   try {
-    series = readDragSeries(opt.file, opt.body, opt.from, opt.to);
+    series = readDragSeries(opt.file, opt.body, opt.from, opt.to, opt.torque);
   } catch (const InputError& e) {
     for (const auto& issue : e.issues()) err << "error: " << issue.str() << "\n";
     return 2;
@@ -201,7 +203,8 @@ int forcesCommand(const ForcesOptions& opt, std::ostream& out, std::ostream& err
   std::snprintf(buf, sizeof buf, "window %.4g s, %zu samples at dt = %.4g s (Nyquist %.0f Hz)\n", r.duration, r.samples, r.dt,
                 0.5 / r.dt);
   out << buf;
-  std::snprintf(buf, sizeof buf, "mean drag %.6g N (force against the motion)\n", r.mean);
+  if (opt.torque) std::snprintf(buf, sizeof buf, "mean resisting torque %.6g N m (torque against the turn; N below reads N m)\n", r.mean);
+  else std::snprintf(buf, sizeof buf, "mean drag %.6g N (force against the motion)\n", r.mean);
   out << buf;
   std::snprintf(buf, sizeof buf, "raw:              RMS fluctuation %.4g N (%.1f %%), above %.0f Hz %.4g N (%.1f %%)\n", r.rms,
                 pct(r.rms), opt.cutoff, r.rms_above, pct(r.rms_above));

@@ -29,8 +29,9 @@ struct DragSeries {
 
 /// Reads forces.csv (io::StepForcesCsvWriter) and returns the drag series of `body` (empty: the
 /// first body in the file) for t in [from, to]; rows where the body is at rest are skipped. Throws
-/// InputError on a missing file, a bad row or an unknown body.
-DragSeries readDragSeries(const std::string& path, const std::string& body, double from, double to);
+/// InputError on a missing file, a bad row or an unknown body. With `torque`, the series is the
+/// resisting torque -T . w / |w| (unit: N m) of a turning body instead (a stirring paddle).
+DragSeries readDragSeries(const std::string& path, const std::string& body, double from, double to, bool torque = false);
 
 /// One-pole low-pass (cut-off fc, unit: Hz) of a uniformly sampled signal (step dt, unit: s),
 /// started at y0.
@@ -63,6 +64,7 @@ struct ForcesOptions {
   double to = 1e30;                ///< window end (unit: s)
   double cutoff = 25;              ///< servo low-pass cut-off (unit: Hz)
   double frame_rate = 0;           ///< also report the noise of per-frame samples at this rate (unit: 1/s)
+  bool torque = false;             ///< analyse the resisting torque about the angular velocity instead of the drag
 };
 
 /// Prints the report; returns 0, or 2 on unreadable input.

@@ -82,6 +82,7 @@ int main(int argc, char** argv) {
   cmd_forces->add_option("--from", forces.from, "Window start (unit: s)");
   cmd_forces->add_option("--to", forces.to, "Window end (unit: s)");
   cmd_forces->add_option("--cutoff", forces.cutoff, "Servo low-pass cut-off, one pole (unit: Hz)")->capture_default_str();
+  cmd_forces->add_flag("--torque", forces.torque, "Analyse the torque against the angular velocity (a turning body) instead of the drag");
   cmd_forces->add_option("--frame-rate", forces.frame_rate,
                          "Also report the noise of per-frame samples at this rate, as bodies.csv sees it (unit: 1/s)");
 
