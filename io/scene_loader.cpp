@@ -733,6 +733,14 @@ class Loader {
         issue(item + ".motion.type", markOf(item + ".motion.type"),
               label + " is dynamic, so it cannot follow a scripted motion (set 'dynamic: false' for a kinematic body)");
       checkKeyframes(body, item, label);
+      // The position is required, except for a keyframed body: its keys give the pose.
+      if (!marks_.count(item + ".position")) {
+        if (body.motion.type == MotionType::Keyframes && !body.motion.keyframes.empty())
+          body.position = body.motion.keyframes.front().position;
+        else if (const KeyDef* def = findKey("rigid_bodies[].position"))
+          issue(item + ".position", markOf(item),
+                "missing required key '" + item + ".position' (" + expectation(*def) + ")");
+      }
 
       const std::string mesh_key = item + ".mesh";
       if (body.shape != BodyShape::Mesh) {

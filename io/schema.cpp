@@ -372,7 +372,8 @@ std::vector<KeyDef> buildTable() {
   add(field<InBodies>("rigid_bodies[].height", [](auto& b) -> auto& { return b.height; })
           .unit("m").greaterThan(0).doc("cylinder length; capsule distance between its cap centres (along body z)"));
   add(field<InBodies>("rigid_bodies[].position", [](auto& b) -> auto& { return b.position; })
-          .unit("m").required().doc("world position of the body origin (the primitive's centre, the mesh's origin)"));
+          .unit("m").defaultNote("(required; keyframes: the first key's)")
+          .doc("world position of the body origin (the primitive's centre, the mesh's origin); a keyframed body may leave it out"));
   add(field<InBodies>("rigid_bodies[].orientation_axis", [](auto& b) -> auto& { return b.orientation_axis; })
           .unit("1").doc("axis of the initial rotation, nonzero (normalised when compiled)"));
   add(field<InBodies>("rigid_bodies[].orientation_angle", [](auto& b) -> auto& { return b.orientation_angle; })

@@ -305,6 +305,22 @@ TEST_CASE("Keyframes: the keys load with the body's orientation as default, and 
   const std::string json = io::sceneToJson(s);
   CHECK(json.find("\"keyframes\": [") != std::string::npos);
   CHECK(json.find("\"time\": 0.75") != std::string::npos);
+
+  // A keyframed body needs no position (it takes the first key's); any other body does.
+  const std::string no_position =
+      "domain: {min: [0, 0, 0], max: [1, 1, 1]}\n"                                         // 1
+      "rigid_bodies:\n"                                                                     // 2
+      "  - name: k\n"                                                                       // 3
+      "    density: 1000\n"                                                         // 4
+      "    motion: {type: keyframes, keyframes: [{time: 0, position: [0.2, 0.3, 0.4]}, {time: 1, position: [0.5, 0.5, 0.5]}]}\n"
+      "  - name: s\n"                                                                       // 6
+      "    density: 1000\n";                                                        // 7
+  const auto issues = issuesOf(dir, no_position);
+  INFO(dump(issues));
+  REQUIRE(issues.size() == 1);
+  CHECK(hasIssue(issues, 6, {"missing required key 'rigid_bodies[1].position'"}));
+  const SceneSpec k = io::loadSceneFromString(no_position.substr(0, no_position.find("  - name: s")), "", {});
+  CHECK(k.rigid_bodies.at(0).position == Eigen::Vector3d(0.2, 0.3, 0.4));
 }
 
 // ---------------------------------------------------------------------------------------------
