@@ -87,6 +87,35 @@ std::vector<float> akinciVolumes(const std::vector<Eigen::Vector3f>& points, flo
   return volume;
 }
 
+double bodyVolumeScale(double dx, double support, int kernel) {
+  // A flat face of a box, sampled and inset as compile() does for bodies; probes dx/2 above its
+  // middle 8 dx x 8 dx (a support away from the edges), on a grid incommensurate with dx.
+  const double side = 2.0 * (support + 5.0 * dx);
+  const TriMesh box = rigid::boxMesh(Eigen::Vector3d(side, side, 2.0 * support));
+  std::vector<Eigen::Vector3f> normals;
+  std::vector<Eigen::Vector3f> pts = rigid::sampleSurface(box, dx, &normals);
+  for (std::size_t i = 0; i < pts.size(); ++i) pts[i] -= 0.5f * static_cast<float>(dx) * normals[i];
+  const std::vector<float> vol = akinciVolumes(pts, static_cast<float>(support), kernel);
+  const double top = support;  // the top face's height
+  double body = 0.0, lattice = 0.0;
+  for (int a = -9; a <= 9; ++a)
+    for (int b = -9; b <= 9; ++b) {
+      const Eigen::Vector3d q(a * 0.437 * dx, b * 0.419 * dx, top + 0.5 * dx);
+      for (std::size_t i = 0; i < pts.size(); ++i)
+        body += vol[i] * sph_w(kernel, static_cast<float>((q - pts[i].cast<double>()).norm()), static_cast<float>(support));
+      // the domain wall: a complete lattice of volume dx^3 below the face, layers at dx/2, 3dx/2, ...
+      const int reach = static_cast<int>(std::ceil(support / dx)) + 1;
+      for (int k = 0; k <= reach; ++k)
+        for (int i = -reach; i <= reach; ++i)
+          for (int j = -reach; j <= reach; ++j) {
+            const Eigen::Vector3d x(std::round(q.x() / dx) * dx + i * dx, std::round(q.y() / dx) * dx + j * dx,
+                                    top - (k + 0.5) * dx);
+            lattice += dx * dx * dx * sph_w(kernel, static_cast<float>((q - x).norm()), static_cast<float>(support));
+          }
+    }
+  return lattice / body;
+}
+
 Compiled compile(const SceneSpec& spec) {
   Compiled out;
   Model& m = out.model;
@@ -183,6 +212,7 @@ Compiled compile(const SceneSpec& spec) {
 
   // --- Rigid bodies: shape -> mesh -> mass properties; surface particles at the fluid spacing ---
   const int kernel_id = sim.kernel == KernelType::WendlandC2 ? SPH_KERNEL_WENDLAND_C2 : SPH_KERNEL_CUBIC_SPLINE;
+  double body_volume_scale = 0.0;  // bodyVolumeScale(), computed for the first body
   for (const RigidBodySpec& bs : spec.rigid_bodies) {
     rigid::RigidBody body;
     body.spec = bs;
@@ -225,11 +255,13 @@ Compiled compile(const SceneSpec& spec) {
     body.particles = rigid::sampleSurface(body.mesh, m.dx, &normals);
     for (std::size_t i = 0; i < body.particles.size(); ++i) body.particles[i] -= 0.5f * static_cast<float>(m.dx) * normals[i];
     // Akinci et al. 2012 eq. 4 over the body's own particles: a single sampled layer gets the
-    // volume of the missing ones.
+    // volume of the missing ones; scaled so that a flat face weighs what a domain wall weighs
+    // (bodyVolumeScale: 1 / 1.41 for the cubic spline at H = 2 dx).
     const std::vector<float> vol = akinciVolumes(body.particles, static_cast<float>(m.support), kernel_id);
     const double V0 = m.dx * m.dx * m.dx;
+    if (body_volume_scale == 0.0) body_volume_scale = bodyVolumeScale(m.dx, m.support, kernel_id);
     body.volumes.resize(vol.size());
-    for (std::size_t i = 0; i < vol.size(); ++i) body.volumes[i] = static_cast<float>(vol[i] / V0);
+    for (std::size_t i = 0; i < vol.size(); ++i) body.volumes[i] = static_cast<float>(body_volume_scale * vol[i] / V0);
     m.bodies.push_back(std::move(body));
   }
   if (!issues.empty()) throw InputError(issues);

@@ -77,6 +77,11 @@ Compiled compile(const SceneSpec& spec);
 /// Akinci et al. 2012 eq. 4: V_b = 1 / sum_k W(x_b - x_k) over the boundary particles k (self included).
 std::vector<float> akinciVolumes(const std::vector<Eigen::Vector3f>& points, float support, int kernel);
 
+/// The factor on Akinci volumes of a body's sampled surface layer that makes a flat face of it
+/// weigh, in the density sum of a fluid particle resting dx/2 outside it, what the domain's wall
+/// (a complete lattice of volume dx^3 per particle) weighs there. (unit: 1)
+double bodyVolumeScale(double dx, double support, int kernel);
+
 /// Gravity at time t with the scene's ramp (0 -> full over gravity_ramp seconds, smooth).
 Eigen::Vector3d gravityAt(const SimulationSpec& sim, double t);
 

@@ -86,6 +86,9 @@ Simulation::Simulation(const Model& model, const HostParticles& initial, ClConte
   n_moving_ = static_cast<uint32_t>(local.size());
   const std::size_t n_bnd = n_static_ + n_moving_;
   bpos_ = makeBuffer(n_bnd * 16);
+  bvel_ = makeBuffer(n_bnd * 16);       // zero for static particles
+  bpressure_ = makeBuffer(n_bnd * 4);   // Adami 2012 wall pressure (pressure.cl)
+  bmark_ = makeBuffer(n_bnd * 4);       // stamp of the last step a fluid particle saw it
   bcell_start_ = makeBuffer((cells + 1) * 4);
   crossings_ = makeBuffer(4);
   max_speed_ = makeBuffer(4);
@@ -97,7 +100,7 @@ Simulation::Simulation(const Model& model, const HostParticles& initial, ClConte
     blocal_ = makeBuffer(n_moving_ * 16);
     bbody_ = makeBuffer(n_moving_ * 4);
     bslot_ = makeBuffer(n_bnd * 4);
-    bpose_ = makeBuffer(moving_.size() * 32);
+    bpose_ = makeBuffer(moving_.size() * 64);
     bforce_ = makeBuffer(n_moving_ * 16);
     brange_ = makeBuffer(range.size() * 4);
     bsum_ = makeBuffer(moving_.size() * 32);
@@ -110,6 +113,11 @@ Simulation::Simulation(const Model& model, const HostParticles& initial, ClConte
   // Upload the static boundary and the initial particles.
   auto& q = cl_.queue();
   clCall("uploading the initial state", [&] {
+    const cl_float4 zero4{};  // (a plain float[4] would decay to a pointer: an 8-byte pattern)
+    if (n_bnd > 0) {
+      q.enqueueFillBuffer(bvel_, zero4, 0, n_bnd * 16);
+      q.enqueueFillBuffer(bmark_, uint32_t(0), 0, n_bnd * 4);
+    }
     if (!model_.boundary.empty())
       q.enqueueWriteBuffer(bpos_, CL_TRUE, 0, model_.boundary.size() * 16, model_.boundary.data());
     q.enqueueWriteBuffer(bcell_start_, CL_TRUE, 0, (cells + 1) * 4, model_.boundary_cell_start.data());
@@ -178,7 +186,7 @@ void Simulation::step(double dt) {
       buildGrid();                                     // sort by cell, reorder, Verlet lists
     }
     computeDensity();                                  // number density, rho, p (S&P 2008, Akinci 2012)
-    pressureForces();                                  // -grad p / rho + g (+ viscosity, fused, when on)
+    pressureForces();                                  // wall pressure (Adami 2012), -grad p / rho + g (+ viscosity, fused)
     if (on(Stage::Viscosity) && !on(Stage::Pressure))
       viscosityForces();                               // Monaghan or Morris, on its own
     if (on(Stage::ColourDiffusion)) diffuseColour();   // colour mixing
@@ -310,7 +318,8 @@ void Simulation::buildGrid() {
 
 void Simulation::computeDensity() {
   StageTimer timer(*this, Stage::Density);
-  kernels_.call("compute_density", n_, kLocal, params_, pos_[cur_], phase_[cur_], bpos_, nbr_, nbr_count_, bnbr_, bnbr_count_, density_, pressure_, pterm_, snbr_, snbr_count_, sbnbr_, sbnbr_count_);
+  ++stamp_;  // marks the boundary particles within H of fluid this step (for boundary_pressure)
+  kernels_.call("compute_density", n_, kLocal, params_, pos_[cur_], phase_[cur_], bpos_, nbr_, nbr_count_, bnbr_, bnbr_count_, density_, pressure_, pterm_, snbr_, snbr_count_, sbnbr_, sbnbr_count_, stamp_, bmark_);
 }
 
 void Simulation::pressureForces() {
@@ -319,16 +328,20 @@ void Simulation::pressureForces() {
     kernels_.call("gravity_only", n_, kLocal, params_, acc_);
     return;
   }
+  // Wall pressure extrapolated from the fluid (Adami et al. 2012), then the forces.
+  const uint32_t n_bnd = n_static_ + n_moving_;
+  if (n_bnd > 0)
+    kernels_.call("boundary_pressure", n_bnd, kLocal, params_, n_bnd, stamp_, bpos_, bmark_, pos_[cur_], density_, pressure_, cell_start_, bpressure_);
   if (on(Stage::Viscosity)) {  // one neighbour loop for both (pressure.cl, pressure_viscosity_force)
-    kernels_.call("pressure_viscosity_force", n_, kLocal, params_, pos_[cur_], vel_[cur_], phase_[cur_], density_, pterm_, snbr_, snbr_count_, bpos_, sbnbr_, sbnbr_count_, acc_);
+    kernels_.call("pressure_viscosity_force", n_, kLocal, params_, pos_[cur_], vel_[cur_], phase_[cur_], density_, pterm_, snbr_, snbr_count_, bpos_, bvel_, bpressure_, sbnbr_, sbnbr_count_, acc_);
     return;
   }
-  kernels_.call("pressure_force", n_, kLocal, params_, pos_[cur_], phase_[cur_], pterm_, snbr_, snbr_count_, bpos_, sbnbr_, sbnbr_count_, acc_);
+  kernels_.call("pressure_force", n_, kLocal, params_, pos_[cur_], phase_[cur_], density_, pterm_, snbr_, snbr_count_, bpos_, bpressure_, sbnbr_, sbnbr_count_, acc_);
 }
 
 void Simulation::viscosityForces() {
   StageTimer timer(*this, Stage::Viscosity);
-  kernels_.call("viscosity_force", n_, kLocal, params_, pos_[cur_], vel_[cur_], phase_[cur_], density_, snbr_, snbr_count_, acc_);
+  kernels_.call("viscosity_force", n_, kLocal, params_, pos_[cur_], vel_[cur_], phase_[cur_], density_, snbr_, snbr_count_, bpos_, bvel_, sbnbr_, sbnbr_count_, acc_);
 }
 
 void Simulation::diffuseColour() {
@@ -363,17 +376,19 @@ void Simulation::integrate() {
 void Simulation::placeBodyParticles() {
   StageTimer timer(*this, Stage::RigidCoupling);
   // Poses of the moving bodies (centre of mass, orientation x y z w) and the fastest particle.
-  std::vector<Eigen::Vector4f> pose(2 * moving_.size());
+  std::vector<Eigen::Vector4f> pose(4 * moving_.size());
   body_speed_ = 0.0;
   for (std::size_t m = 0; m < moving_.size(); ++m) {
     const rigid::BodyState& s = bodies_[moving_[m]];
-    pose[2 * m] = Eigen::Vector4f(float(s.x.x()), float(s.x.y()), float(s.x.z()), 0.0f);
-    pose[2 * m + 1] = Eigen::Vector4f(float(s.q.x()), float(s.q.y()), float(s.q.z()), float(s.q.w()));
+    pose[4 * m] = Eigen::Vector4f(float(s.x.x()), float(s.x.y()), float(s.x.z()), 0.0f);
+    pose[4 * m + 1] = Eigen::Vector4f(float(s.q.x()), float(s.q.y()), float(s.q.z()), float(s.q.w()));
+    pose[4 * m + 2] = Eigen::Vector4f(float(s.v.x()), float(s.v.y()), float(s.v.z()), 0.0f);
+    pose[4 * m + 3] = Eigen::Vector4f(float(s.w.x()), float(s.w.y()), float(s.w.z()), 0.0f);
     body_speed_ = std::max(body_speed_, s.v.norm() + s.w.norm() * moving_reach_[m]);
   }
   clCall("uploading body poses",
          [&] { return cl_.queue().enqueueWriteBuffer(bpose_, CL_TRUE, 0, pose.size() * 16, pose.data()); });
-  kernels_.call("rigid_transform", n_moving_, kLocal, n_moving_, n_static_, blocal_, bbody_, bpose_, bslot_, bsrc_, bpos_);
+  kernels_.call("rigid_transform", n_moving_, kLocal, n_moving_, n_static_, blocal_, bbody_, bpose_, bslot_, bsrc_, bpos_, bvel_);
 }
 
 void Simulation::sortBoundary() {
@@ -393,7 +408,8 @@ void Simulation::sortBoundary() {
 
 void Simulation::gatherBodyForces() {
   StageTimer timer(*this, Stage::RigidCoupling);
-  kernels_.call("rigid_fluid_forces", n_moving_, kLocal, params_, n_moving_, n_static_, bsrc_, pos_[cur_], phase_[cur_], pterm_, cell_start_, bforce_);
+  const int viscous = on(Stage::Viscosity) ? 1 : 0;
+  kernels_.call("rigid_fluid_forces", n_moving_, kLocal, params_, n_moving_, n_static_, bsrc_, bslot_, bvel_, bpressure_, pos_[cur_], vel_[cur_], phase_[cur_], density_, pterm_, cell_start_, viscous, bforce_);
   // The per-body reduction is timed on its own (profile.rigid_reduce_seconds).
   clCall("waiting for the body forces", [&] { return cl_.queue().finish(); });
   const auto t_reduce = std::chrono::steady_clock::now();

@@ -174,6 +174,9 @@ class Simulation {
   void allocateNeighbourLists(uint32_t slots);
   // Grid tables and scratch.
   cl::Buffer cell_count_, cell_start_, bpos_, bcell_start_, crossings_, diag_, max_speed_;
+  // Boundary particles' velocities, wall pressures (Adami 2012) and last-seen stamps, in bpos order.
+  cl::Buffer bvel_, bpressure_, bmark_;
+  uint32_t stamp_ = 0;
   // Verlet lists: rebuilt when particles were added or some particle may have moved skin / 2.
   bool lists_valid_ = false;
   double travel_since_build_ = 0.0;  // sum over steps of max speed * dt (unit: m)

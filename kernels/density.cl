@@ -18,7 +18,8 @@ __kernel void compute_density(const SimParams p, __global const float4* pos, __g
                               __global const uint* nbr_count, __global const uint* bnbr,
                               __global const uint* bnbr_count, __global float* density,
                               __global float* pressure, __global float* pterm, __global uint* snbr,
-                              __global uint* snbr_count, __global uint* sbnbr, __global uint* sbnbr_count) {
+                              __global uint* snbr_count, __global uint* sbnbr, __global uint* sbnbr_count,
+                              const uint stamp, __global uint* bmark) {
   const uint i = get_global_id(0);
   if (i >= p.n_fluid) return;
   const float3 xi = pos[i].xyz;
@@ -33,6 +34,9 @@ __kernel void compute_density(const SimParams p, __global const float4* pos, __g
   nd += sph_list_density(xi, bnbr + (size_t)i * K, bnbr_count[i], bpos, 1, H, sbnbr + (size_t)i * K, &sb);
   snbr_count[i] = sn;
   sbnbr_count[i] = sb;
+  /* mark the boundary particles seen, for boundary_pressure (pressure.cl); all writers of one
+   * entry write the same value */
+  for (uint k = 0; k < sb; ++k) bmark[sbnbr[(size_t)i * K + k]] = stamp;
 
   /* mass density and equation of state */
   const uint ph = phase[i];

@@ -22,20 +22,23 @@ inline float3 sph_rotate(const float4 q, const float3 v) {
   return v + q.w * t + cross(u, t);
 }
 
-/* (1) World positions of the moving particles k (0..n-1): pose[2b] = centre of mass,
- * pose[2b+1] = orientation (x, y, z, w) of body b = body[k]; body_local[k] = body-frame position and
- * volume ratio (w). Written to bsrc[n_static + k] and to its sorted slot in bpos. */
+/* (1) World positions and velocities of the moving particles k (0..n-1): pose[4b] = centre of
+ * mass, pose[4b+1] = orientation (x, y, z, w), pose[4b+2] = velocity of the centre, pose[4b+3] =
+ * angular velocity (world) of body b = body[k]; body_local[k] = body-frame position and volume
+ * ratio (w). Written to bsrc[n_static + k] and to its sorted slot in bpos and bvel. */
 __kernel void rigid_transform(const uint n, const uint n_static, __global const float4* body_local,
                               __global const uint* body, __global const float4* pose, __global const uint* slot,
-                              __global float4* bsrc, __global float4* bpos) {
+                              __global float4* bsrc, __global float4* bpos, __global float4* bvel) {
   const uint k = get_global_id(0);
   if (k >= n) return;
   const uint b = body[k];
   const float4 l = body_local[k];
-  const float3 x = pose[2 * b].xyz + sph_rotate(pose[2 * b + 1], l.xyz);
-  const float4 out = (float4)(x, l.w);
+  const float3 r = sph_rotate(pose[4 * b + 1], l.xyz);
+  const float4 out = (float4)(pose[4 * b].xyz + r, l.w);
+  const uint s = slot[n_static + k];
   bsrc[n_static + k] = out;
-  bpos[slot[n_static + k]] = out;
+  bpos[s] = out;
+  bvel[s] = (float4)(pose[4 * b + 2].xyz + cross(pose[4 * b + 3].xyz, r), 0.0f);
 }
 
 /* Gathers the boundary particles into cell order after a counting sort (grid.cl) of bsrc, and
@@ -48,20 +51,28 @@ __kernel void rigid_boundary_reorder(const uint n, __global const uint* sorted, 
   bpos[s] = bsrc[k];
   slot[k] = s;
 }
+/* (bvel is rewritten in the new order by the rigid_transform that follows every sort; static
+ * particles have velocity zero in any order.) */
 
 /* (2) Force of the fluid on each moving particle: the opposite of the boundary terms of
- * pressure.cl that this particle contributes to each fluid neighbour i within H:
- *     pressure (Akinci 2012 eq. 10):   F_b = + (V_b/V0) (p_i/delta_i^2) gradW-factor (x_i - x_b)
- *     contact  (pressure.cl):          F_b = - m_i (V_b/V0) k_c c0^2/dx (1 - r/dx) (x_i - x_b) / r
+ * pressure.cl that this particle b contributes to each fluid neighbour i within H:
+ *     pressure (p_b: boundary_pressure):     F_b = + (V_b/V0) (p_i + p_b) / delta_i^2 gradW-factor (x_i - x_b)
+ *     contact  (pressure.cl):                F_b = - m_i (V_b/V0) k_c c0^2/dx (1 - r/dx) (x_i - x_b) / r
+ *     viscosity (pair_loops.h):              F_b = - m_i a_visc(i from b)
  * Fluid neighbours come from the fluid grid of the last list rebuild: its cells are H + skin
  * wide and no particle has moved skin/2 since, so the 27 cells hold every neighbour within H. */
 __kernel void rigid_fluid_forces(const SimParams p, const uint n, const uint n_static, __global const float4* bsrc,
-                                 __global const float4* pos, __global const uint* phase,
-                                 __global const float* pterm, __global const uint* cell_start,
-                                 __global float4* force) {
+                                 __global const uint* slot, __global const float4* bvel,
+                                 __global const float* bpressure, __global const float4* pos,
+                                 __global const float4* vel, __global const uint* phase,
+                                 __global const float* density, __global const float* pterm,
+                                 __global const uint* cell_start, const int viscous, __global float4* force) {
   const uint k = get_global_id(0);
   if (k >= n) return;
   const float4 bb = bsrc[n_static + k];
+  const uint s = slot[n_static + k];
+  const float pb = bpressure[s];
+  const float3 vb = bvel[s].xyz;
   const float3 xb = bb.xyz;
   const float H = p.support;
   const float H2 = H * H;
@@ -72,9 +83,13 @@ __kernel void rigid_fluid_forces(const SimParams p, const uint n, const uint n_s
     const float r2 = dot(d, d);
     if (r2 < H2) {
       const float r = sqrt(r2);
-      f += bb.w * pterm[i] * sph_grad_factor(SPH_KERNEL, r, H) * d;
-      if (r < dx && r > 1e-6f * dx)
-        f -= p.phase_mass[phase[i]] * bb.w * (5.0f * p.c0 * p.c0 / dx) * (1.0f - r / dx) / r * d;
+      const float mi = p.phase_mass[phase[i]];
+      const float inv_delta = mi / density[i];
+      const float F = sph_grad_factor(SPH_KERNEL, r, H);
+      f += bb.w * (pterm[i] + pb * inv_delta * inv_delta) * F * d;
+      if (r < dx && r > 1e-6f * dx) f -= mi * bb.w * (5.0f * p.c0 * p.c0 / dx) * (1.0f - r / dx) / r * d;
+      if (viscous)
+        f -= mi * sph_boundary_viscosity(&p, mi, density[i], p.phase_viscosity[phase[i]], vel[i].xyz - vb, d, r2, F, bb.w);
     }
   }
   SPH_END_NEIGHBOURS
@@ -88,7 +103,7 @@ __kernel void rigid_reduce(const uint n_bodies, const uint n_static, __global co
                            __global const float4* force, __global float4* out) {
   const uint b = get_global_id(0);
   if (b >= n_bodies) return;
-  const float3 c = pose[2 * b].xyz;
+  const float3 c = pose[4 * b].xyz;
   float3 F = (float3)(0.0f), T = (float3)(0.0f);
   const uint begin = range[2 * b], end = begin + range[2 * b + 1];
   for (uint k = begin; k < end; ++k) {

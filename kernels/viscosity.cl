@@ -7,13 +7,24 @@
  *   laminar (Morris, Fox & Zhu 1997, eq. 8):
  *     a_i += sum_j m_j (mu_i + mu_j) / (rho_i rho_j) (x_ij . grad W_ij) / (|x_ij|^2 + 0.01 h^2) v_ij,
  *     mu = rho nu (dynamic viscosity from the phase's kinematic viscosity nu)
- * Boundaries are free-slip for viscosity (walls exert pressure only). */
+ * Boundary particles take part with their velocity (pressure.cl, sph_boundary_viscosity). */
 __kernel void viscosity_force(const SimParams p, __global const float4* pos, __global const float4* vel,
                               __global const uint* phase, __global const float* density,
-                              __global const uint* nbr, __global const uint* nbr_count, __global float4* acc) {
+                              __global const uint* nbr, __global const uint* nbr_count,
+                              __global const float4* bpos, __global const float4* bvel,
+                              __global const uint* bnbr, __global const uint* bnbr_count, __global float4* acc) {
   const uint i = get_global_id(0);
   if (i >= p.n_fluid) return;
-  const SphPairSums s = sph_pair_sums(&p, i, pos, vel, phase, density, density,
-                                      nbr + (size_t)i * p.max_neighbours, nbr_count[i], 0, 1);
-  acc[i] += (float4)(s.av, 0.0f);
+  const uint K = p.max_neighbours;
+  const SphPairSums s = sph_pair_sums(&p, i, pos, vel, phase, density, density, nbr + (size_t)i * K, nbr_count[i], 0, 1);
+  const float3 xi = pos[i].xyz, vi = vel[i].xyz;
+  const float mi = p.phase_mass[phase[i]], rhoi = density[i], nu = p.phase_viscosity[phase[i]];
+  float3 av = (float3)(0.0f);
+  for (uint k = 0; k < bnbr_count[i]; ++k) {
+    const uint b = bnbr[(size_t)i * K + k];
+    const float3 d = xi - bpos[b].xyz;
+    const float r2 = dot(d, d);
+    av += sph_boundary_viscosity(&p, mi, rhoi, nu, vi - bvel[b].xyz, d, r2, sph_grad_factor(SPH_KERNEL, sqrt(r2), p.support), bpos[b].w);
+  }
+  acc[i] += (float4)(s.av + av, 0.0f);
 }

@@ -390,6 +390,11 @@ struct Device {
   cl::Buffer cell, rank, sorted, cell_count, cell_start, scan_sums, bpos, bcell_start;
   cl::Buffer density, pressure, pterm, nbr, nbr_count, bnbr, bnbr_count, overflow, acc, crossings, max_speed;
   cl::Buffer snbr, snbr_count, sbnbr, sbnbr_count;  // this step's neighbours within H (density pass)
+  // Boundary velocities (random, as if every boundary particle were on a moving body), wall
+  // pressures and the density pass's marks.
+  std::vector<F4> bvel_host;
+  cl::Buffer bvel, bpressure, bmark;
+  uint32_t nb = 0, stamp = 0;
 
   /// `scan_chunk_cells`: cells per scan chunk (the simulation uses ~1024; smaller gives several chunks).
   Device(KernelSet& k, const Scene& s, uint32_t scan_chunk_cells = 1024) : ks(k), P(s.P), n(s.pos.size()) {
@@ -410,6 +415,13 @@ struct Device {
     scan_sums = zeros<uint32_t>(scan_chunks + 1);
     bpos = toDevice(s.bpos);
     bcell_start = toDevice(s.bcell_start);
+    nb = static_cast<uint32_t>(s.bpos.size());
+    std::mt19937 g(77);
+    std::uniform_real_distribution<float> u(-0.5f, 0.5f);
+    for (uint32_t b = 0; b < nb; ++b) bvel_host.push_back(F4{u(g), u(g), u(g), 0.0f});
+    bvel = toDevice(bvel_host.empty() ? std::vector<F4>(1) : bvel_host);
+    bpressure = toDevice(std::vector<float>(std::max<uint32_t>(nb, 1), -1.0f));  // the pass must write every entry
+    bmark = zeros<uint32_t>(std::max<uint32_t>(nb, 1));
     density = zeros<float>(n);
     pressure = zeros<float>(n);
     pterm = zeros<float>(n);
@@ -461,17 +473,24 @@ struct Device {
     buildLists();
   }
   void computeDensity() {
-    ks.call("compute_density", n, kLocal, P, pos[cur], phase[cur], bpos, nbr, nbr_count, bnbr, bnbr_count, density, pressure, pterm, snbr, snbr_count, sbnbr, sbnbr_count);
+    ++stamp;
+    ks.call("compute_density", n, kLocal, P, pos[cur], phase[cur], bpos, nbr, nbr_count, bnbr, bnbr_count, density, pressure, pterm, snbr, snbr_count, sbnbr, sbnbr_count, stamp, bmark);
   }
+  void boundaryPressure() {
+    if (nb > 0) ks.call("boundary_pressure", nb, kLocal, P, nb, stamp, bpos, bmark, pos[cur], density, pressure, cell_start, bpressure);
+  }
+  // As core/simulation.cpp: the wall pressure, then the force pass.
   void pressureForce() {
-    ks.call("pressure_force", n, kLocal, P, pos[cur], phase[cur], pterm, snbr, snbr_count, bpos, sbnbr, sbnbr_count, acc);
+    boundaryPressure();
+    ks.call("pressure_force", n, kLocal, P, pos[cur], phase[cur], density, pterm, snbr, snbr_count, bpos, bpressure, sbnbr, sbnbr_count, acc);
   }
   void pressureViscosityForce() {
+    boundaryPressure();
     ks.call("pressure_viscosity_force", n, kLocal, P, pos[cur], vel[cur], phase[cur], density, pterm, snbr, snbr_count,
-            bpos, sbnbr, sbnbr_count, acc);
+            bpos, bvel, bpressure, sbnbr, sbnbr_count, acc);
   }
   void viscosityForce() {
-    ks.call("viscosity_force", n, kLocal, P, pos[cur], vel[cur], phase[cur], density, snbr, snbr_count, acc);
+    ks.call("viscosity_force", n, kLocal, P, pos[cur], vel[cur], phase[cur], density, snbr, snbr_count, bpos, bvel, sbnbr, sbnbr_count, acc);
   }
   void colourDiffuse() {
     ks.call("colour_diffuse", n, kLocal, P, pos[cur], phase[cur], density, colour[cur], snbr, snbr_count, colour[1 - cur]);
@@ -910,6 +929,34 @@ TEST_CASE("pressure_force equals the brute-force reference (fluid, boundary and 
     const float dx = std::cbrt(P.rest_volume);
     const double kc = 5.0 * double(P.c0) * P.c0 / dx;
 
+    // Wall pressures (Adami et al. 2012 eq. 27, pressure.cl's boundary_pressure), brute force.
+    std::vector<double> pb(s.bpos.size(), 0.0);
+    const auto pb_device = fromDevice<float>(d.bpressure, std::max<std::size_t>(s.bpos.size(), 1));
+    std::size_t walls_pressed = 0;
+    Failures fb;
+    for (std::size_t b = 0; b < s.bpos.size(); ++b) {
+      double sw = 0, spw = 0;
+      Vec srw;
+      for (std::size_t j = 0; j < n; ++j) {
+        float rx, ry, rz;
+        const float r2 = dist2(s.bpos[b], st.pos[j], rx, ry, rz);
+        if (!(r2 < H2)) continue;
+        const double w = sph_w(c.kind, std::sqrt(r2), H);
+        sw += w;
+        spw += st.pressure[j] * w;
+        srw += (st.density[j] * w) * Vec{rx, ry, rz};
+      }
+      const double gr = P.gravity[0] * srw.x + P.gravity[1] * srw.y + P.gravity[2] * srw.z;
+      pb[b] = sw > 0 ? std::max(0.0, (spw + gr) / sw) : 0.0;
+      walls_pressed += pb[b] > 0;
+      // float sums of positive terms (the extrapolation may cancel: scale by its magnitude)
+      const double tol = 1e-5 * (sw > 0 ? (std::abs(spw) + std::abs(gr)) / sw : 0.0) + 1e-30;
+      if (!(std::abs(pb_device[b] - pb[b]) <= tol))
+        fb.add([&](auto& o) { o << "boundary particle " << b << ": device " << pb_device[b] << " Pa, reference " << pb[b] << " (sum W " << sw << ", sum p W " << spw << ", g . sum rho r W " << gr << ")"; });
+    }
+    CHECK_NO_FAILURES(fb);
+    if (c.boundary) CHECK(walls_pressed > 10u);
+
     std::vector<Vec> ref(n);
     std::vector<double> scale(n);
     double amax = 0.0;
@@ -935,8 +982,10 @@ TEST_CASE("pressure_force equals the brute-force reference (fluid, boundary and 
         const float r2 = dist2(st.pos[i], bb, a, b, e);
         if (!(r2 < H2)) continue;
         const float r = std::sqrt(r2);
-        // Akinci et al. 2012 eq. 9: the single term p_i / delta_i^2 (pressure.cl's header)
-        const double coef = -bb.w * pi_term * sph_grad_factor(c.kind, r, H);
+        // the symmetric term with the wall pressure (pressure.cl's header)
+        const std::size_t k = static_cast<std::size_t>(&bb - s.bpos.data());
+        const double inv_delta = mi / st.density[i];
+        const double coef = -bb.w * (pi_term + pb[k] * inv_delta * inv_delta) * sph_grad_factor(c.kind, r, H);
         f += coef * Vec{a, b, e};
         fs += std::abs(coef) * r;
         if (r < dx && r > 1e-6f * dx) {
@@ -1016,7 +1065,7 @@ void checkViscosity(const bool laminar, const int kind) {
     double amax = 0.0;
     std::vector<Vec> ref(n);
     std::vector<double> scale(n);
-    std::size_t active_pairs = 0;
+    std::size_t active_pairs = 0, boundary_pairs = 0;
     for (std::size_t i = 0; i < n; ++i) {
       const double rhoi = st.density[i], mui = rhoi * P.phase_viscosity[st.phase[i]];
       Vec a;
@@ -1045,6 +1094,29 @@ void checkViscosity(const bool laminar, const int kind) {
         as += term.norm();
         ++active_pairs;
       }
+      // boundary particles, moving with d.bvel_host: a fluid particle of mass (V_b / V0) m_i with
+      // the particle's own density and viscosity (Akinci et al. 2012 eq. 11; pair_loops.h)
+      const double mi = P.phase_mass[st.phase[i]], nui = P.phase_viscosity[st.phase[i]];
+      for (std::size_t b = 0; b < s.bpos.size(); ++b) {
+        float x, y, z;
+        const float r2 = dist2(st.pos[i], s.bpos[b], x, y, z);
+        if (!(r2 < H2)) continue;
+        const F4& vb = d.bvel_host[b];
+        const Vec vib{double(st.vel[i].x) - vb.x, double(st.vel[i].y) - vb.y, double(st.vel[i].z) - vb.z};
+        const double F = sph_grad_factor(kind, std::sqrt(r2), H), w = s.bpos[b].w;
+        Vec term;
+        if (laminar) {
+          term = (2.0 * w * mi * nui / rhoi * (F * r2) / (r2 + eta2)) * vib;
+        } else {
+          const double vx = vib.x * x + vib.y * y + vib.z * z;
+          if (!(vx < 0.0)) continue;
+          const double Pi = -double(P.alpha) * P.c0 * h * vx / ((r2 + eta2) * rhoi);
+          term = (-w * mi * Pi * F) * Vec{x, y, z};
+        }
+        a += term;
+        as += term.norm();
+        ++boundary_pairs;
+      }
       ref[i] = a;
       scale[i] = as;
       amax = std::max(amax, a.norm());
@@ -1066,6 +1138,7 @@ void checkViscosity(const bool laminar, const int kind) {
     INFO("max |a_visc| " << amax << ", worst error / term scale " << worst_rel_scale << ", / max " << worst_rel_max);
     CHECK_NO_FAILURES(f);
     CHECK(active_pairs > n);
+    CHECK(boundary_pairs > 10u);
     CHECK(amax > 1.0);  // the viscous accelerations are not negligible next to acc0
   }
 }

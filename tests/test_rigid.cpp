@@ -8,6 +8,7 @@
 #include "io/bodies_writer.h"
 #include "io/obj_io.h"
 #include "io/scene_loader.h"
+#include "kernels/shared/sph_kernel.h"
 #include "tests/temp_dir.h"
 
 #include <catch2/catch.hpp>
@@ -743,14 +744,14 @@ TEST_CASE("Fluid placed inside or against a body is removed at compile time", "[
 }
 
 TEST_CASE("Coupling: Archimedes: a block of half the water's density floats with half its height submerged", "[rigid]") {
-  // scenes/tests/floating_block.yaml: a 12 x 12 x 6 cm block of 500 kg/m^3, dx = 1.5 cm. At rest its
+  // scenes/tests/floating_block.yaml: a 12 x 12 x 6 cm block of 500 kg/m^3, dx = 1 cm. At rest its
   // weight equals the fluid force and its draft is rho_s / rho_f h = 3 cm (shared/reference/
   // rigid_body_analytic_checks.csv, Archimedes row). The water level follows from mass
   // conservation: N dx^3 of fluid (at rest density: hydrostatic compression is rho g H / (rho c0^2)
   // = 0.4 %) plus the submerged volume m / rho_f, over the tank's area. Averaged over the last
-  // 0.3 s (the heave has decayed to well under a millimetre). Tolerance: the fluid's edge against a
-  // sampled surface is placed to about a tenth of a spacing, at the bottom face and at the water
-  // line: dx / 5 = 3 mm (10 %). Measured: 4.0 % here, 4.3 % at dx = 1 cm (12 x 12 x 6 cm block, 1.5 s).
+  // 0.6 s (the heave has decayed to under 0.1 mm). Tolerance: the issue's 5 %. The error is one
+  // of resolution, at the block's edges: measured 4.8 % short at dx = 1.5 cm, 1.9 % at 1 cm,
+  // 0.8 % at 7.5 mm.
   app::RunOptions o;
   o.scene = (kSourceDir / "scenes" / "tests" / "floating_block.yaml").string();
   o.quiet = true;
@@ -762,17 +763,113 @@ TEST_CASE("Coupling: Archimedes: a block of half the water's density floats with
   const app::RunResult r = app::runScene(o, [&](Simulation& sim, const FrameReport&) {
     particles = sim.numFluid();
     mass = sim.model().bodies[0].mass;
-    if (sim.time() < 0.7 - 1e-9) return;
+    if (sim.time() < 0.9 - 1e-9) return;
     z_sum += sim.bodies()[0].x.z();
     force_sum += sim.bodies()[0].fluid_force.z();
     ++n;
   });
   REQUIRE(r.exit_code == 0);
-  const double dx = 0.015, area = 0.24 * 0.24, h = 0.06, rho = 1000;
+  const double dx = 0.01, area = 0.24 * 0.24, h = 0.06, rho = 1000;
   const double level = (particles * dx * dx * dx + mass / rho) / area;
   const double draft = level - (z_sum / n - 0.5 * h);
   INFO("water level " << level << " m, draft " << draft << " m (expected " << 0.5 * h << " m), mean fluid force "
                       << force_sum / n << " N, weight " << mass * 9.81 << " N");
-  CHECK(std::abs(draft - 0.5 * h) < dx / 5);
+  CHECK(std::abs(draft - 0.5 * h) < 0.05 * 0.5 * h);
   CHECK(std::abs(force_sum / n - mass * 9.81) < 0.02 * mass * 9.81);  // at rest: the fluid carries it
+}
+
+TEST_CASE("Sampling: a body's face weighs what a domain wall weighs for fluid resting next to it", "[rigid]") {
+  // The wall a fluid particle sees at rest dx/2 outside a flat face: the domain's complete lattice
+  // (layers dx/2, 3dx/2, ... behind the face, volume dx^3 each). A body's face is one
+  // Poisson-disk layer with Akinci volumes, scaled by bodyVolumeScale(), which is calibrated on
+  // one box. Checked here on faces of other boxes (other sizes, so other samplings) and at other
+  // distances from the face: the density sum and its normal gradient from the face must match
+  // the lattice's. Tolerance, cubic spline (H = 2 dx): 3 %, the Poisson sampling's variation
+  // over a face (unscaled the excess was 41 %). Wendland C2 (H = 3 dx): 12 %: one layer cannot
+  // follow the profile of the three lattice layers its support reaches (measured: density exact
+  // at dx/2 but its gradient 10 % low there, density 5 % high at 0.8 dx; unscaled, 85 % high).
+  for (const int kernel : {SPH_KERNEL_CUBIC_SPLINE, SPH_KERNEL_WENDLAND_C2}) {
+    const double dx = 0.01, H = (kernel == SPH_KERNEL_WENDLAND_C2 ? 3.0 : 2.0) * dx;
+    const double scale = bodyVolumeScale(dx, H, kernel);
+    INFO("kernel " << kernel << ", scale " << scale);
+    CHECK(scale > 0.5);
+    CHECK(scale < 1.0);  // a sampled face is denser than the lattice's dx^2 per particle
+    for (const Eigen::Vector3d& size : {Eigen::Vector3d(0.17, 0.13, 0.09), Eigen::Vector3d(0.23, 0.21, 0.11)}) {
+      const TriMesh box = rigid::boxMesh(size);
+      std::vector<Eigen::Vector3f> normals;
+      std::vector<Eigen::Vector3f> pts = rigid::sampleSurface(box, dx, &normals);
+      for (std::size_t i = 0; i < pts.size(); ++i) pts[i] -= 0.5f * static_cast<float>(dx) * normals[i];
+      const std::vector<float> vol = akinciVolumes(pts, static_cast<float>(H), kernel);
+      for (const double s : {0.5 * dx, 0.8 * dx}) {
+        double body = 0, body_grad = 0, lattice = 0, lattice_grad = 0;
+        for (int a = -6; a <= 6; ++a)
+          for (int b = -6; b <= 6; ++b) {
+            const Eigen::Vector3d q(a * 0.53 * dx, b * 0.47 * dx, 0.5 * size.z() + s);
+            for (std::size_t i = 0; i < pts.size(); ++i) {
+              const Eigen::Vector3d d = q - pts[i].cast<double>();
+              body += scale * vol[i] * sph_w(kernel, static_cast<float>(d.norm()), static_cast<float>(H));
+              body_grad += scale * vol[i] * sph_grad_factor(kernel, static_cast<float>(d.norm()), static_cast<float>(H)) * d.z();
+            }
+            for (int k = 0; k < 5; ++k)
+              for (int i = -5; i <= 5; ++i)
+                for (int j = -5; j <= 5; ++j) {
+                  const Eigen::Vector3d d(q.x() - (std::round(q.x() / dx) + i) * dx, q.y() - (std::round(q.y() / dx) + j) * dx,
+                                          s + (k + 0.5) * dx);
+                  const double V0 = dx * dx * dx;
+                  lattice += V0 * sph_w(kernel, static_cast<float>(d.norm()), static_cast<float>(H));
+                  lattice_grad += V0 * sph_grad_factor(kernel, static_cast<float>(d.norm()), static_cast<float>(H)) * d.z();
+                }
+          }
+        INFO("box " << size.transpose() << ", probe " << s / dx << " dx out: density ratio " << body / lattice
+                    << ", gradient ratio " << body_grad / lattice_grad);
+        const double tol = kernel == SPH_KERNEL_CUBIC_SPLINE ? 0.03 : 0.12;
+        CHECK(std::abs(body / lattice - 1) < tol);
+        CHECK(std::abs(body_grad / lattice_grad - 1) < tol);
+      }
+    }
+  }
+}
+
+TEST_CASE("Coupling: viscous torque on a turning cylinder follows circular Couette flow", "[rigid]") {
+  // scenes/tests/rotating_cylinder.yaml at depths 6 and 10 cm. In Stokes flow (Re = 0.08) the
+  // torque is T(D) = tau' D + T_ends: the floor and the free surface disturb the flow near them
+  // alike at both depths, so tau' = (T(10 cm) - T(6 cm)) / 4 cm is the torque per unit height of
+  // circular Couette flow, tau' = 4 pi mu omega R^2 Ro^2 / (Ro^2 - R^2) (Landau & Lifshitz, Fluid
+  // Mechanics, section 18), mu = rho nu = 5 Pa s. The tank is square, half-side 6 cm: Ro lies
+  // between the inscribed 6 cm and the circumscribed 8.5 cm circle (factor 1.125 .. 1.059).
+  // Tolerance: where the no-slip surface sits is known to about dx/2 either side of the body's
+  // true surface (its particles are dx/2 inside it, the fluid's dx/2 outside), so R^2 within
+  // (1 +- dx/R), +-33 % at R = 3 dx. Measured in development: -10 .. -16 % at R = 3 dx, and
+  // -4 .. -7.5 % at R = 4 dx in a 16 cm tank. Without the viscous term the torque is ~0.
+  const double R = 0.02, nu = 0.005, rho = 1000, omega = 1, dx = 0.0066667;
+  auto torque = [&](double depth) {
+    app::RunOptions o;
+    o.scene = (kSourceDir / "scenes" / "tests" / "rotating_cylinder.yaml").string();
+    o.quiet = true;
+    o.write_output = false;
+    std::ostringstream set;
+    set << "fluid.blocks[0].max=[0.12, 0.12, " << depth << "]";
+    o.sets = {set.str()};
+    double sum = 0;
+    int n = 0;
+    const app::RunResult r = app::runScene(o, [&](Simulation& sim, const FrameReport&) {
+      if (sim.time() < 0.8 - 1e-9) return;  // steady: Ro^2 / nu = 0.7 s
+      sum += sim.bodies()[0].fluid_torque.z();
+      ++n;
+    });
+    REQUIRE(r.exit_code == 0);
+    REQUIRE(n >= 5);
+    return sum / n;
+  };
+  const double shallow = torque(0.06), deep = torque(0.10);
+  const double slope = (deep - shallow) / 0.04;  // N m per m of depth; negative: it resists
+  const double mu = rho * nu;
+  const double infinite = 4 * M_PI * mu * omega * R * R;
+  auto couette = [&](double Ro) { return infinite * Ro * Ro / (Ro * Ro - R * R); };
+  const double lo = couette(0.06 * std::sqrt(2.0)) * (1 - dx / R), hi = couette(0.06) * (1 + dx / R);
+  INFO("torque at 6 cm " << shallow << " N m, at 10 cm " << deep << " N m: " << -slope
+                         << " N m/m resisting; Couette " << couette(0.06 * std::sqrt(2.0)) << " .. " << couette(0.06)
+                         << ", allowed " << lo << " .. " << hi);
+  CHECK(-slope > lo);
+  CHECK(-slope < hi);
 }

@@ -231,5 +231,20 @@ inline SphPairSums sph_pair_sums(const SimParams* p, const uint i, __global cons
   return s;
 }
 
+/* Viscous acceleration of a fluid particle (mass m, density rho, kinematic viscosity nu) from
+ * one boundary particle of volume ratio w = V_b / V0 at offset d = x_i - x_b (|d|^2 = r2), relative
+ * velocity v = v_i - v_b, gradient factor F: the fluid pair terms above with the
+ * boundary particle as a fluid particle of mass w m and the same density and viscosity. */
+inline float3 sph_boundary_viscosity(const SimParams* p, const float m, const float rho, const float nu,
+                                     const float3 v, const float3 d, const float r2, const float F, const float w) {
+  const float eta2 = 0.01f * p->h * p->h;
+#if SPH_LAMINAR
+  return (2.0f * w * m * nu / rho) * (F * r2) / (r2 + eta2) * v; /* (mu_i + mu_b) / (rho_i rho_b) = 2 nu / rho */
+#else
+  const float Pi = -p->alpha * p->c0 * p->h * fmin(dot(v, d), 0.0f) / ((r2 + eta2) * rho);
+  return -w * m * Pi * F * d;
+#endif
+}
+
 #endif
 #endif
