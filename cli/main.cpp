@@ -2,6 +2,7 @@
 // commands in cli/; this is the only place where io/, core/ and the commands are wired together.
 #include "cli/commands.h"
 #include "cli/compare.h"
+#include "cli/force_analysis.h"
 #include "cli/runner.h"
 #include "core/errors.h"
 
@@ -72,6 +73,19 @@ int main(int argc, char** argv) {
                           "Particle spacing (unit: m; default: the 'particle_spacing:' line of the OBJ header)");
   cmd_compare->add_flag("--quiet,-q", compare.quiet, "Print only the summary line");
 
+  // forces
+  app::ForcesOptions forces;
+  auto* cmd_forces = app.add_subcommand("forces", "Smoothness of a body's fluid force for haptics, from forces.csv "
+                                                  "(output.step_forces): mean drag, noise, content above the servo's low-pass");
+  cmd_forces->add_option("file", forces.file, "forces.csv of a run with output.step_forces: true")->required();
+  cmd_forces->add_option("--body", forces.body, "Body name (default: the first in the file)");
+  cmd_forces->add_option("--from", forces.from, "Window start (unit: s)");
+  cmd_forces->add_option("--to", forces.to, "Window end (unit: s)");
+  cmd_forces->add_option("--cutoff", forces.cutoff, "Servo low-pass cut-off, one pole (unit: Hz)")->capture_default_str();
+  cmd_forces->add_flag("--torque", forces.torque, "Analyse the torque against the angular velocity (a turning body) instead of the drag");
+  cmd_forces->add_option("--frame-rate", forces.frame_rate,
+                         "Also report the noise of per-frame samples at this rate, as bodies.csv sees it (unit: 1/s)");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -85,5 +99,6 @@ int main(int argc, char** argv) {
   if (*cmd_devices) return app::devicesCommand();
   if (*cmd_bench) return app::benchCommand(bench);
   if (*cmd_compare) return app::compareCommand(compare, std::cout, std::cerr);
+  if (*cmd_forces) return app::forcesCommand(forces, std::cout, std::cerr);
   return kExitBadInput;
 }

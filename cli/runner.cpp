@@ -53,6 +53,12 @@ std::string profileLine(const Profile& p) {
                   total > 0 ? 100.0 * t / total : 0.0);
     s << buf;
   }
+  if (p.rigid_reduce_seconds > 0 && p.steps > 0) {
+    char buf[96];
+    std::snprintf(buf, sizeof buf, "; of rigid_coupling, the per-body reduction %.3fs (%.3f ms/step)", p.rigid_reduce_seconds,
+                  1e3 * p.rigid_reduce_seconds / static_cast<double>(p.steps));
+    s << buf;
+  }
   s << "; neighbour lists built " << p.grid_builds << " times in " << p.steps << " steps";
   if (p.subdivided_frames) s << "; CFL subdivided " << p.subdivided_frames << " frame(s)";
   if (p.cfl_warned_frames) s << "; ran " << p.cfl_warned_frames << " frame(s) above the CFL limit";
@@ -93,6 +99,7 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
   // Output state, so that a failure can mark the run as failed.
   std::unique_ptr<io::H5PartWriter> h5;
   std::unique_ptr<io::BodiesCsvWriter> bodies_csv;
+  std::unique_ptr<io::StepForcesCsvWriter> forces_csv;
   std::unique_ptr<io::AsyncWriter> writer;  // after h5: destroyed (joined) before it
   fs::path out_dir, h5_partial, h5_final;
   io::RunInfo info;
@@ -112,6 +119,7 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
     }
     if (h5) h5->close();
     if (bodies_csv) bodies_csv->close();
+    if (forces_csv) forces_csv->close();
     if (!out_dir.empty() && opt.write_output) {
       info.status = status;
       info.message = message;
@@ -190,6 +198,7 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
       fs::remove(h5_final, ec);
       fs::remove(out_dir / "run.json", ec);
       fs::remove(out_dir / "bodies.csv", ec);
+      fs::remove(out_dir / "forces.csv", ec);
       for (const auto& entry : fs::directory_iterator(out_dir, ec)) {  // an earlier run's meshes
         const std::string name = entry.path().filename().string();
         const auto ext = entry.path().extension();
@@ -206,6 +215,10 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
       io::writeRunJson((out_dir / "run.json").string(), info);
       if (spec.output.particles) h5 = std::make_unique<io::H5PartWriter>(h5_partial.string());
       if (!model.bodies.empty()) bodies_csv = std::make_unique<io::BodiesCsvWriter>((out_dir / "bodies.csv").string());
+      if (spec.output.step_forces && !model.bodies.empty()) {
+        forces_csv = std::make_unique<io::StepForcesCsvWriter>((out_dir / "forces.csv").string());
+        sim.recordStepForces(true);
+      }
       writer = std::make_unique<io::AsyncWriter>(3);
       res.out_dir = out_dir.string();
     }
@@ -234,6 +247,7 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
         bodies_csv->writeFrame(sim.time(), model.bodies, sim.bodies());
         io::writeBodyObjs(out_dir.string(), frame, model.bodies, sim.bodies());
       }
+      if (forces_csv) forces_csv->write(sim.takeStepForces(), model.bodies);
       if (!writer || (!h5 && !write_obj && !write_vdb)) {
         res.output_seconds += since(t0);
         return;

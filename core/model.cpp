@@ -219,6 +219,15 @@ Compiled compile(const SceneSpec& spec) {
     body.spec.mesh_data = TriMesh{};
     body.kind = bs.dynamic ? rigid::BodyKind::Dynamic
                            : (bs.motion.type != MotionType::None ? rigid::BodyKind::Kinematic : rigid::BodyKind::Static);
+    if (bs.motion.type == MotionType::Keyframes && !bs.dynamic) {  // the loader checks these at their keys
+      const auto& keys = bs.motion.keyframes;
+      bool increasing = true;
+      for (std::size_t k = 1; k < keys.size(); ++k) increasing = increasing && keys[k].time > keys[k - 1].time;
+      if (keys.size() < 2 || !increasing) {
+        fail(bs.loc, "rigid body '" + bs.name + "': a keyframed motion needs at least 2 keyframes with strictly increasing times");
+        continue;
+      }
+    }
     if (bs.shape == BodyShape::Mesh && bs.mesh_data.triangles.empty()) {
       fail(bs.loc, "rigid body '" + bs.name + "': shape mesh but no mesh was loaded");
       continue;

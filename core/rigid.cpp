@@ -249,6 +249,8 @@ BodyState initialState(const RigidBody& body) {
     s.w = spec.angular_velocity;
     const Eigen::Matrix3d R = s.q.toRotationMatrix();
     s.L = R * body.inertia * R.transpose() * s.w;
+  } else if (body.kind == BodyKind::Kinematic && spec.motion.type == MotionType::Keyframes) {
+    followKeyframes(body, s, 0.0);
   } else if (body.kind == BodyKind::Kinematic) {
     s.v = spec.motion.velocity;
     s.w = spec.motion.angular_velocity;
@@ -284,6 +286,7 @@ void integratePosition(const RigidBody& body, BodyState& s, double dt, const Dom
   switch (body.kind) {
     case BodyKind::Static: return;
     case BodyKind::Kinematic:
+      if (body.spec.motion.type == MotionType::Keyframes) return;  // followKeyframes(body, s, t) poses it
       // Constant velocity and angular velocity: exact for any dt.
       s.x += dt * s.v;
       s.q = rotated(s.q, dt * s.w);
@@ -312,6 +315,100 @@ void integratePosition(const RigidBody& body, BodyState& s, double dt, const Dom
       return;
     }
   }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Keyframed motion (see rigid.h for the curves)
+// ---------------------------------------------------------------------------------------------
+
+namespace {
+
+/// The unit quaternion of the rotation vector theta (unit: rad).
+Eigen::Quaterniond expRotation(const Eigen::Vector3d& theta) {
+  const double angle = theta.norm();
+  if (angle == 0.0) return Eigen::Quaterniond::Identity();
+  return Eigen::Quaterniond(Eigen::AngleAxisd(angle, theta / angle));
+}
+
+/// The rotation vector of a unit quaternion, the short way (angle in [0, pi]).
+Eigen::Vector3d logRotation(Eigen::Quaterniond q) {
+  if (q.w() < 0.0) q.coeffs() = -q.coeffs();
+  const double s = q.vec().norm();
+  if (s == 0.0) return Eigen::Vector3d::Zero();
+  return 2.0 * std::atan2(s, q.w()) / s * q.vec();
+}
+
+Eigen::Quaterniond keyOrientation(const KeyframeSpec& k) {
+  return Eigen::Quaterniond(Eigen::AngleAxisd(k.orientation_angle * M_PI / 180.0, k.orientation_axis.normalized()));
+}
+
+/// Tangents at key k: dp/dt (unit: m/s) and the body-frame angular velocity (unit: rad/s);
+/// weighted finite differences at interior keys, zero at the ends.
+void keyTangents(const std::vector<KeyframeSpec>& keys, std::size_t k, Eigen::Vector3d& m, Eigen::Vector3d& W) {
+  m.setZero();
+  W.setZero();
+  if (k == 0 || k + 1 >= keys.size()) return;
+  const KeyframeSpec &a = keys[k - 1], &b = keys[k], &c = keys[k + 1];
+  const double h0 = b.time - a.time, h1 = c.time - b.time;
+  m = (h1 * (b.position - a.position) / h0 + h0 * (c.position - b.position) / h1) / (h0 + h1);
+  const Eigen::Quaterniond qa = keyOrientation(a), qb = keyOrientation(b), qc = keyOrientation(c);
+  // log(q_a^-1 q_b) is the rotation vector in a's body frame, the same vector in b's (it is its own axis).
+  const Eigen::Vector3d r0 = logRotation(qa.conjugate() * qb), r1 = logRotation(qb.conjugate() * qc);
+  W = (h1 * r0 / h0 + h0 * r1 / h1) / (h0 + h1);
+}
+
+}  // namespace
+
+PathSample samplePath(const std::vector<KeyframeSpec>& keys, double t) {
+  SPH_ASSERT(!keys.empty(), "a keyframed path needs keys");
+  PathSample out;
+  // Hold before the first and after the last key.
+  if (t <= keys.front().time || keys.size() == 1) {
+    out.position = keys.front().position;
+    out.q = keyOrientation(keys.front());
+    return out;
+  }
+  if (t >= keys.back().time) {
+    out.position = keys.back().position;
+    out.q = keyOrientation(keys.back());
+    return out;
+  }
+  // The interval [t_a, t_b) that holds t.
+  std::size_t a = 0;
+  while (a + 2 < keys.size() && t >= keys[a + 1].time) ++a;
+  const KeyframeSpec &ka = keys[a], &kb = keys[a + 1];
+  const double T = kb.time - ka.time, u = (t - ka.time) / T;
+  Eigen::Vector3d ma, Wa, mb, Wb;
+  keyTangents(keys, a, ma, Wa);
+  keyTangents(keys, a + 1, mb, Wb);
+
+  // Position: cubic Hermite basis and its derivative in u.
+  const double u2 = u * u, u3 = u2 * u;
+  const double h00 = 2 * u3 - 3 * u2 + 1, h10 = u3 - 2 * u2 + u, h01 = -2 * u3 + 3 * u2, h11 = u3 - u2;
+  const double d00 = 6 * u2 - 6 * u, d10 = 3 * u2 - 4 * u + 1, d01 = -6 * u2 + 6 * u, d11 = 3 * u2 - 2 * u;
+  out.position = h00 * ka.position + h10 * T * ma + h01 * kb.position + h11 * T * mb;
+  out.velocity = (d00 * ka.position + d10 * T * ma + d01 * kb.position + d11 * T * mb) / T;
+
+  // Orientation: Kim, Kim & Shin (1995) cumulative Hermite form.
+  const Eigen::Quaterniond qa = keyOrientation(ka), qb = keyOrientation(kb);
+  const Eigen::Vector3d th1 = Wa * T / 3.0, th3 = Wb * T / 3.0;
+  const Eigen::Vector3d th2 = logRotation(expRotation(-th1) * qa.conjugate() * qb * expRotation(-th3));
+  const double v = 1.0 - u;
+  const double b1 = 1.0 - v * v * v, b2 = 3 * u2 - 2 * u3, b3 = u3;
+  const double db1 = 3 * v * v, db2 = 6 * u - 6 * u2, db3 = 3 * u2;
+  const Eigen::Quaterniond e1 = expRotation(b1 * th1), e2 = expRotation(b2 * th2), e3 = expRotation(b3 * th3);
+  out.q = (qa * e1 * e2 * e3).normalized();
+  out.w = qa * (db1 * th1 + e1 * (db2 * th2) + (e1 * e2) * (db3 * th3)) / T;
+  return out;
+}
+
+void followKeyframes(const RigidBody& body, BodyState& s, double t) {
+  const PathSample p = samplePath(body.spec.motion.keyframes, t);
+  const Eigen::Vector3d arm = p.q * body.origin_offset;  // centre of mass -> body origin, world
+  s.q = p.q;
+  s.x = p.position - arm;
+  s.w = p.w;
+  s.v = p.velocity - p.w.cross(arm);
 }
 
 TriMesh worldMesh(const RigidBody& body, const BodyState& s) {

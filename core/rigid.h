@@ -116,13 +116,53 @@ Eigen::Matrix3d worldInverseInertia(const RigidBody& body, const Eigen::Quaterni
 ///     v += dt F / m,   L += dt tau,   w = R I^-1 R^T L,   q <- exp(dt w / 2) q (renormalised),   x += dt v,
 /// with gravity g (unit: m/s^2) and the fluid force in the state, so a free fall gives
 /// x_n = x0 + v0 t + g t^2 / 2 + g t dt / 2 (first order in dt), and without torque L is conserved
-/// exactly. Kinematic: the scripted velocities, integrated exactly. Static: nothing moves.
+/// exactly. Kinematic with a constant motion: the scripted velocities, integrated exactly;
+/// keyframed: nothing here (the pose is a function of time: followKeyframes, called by the
+/// Simulation). Static: nothing moves.
 /// integrateVelocity: the momenta of a dynamic body (nothing for the others).
 void integrateVelocity(const RigidBody& body, BodyState& s, const Eigen::Vector3d& g, double dt);
 /// integratePosition: the pose from the velocities. With `walls` (the domain; null = none), a
 /// dynamic body left inside a closed wall (by rounding or unresolved contacts) is moved out along
 /// the wall's normal, velocities untouched.
 void integratePosition(const RigidBody& body, BodyState& s, double dt, const DomainSpec* walls = nullptr);
+
+// --- Keyframed motion -------------------------------------------------------------------------
+//
+// A keyframed kinematic body follows a C1 path through its keys (poses of the body origin):
+//  - position: cubic Hermite per interval, with the finite-difference tangent at interior keys
+//        m_k = (h1 d0 + h0 d1) / (h0 + h1),  d0 = (p_k - p_k-1) / h0,  d1 = (p_k+1 - p_k) / h1
+//    (h0, h1 the intervals before and after key k; Catmull-Rom when the keys are evenly spaced;
+//    exact for a parabola), and m = 0 at the first and last keys, so that the velocity is
+//    continuous also where the body starts from and comes back to rest;
+//  - orientation: the C1 quaternion Hermite curve of Kim, Kim & Shin (1995, "A general construction
+//    scheme for unit quaternion curves with simple high order derivatives", SIGGRAPH), on the
+//    interval [t_a, t_b] of length T, u = (t - t_a) / T:
+//        q(u) = q_a exp(b1(u) th1) exp(b2(u) th2) exp(b3(u) th3),
+//        b1 = 1 - (1 - u)^3,  b2 = 3 u^2 - 2 u^3,  b3 = u^3  (cumulative cubic Bernstein basis),
+//        th1 = W_a T / 3,  th3 = W_b T / 3,  th2 = log(exp(-th1) q_a^-1 q_b exp(-th3)),
+//    where exp/log map rotation vectors to unit quaternions and back (short way) and W_k is the
+//    body-frame angular velocity at key k, from the same finite differences of the relative
+//    rotations log(q_k-1^-1 q_k), 0 at the first and last keys. The angular velocity is continuous
+//    at the keys; a constant turn about one axis through evenly spaced keys comes out uniform.
+//  - velocity and angular velocity are the analytic derivatives of the two curves:
+//        w = R(q_a) [b1' th1 + R(e1) b2' th2 + R(e1 e2) b3' th3] / T,  e_i = exp(b_i th_i).
+// Before the first key the body holds the first pose, after the last key the last (v = w = 0).
+
+/// The pose of the body origin on a keyframed path and its time derivatives.
+struct PathSample {
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();  ///< body origin, world (unit: m)
+  Eigen::Vector3d velocity = Eigen::Vector3d::Zero();  ///< d position / dt (unit: m/s)
+  Eigen::Quaterniond q = Eigen::Quaterniond::Identity(); ///< body -> world
+  Eigen::Vector3d w = Eigen::Vector3d::Zero();         ///< angular velocity, world (unit: rad/s)
+};
+
+/// The path through `keys` (at least one, times strictly increasing) at time t (unit: s).
+PathSample samplePath(const std::vector<KeyframeSpec>& keys, double t);
+
+/// Sets x, q, v and w of a keyframed kinematic body to its path at time t (unit: s): the centre of
+/// mass is x = p - R o (o = origin_offset), moving at v = dp/dt - w x R o. Exact at every t (no
+/// integration, no drift).
+void followKeyframes(const RigidBody& body, BodyState& s, double t);
 
 /// The body's mesh in world coordinates (for output).
 TriMesh worldMesh(const RigidBody& body, const BodyState& s);

@@ -34,7 +34,7 @@ enum class TimeStepControl { Subdivide, Warn };
 enum class NumericalPolicy { Warn, Abort };
 enum class NozzleShape { Rectangle, Circle };
 enum class BodyShape { Mesh, Sphere, Box, Cylinder, Capsule };
-enum class MotionType { None, Constant };
+enum class MotionType { None, Constant, Keyframes };
 
 struct SimulationSpec {
   double duration = 2.0;                        ///< simulated time to run (unit: s)
@@ -110,19 +110,31 @@ struct FluidSpec {
   SourceLoc loc;
 };
 
-/// A scripted (kinematic) motion. With type `constant` the body translates at `velocity` and
-/// turns at `angular_velocity` about its centre of mass, whatever acts on it.
+/// One key of a keyframed motion: the pose of the body origin at `time`.
+struct KeyframeSpec {
+  double time = 0.0;                                ///< (unit: s); strictly increasing along the list
+  Eigen::Vector3d position{0.0, 0.0, 0.0};          ///< world position of the body origin (unit: m)
+  Eigen::Vector3d orientation_axis{0.0, 0.0, 1.0};  ///< rotation axis (normalised on compile)
+  double orientation_angle = 0.0;                   ///< rotation about the axis (unit: deg)
+  SourceLoc loc;
+};
+
+/// A scripted (kinematic) motion, followed whatever acts on the body. With type `constant` the
+/// body translates at `velocity` and turns at `angular_velocity` about its centre of mass. With
+/// type `keyframes` its pose follows a C1 curve through `keyframes` (core/rigid.h, keyframePose):
+/// it holds the first key's pose before the first key and the last key's pose after the last.
 struct MotionSpec {
   MotionType type = MotionType::None;
   Eigen::Vector3d velocity{0.0, 0.0, 0.0};          ///< (unit: m/s)
   Eigen::Vector3d angular_velocity{0.0, 0.0, 0.0};  ///< world frame (unit: rad/s)
+  std::vector<KeyframeSpec> keyframes;              ///< type keyframes: at least 2, times strictly increasing
 };
 
 /// A rigid body: a closed surface (an OBJ mesh or a primitive) placed in the world.
 /// Body frame: the mesh's (or primitive's) own coordinates, scaled by `scale`; its pose in the
 /// world is x_world = position + R(orientation) * (scale * x_body). Orientation is a rotation of
 /// `orientation_angle` degrees about `orientation_axis` (right-handed).
-/// Kinds: static (dynamic false, no motion), kinematic (motion.type constant), dynamic (dynamic true).
+/// Kinds: static (dynamic false, no motion), kinematic (motion.type constant or keyframes), dynamic (dynamic true).
 struct RigidBodySpec {
   std::string name;                                 ///< unique; names the output files
   BodyShape shape = BodyShape::Sphere;
@@ -166,6 +178,7 @@ struct IsosurfaceSpec {
 struct OutputSpec {
   std::string directory;      ///< output folder; empty = ./out/<scene stem>; relative to the scene file
   bool particles = true;      ///< write particles.h5part
+  bool step_forces = false;   ///< write forces.csv: every time step's fluid force and torque on each moving body
   IsosurfaceSpec isosurface;
   SourceLoc loc;
 };

@@ -411,16 +411,21 @@ void Simulation::gatherBodyForces() {
   StageTimer timer(*this, Stage::RigidCoupling);
   const int viscous = on(Stage::Viscosity) ? 1 : 0;
   kernels_.call("rigid_fluid_forces", n_moving_, kLocal, params_, n_moving_, n_static_, bsrc_, bslot_, bvel_, bpressure_, pos_[cur_], vel_[cur_], phase_[cur_], density_, pterm_, cell_start_, viscous, bforce_);
+  // The per-body reduction is timed on its own (profile.rigid_reduce_seconds).
+  clCall("waiting for the body forces", [&] { return cl_.queue().finish(); });
+  const auto t_reduce = std::chrono::steady_clock::now();
   const uint32_t nb = static_cast<uint32_t>(moving_.size());
   kernels_.call("rigid_reduce", nb, 0, nb, n_static_, brange_, bpose_, bsrc_, bforce_, bsum_);
   // Only force and torque per body cross to the host.
   std::vector<Eigen::Vector4f> sums(2 * nb);
   clCall("reading body forces",
          [&] { return cl_.queue().enqueueReadBuffer(bsum_, CL_TRUE, 0, sums.size() * 16, sums.data()); });
+  profile_.rigid_reduce_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t_reduce).count();
   for (uint32_t m = 0; m < nb; ++m) {
     rigid::BodyState& s = bodies_[moving_[m]];
     s.fluid_force = sums[2 * m].head<3>().cast<double>();
     s.fluid_torque = sums[2 * m + 1].head<3>().cast<double>();
+    if (record_forces_) step_forces_.push_back({time_, moving_[m], s.v, s.w, s.fluid_force, s.fluid_torque});
   }
 }
 
@@ -430,10 +435,15 @@ void Simulation::integrateBodies(double dt) {
   const Eigen::Vector3d g = gravityAt(model_.spec.simulation, time_);
   const DomainSpec* walls = &model_.spec.domain;
   // Momenta from gravity and the fluid; contact impulses between bodies and with the closed walls
-  // (core/contact.h); poses; penetration removed by split impulses.
+  // (core/contact.h); poses (keyframed bodies: the pose at the end of the step from the path
+  // itself, no drift); penetration removed by split impulses.
   for (std::size_t b = 0; b < bodies_.size(); ++b) rigid::integrateVelocity(model_.bodies[b], bodies_[b], g, dt);
   contacts_->solve(model_.bodies, bodies_, walls, g, dt);
-  for (std::size_t b = 0; b < bodies_.size(); ++b) rigid::integratePosition(model_.bodies[b], bodies_[b], dt, walls);
+  for (std::size_t b = 0; b < bodies_.size(); ++b) {
+    rigid::integratePosition(model_.bodies[b], bodies_[b], dt, walls);
+    if (model_.bodies[b].kind == rigid::BodyKind::Kinematic && model_.bodies[b].spec.motion.type == MotionType::Keyframes)
+      rigid::followKeyframes(model_.bodies[b], bodies_[b], time_ + dt);
+  }
   contacts_->correctPositions(model_.bodies, bodies_, dt);
 }
 

@@ -16,6 +16,7 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace sph {
@@ -28,7 +29,20 @@ struct Profile {
   uint64_t subdivided_frames = 0;            ///< frames where CFL control added steps
   uint64_t cfl_warned_frames = 0;            ///< frames run with dt above the CFL limit (policy warn)
   uint64_t grid_builds = 0;                  ///< neighbour-grid and list rebuilds (Verlet lists)
+  /// Part of seconds[rigid_coupling]: the per-body reduction (kernel rigid_reduce and the read of
+  /// the sums), timed from a queue finish after rigid_fluid_forces to the end of the read (unit: s).
+  double rigid_reduce_seconds = 0;
   double total() const;
+};
+
+/// One step's fluid force on one moving body, for the per-step force log (output.step_forces).
+struct StepForce {
+  double time = 0;                                    ///< start of the step: the pose the force acts at (unit: s)
+  std::size_t body = 0;                               ///< index into Model::bodies
+  Eigen::Vector3d v = Eigen::Vector3d::Zero();        ///< velocity of the centre of mass (unit: m/s)
+  Eigen::Vector3d w = Eigen::Vector3d::Zero();        ///< angular velocity, world (unit: rad/s)
+  Eigen::Vector3d force = Eigen::Vector3d::Zero();    ///< fluid force (unit: N)
+  Eigen::Vector3d torque = Eigen::Vector3d::Zero();   ///< fluid torque about the centre of mass (unit: N m)
 };
 
 /// What the diagnostics found at the end of one frame.
@@ -76,6 +90,10 @@ class Simulation {
 
   /// Rigid bodies: the compiled bodies (model().bodies) and their current states, same order.
   const std::vector<rigid::BodyState>& bodies() const { return bodies_; }
+  /// Per-step force log: when on, every step appends each moving body's fluid force (StepForce);
+  /// takeStepForces() hands over what was recorded since the last call.
+  void recordStepForces(bool on) { record_forces_ = on; }
+  std::vector<StepForce> takeStepForces() { return std::exchange(step_forces_, {}); }
 
   /// Copies the fluid particles to the host.
   ParticleFrame readFrame();
@@ -143,6 +161,8 @@ class Simulation {
   std::vector<double> moving_reach_;      // farthest particle from the centre of mass (unit: m)
   uint32_t n_static_ = 0, n_moving_ = 0;  // boundary particles: static, moving
   double body_speed_ = 0.0;               // fastest moving body particle this step (unit: m/s)
+  bool record_forces_ = false;            // per-step force log on
+  std::vector<StepForce> step_forces_;    // recorded since the last takeStepForces()
   cl::Buffer bsrc_, blocal_, bbody_, bslot_, bpose_, bforce_, brange_, bsum_, bcell_, brank_, bsorted_, bcount_;
 
   // Per-particle fields, double-buffered for the reorder (cur_ is the live half).

@@ -1,5 +1,6 @@
 #include "io/bodies_writer.h"
 
+#include "core/simulation.h"
 #include "io/obj_io.h"
 
 #include <cstdio>
@@ -51,6 +52,37 @@ void BodiesCsvWriter::writeFrame(double time, const std::vector<rigid::RigidBody
 }
 
 void BodiesCsvWriter::close() {
+  if (out_.is_open()) out_.close();
+}
+
+StepForcesCsvWriter::StepForcesCsvWriter(const std::string& path) : path_(path), out_(path, std::ios::trunc) {
+  if (!out_) throw std::runtime_error("cannot write " + path);
+  out_ << "# sphaptics per-step fluid forces on the moving bodies (output.step_forces), one row per body per time step.\n"
+          "# SI units: s, m/s, rad/s, N, N m. time: start of the step (the pose the force acts at); v*, w*: the body's\n"
+          "# velocity and angular velocity (world); fluid_f*, fluid_t*: the fluid's force and torque about the centre of mass.\n"
+          "time,body,vx,vy,vz,wx,wy,wz,fluid_fx,fluid_fy,fluid_fz,fluid_tx,fluid_ty,fluid_tz\n";
+}
+
+void StepForcesCsvWriter::write(const std::vector<StepForce>& rows, const std::vector<rigid::RigidBody>& bodies) {
+  char buf[64];
+  auto vec = [&](const Eigen::Vector3d& v) {
+    std::snprintf(buf, sizeof buf, ",%.9g,%.9g,%.9g", v.x(), v.y(), v.z());
+    out_ << buf;
+  };
+  for (const StepForce& r : rows) {
+    std::snprintf(buf, sizeof buf, "%.12g", r.time);
+    out_ << buf << "," << (r.body < bodies.size() ? bodies[r.body].spec.name : std::string("?"));
+    vec(r.v);
+    vec(r.w);
+    vec(r.force);
+    vec(r.torque);
+    out_ << "\n";
+  }
+  out_.flush();
+  if (!out_) throw std::runtime_error("cannot write " + path_);
+}
+
+void StepForcesCsvWriter::close() {
   if (out_.is_open()) out_.close();
 }
 

@@ -61,6 +61,7 @@ void writeRunJson(const std::string& path, const RunInfo& info) {
     j << (i ? ", " : "") << jsonString(stageName(static_cast<Stage>(i))) << ": "
       << info.profile.seconds[static_cast<std::size_t>(i)];
   j << "},\n";
+  j << "  \"rigid_reduce_seconds\": " << info.profile.rigid_reduce_seconds << ",\n";
   j << "  \"scene\": " << (info.scene_json.empty() ? "null" : info.scene_json) << "\n";
   j << "}\n";
 

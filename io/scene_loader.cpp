@@ -426,7 +426,7 @@ class Loader {
       const YAML::Mark value_mark = value.IsNull() ? key_node.Mark() : value.Mark();
       switch (def->type) {
         case KeyType::Map: readSection(*def, key_node.Mark(), value, path, index, spec); break;
-        case KeyType::List: readList(*def, value, value_mark, path, spec); break;
+        case KeyType::List: readList(*def, value, value_mark, path, index, spec); break;
         default:
           marks_[path] = value_mark;
           readLeaf(*def, value, value_mark, path, index, spec);
@@ -462,28 +462,30 @@ class Loader {
     readMap(value, def.path, path, index, spec, key_mark);
   }
 
+  /// `parent` is the index of the list item that holds this list (0 at the top level).
   void readList(const KeyDef& def, const YAML::Node& value, const YAML::Mark& value_mark, const std::string& path,
-                SceneSpec& spec) {
+                std::size_t parent, SceneSpec& spec) {
     if (value.IsNull()) return;  // "phases:" with nothing: as if absent
     marks_[path] = value_mark;
     if (!value.IsSequence()) {
       issue(path, value_mark, "'" + path + "' must be " + expectation(def) + ", got " + describe(value));
       return;
     }
-    def.resize(spec, value.size());
+    def.resize(spec, parent, value.size());
     for (std::size_t i = 0; i < value.size(); ++i) {
       const YAML::Node item = value[i];
       const std::string item_path = indexed(path, i);
       const YAML::Mark item_mark = item.IsNull() ? value_mark : item.Mark();
+      const std::size_t item_index = def.item_index(parent, i);
       marks_[item_path] = item_mark;
-      *def.loc(spec, i) = locAt(item_path, item_mark);
+      *def.loc(spec, item_index) = locAt(item_path, item_mark);
       if (!item.IsMap()) {
         issue(item_path, item_mark,
               "each item of '" + path + "' must be a map with keys " + joinList(childNames(def.path + "[]")) +
                   ", got " + describe(item));
         continue;
       }
-      readMap(item, def.path + "[]", item_path, i, spec, item_mark);
+      readMap(item, def.path + "[]", item_path, item_index, spec, item_mark);
     }
   }
 
@@ -730,6 +732,15 @@ class Loader {
       if (body.dynamic && body.motion.type != MotionType::None && marks_.count(item + ".motion.type"))
         issue(item + ".motion.type", markOf(item + ".motion.type"),
               label + " is dynamic, so it cannot follow a scripted motion (set 'dynamic: false' for a kinematic body)");
+      checkKeyframes(body, item, label);
+      // The position is required, except for a keyframed body: its keys give the pose.
+      if (!marks_.count(item + ".position")) {
+        if (body.motion.type == MotionType::Keyframes && !body.motion.keyframes.empty())
+          body.position = body.motion.keyframes.front().position;
+        else if (const KeyDef* def = findKey("rigid_bodies[].position"))
+          issue(item + ".position", markOf(item),
+                "missing required key '" + item + ".position' (" + expectation(*def) + ")");
+      }
 
       const std::string mesh_key = item + ".mesh";
       if (body.shape != BodyShape::Mesh) {
@@ -745,6 +756,40 @@ class Loader {
       if (!usable(mesh_key)) continue;
       body.mesh_loc = locAt(mesh_key, markOf(mesh_key));
       loadBodyMesh(body, mesh_key, label);
+    }
+  }
+
+  // Keyframes: only with motion.type keyframes, which needs at least 2 of them, with strictly
+  // increasing times and nonzero axes; a key without orientation takes the body's.
+  void checkKeyframes(RigidBodySpec& body, const std::string& item, const std::string& label) {
+    const std::string list = item + ".motion.keyframes", type_key = item + ".motion.type";
+    auto& keys = body.motion.keyframes;
+    if (body.motion.type != MotionType::Keyframes) {
+      if (marks_.count(list) && usable(type_key))
+        issue(list, markOf(list), label + ": 'motion.keyframes' is only used with 'motion.type: keyframes' (type is " +
+                                      std::string(enumName(body.motion.type)) + ")");
+      return;
+    }
+    if (!usable(list)) return;
+    if (keys.size() < 2) {
+      const std::string at = marks_.count(list) ? list : type_key;
+      issue(at, markOf(at), label + ": 'motion.type: keyframes' needs a list 'motion.keyframes' of at least 2 keys, got " +
+                                std::to_string(keys.size()));
+      return;
+    }
+    for (std::size_t k = 0; k < keys.size(); ++k) {
+      const std::string key = indexed(list, k);
+      if (!usable(key)) continue;
+      if (!marks_.count(key + ".orientation_axis") && !marks_.count(key + ".orientation_angle")) {
+        keys[k].orientation_axis = body.orientation_axis;
+        keys[k].orientation_angle = body.orientation_angle;
+      }
+      if (usable(key + ".orientation_axis") && keys[k].orientation_axis.norm() == 0.0)
+        issue(key + ".orientation_axis", markOf(key + ".orientation_axis"), "'" + key + ".orientation_axis' must be nonzero");
+      if (k > 0 && given(key + ".time") && given(indexed(list, k - 1) + ".time") && !(keys[k].time > keys[k - 1].time))
+        issue(key + ".time", markOf(key + ".time"),
+              "'" + key + ".time' = " + numberText(keys[k].time) + " must be greater than the previous key's time " +
+                  numberText(keys[k - 1].time) + " (keyframe times strictly increase)");
     }
   }
 
@@ -899,7 +944,7 @@ void jsonMembers(std::string& out, const SceneSpec& spec, const std::string& sch
       jsonMembers(out, spec, key->path, index, indent + 2, true);
       out += "\n" + pad + "}";
     } else if (key->type == KeyType::List) {
-      const std::size_t n = key->count(spec);
+      const std::size_t n = key->count(spec, index);
       if (n == 0) {
         out += "[]";
         continue;
@@ -907,7 +952,7 @@ void jsonMembers(std::string& out, const SceneSpec& spec, const std::string& sch
       out += "[";
       for (std::size_t i = 0; i < n; ++i) {
         out += (i ? ",\n" : "\n") + pad + "  {";
-        jsonMembers(out, spec, key->path + "[]", i, indent + 4, true);
+        jsonMembers(out, spec, key->path + "[]", key->item_index(index, i), indent + 4, true);
         out += "\n" + pad + "  }";
       }
       out += "\n" + pad + "]";

@@ -167,6 +167,15 @@ struct InBodies {
   static auto& item(S& s, std::size_t i) { return s.rigid_bodies.at(i); }
 };
 
+/// Keyframes of a body's motion: a list inside the rigid_bodies list (index: nestedIndex).
+struct InKeyframes {
+  using Item = KeyframeSpec;
+  template <class S>
+  static auto& list(S& s, std::size_t parent) { return s.rigid_bodies.at(nestedParent(parent)).motion.keyframes; }
+  template <class S>
+  static auto& item(S& s, std::size_t i) { return list(s, i).at(nestedItem(i)); }
+};
+
 /// Fluent builder for one KeyDef (see buildTable()).
 class Key {
  public:
@@ -211,8 +220,20 @@ Key section(const char* path, SourceLoc* (*loc)(SceneSpec&)) {
 template <class Scope>
 Key list(const char* path) {
   Key key(path, KeyType::List);
-  key.def.count = [](const SceneSpec& s) { return Scope::list(s).size(); };
-  key.def.resize = [](SceneSpec& s, std::size_t n) { Scope::list(s).resize(n); };
+  key.def.count = [](const SceneSpec& s, std::size_t) { return Scope::list(s).size(); };
+  key.def.resize = [](SceneSpec& s, std::size_t, std::size_t n) { Scope::list(s).resize(n); };
+  key.def.item_index = [](std::size_t, std::size_t i) { return i; };
+  key.def.loc = [](SceneSpec& s, std::size_t i) { return &Scope::item(s, i).loc; };
+  return key;
+}
+
+/// A list inside an item of a top-level list; its items' keys get nestedIndex(parent, i).
+template <class Scope>
+Key nestedList(const char* path) {
+  Key key(path, KeyType::List);
+  key.def.count = [](const SceneSpec& s, std::size_t parent) { return Scope::list(s, parent).size(); };
+  key.def.resize = [](SceneSpec& s, std::size_t parent, std::size_t n) { Scope::list(s, parent).resize(n); };
+  key.def.item_index = [](std::size_t parent, std::size_t i) { return nestedIndex(parent, i); };
   key.def.loc = [](SceneSpec& s, std::size_t i) { return &Scope::item(s, i).loc; };
   return key;
 }
@@ -351,7 +372,8 @@ std::vector<KeyDef> buildTable() {
   add(field<InBodies>("rigid_bodies[].height", [](auto& b) -> auto& { return b.height; })
           .unit("m").greaterThan(0).doc("cylinder length; capsule distance between its cap centres (along body z)"));
   add(field<InBodies>("rigid_bodies[].position", [](auto& b) -> auto& { return b.position; })
-          .unit("m").required().doc("world position of the body origin (the primitive's centre, the mesh's origin)"));
+          .unit("m").defaultNote("(required; keyframes: the first key's)")
+          .doc("world position of the body origin (the primitive's centre, the mesh's origin); a keyframed body may leave it out"));
   add(field<InBodies>("rigid_bodies[].orientation_axis", [](auto& b) -> auto& { return b.orientation_axis; })
           .unit("1").doc("axis of the initial rotation, nonzero (normalised when compiled)"));
   add(field<InBodies>("rigid_bodies[].orientation_angle", [](auto& b) -> auto& { return b.orientation_angle; })
@@ -380,11 +402,25 @@ std::vector<KeyDef> buildTable() {
           .doc("the haptic device may grab this body"));
   add(section("rigid_bodies[].motion", nullptr).doc("scripted motion: makes a non-dynamic body kinematic"));
   add(field<InBodies>("rigid_bodies[].motion.type", [](auto& b) -> auto& { return b.motion.type; })
-          .doc("none (static) or constant (constant velocity and angular velocity)"));
+          .doc("none (static), constant (constant velocity and angular velocity) or keyframes (a C1 path through keyframes)"));
   add(field<InBodies>("rigid_bodies[].motion.velocity", [](auto& b) -> auto& { return b.motion.velocity; })
           .unit("m/s").doc("velocity of the centre of mass (type constant)"));
   add(field<InBodies>("rigid_bodies[].motion.angular_velocity", [](auto& b) -> auto& { return b.motion.angular_velocity; })
           .unit("rad/s").doc("angular velocity about the centre of mass, world frame (type constant)"));
+  add(nestedList<InKeyframes>("rigid_bodies[].motion.keyframes").defaultNote("[]")
+          .doc("type keyframes: at least 2 poses of the body origin, times strictly increasing; position by a cubic "
+               "Hermite (Catmull-Rom) curve, orientation by a C1 quaternion Hermite curve; velocity 0 at the first and "
+               "last keys; the first pose is held before, the last after"));
+  add(field<InKeyframes>("rigid_bodies[].motion.keyframes[].time", [](auto& k) -> auto& { return k.time; })
+          .unit("s").atLeast(0).required().doc("time of this key (greater than the previous key's)"));
+  add(field<InKeyframes>("rigid_bodies[].motion.keyframes[].position", [](auto& k) -> auto& { return k.position; })
+          .unit("m").required().doc("world position of the body origin at this key (as rigid_bodies[].position)"));
+  add(field<InKeyframes>("rigid_bodies[].motion.keyframes[].orientation_axis", [](auto& k) -> auto& { return k.orientation_axis; })
+          .unit("1").defaultNote("(the body's orientation_axis)")
+          .doc("orientation at this key: rotation axis, nonzero; without axis and angle the key takes the body's orientation"));
+  add(field<InKeyframes>("rigid_bodies[].motion.keyframes[].orientation_angle", [](auto& k) -> auto& { return k.orientation_angle; })
+          .unit("deg").defaultNote("(the body's orientation_angle)")
+          .doc("orientation at this key: angle about orientation_axis; consecutive keys turn the short way (< 180 deg)"));
 
   // output ------------------------------------------------------------------------------------
   add(section("output", [](SceneSpec& s) { return &s.output.loc; }).doc("what to write, and where"));
@@ -393,6 +429,8 @@ std::vector<KeyDef> buildTable() {
           .doc("output folder, relative to the scene file; --set values are relative to the working directory"));
   add(field<InScene>("output.particles", [](auto& s) -> auto& { return s.output.particles; })
           .doc("write particles.h5part (H5Part, opens in ParaView)"));
+  add(field<InScene>("output.step_forces", [](auto& s) -> auto& { return s.output.step_forces; })
+          .doc("write forces.csv: the fluid force and torque on each moving body at every time step (bodies.csv has one row per frame)"));
   add(section("output.isosurface", [](SceneSpec& s) { return &s.output.isosurface.loc; })
           .doc("fluid surface per output frame (marching cubes on the device); the section turns it on"));
   add(field<InScene>("output.isosurface.enabled", [](auto& s) -> auto& { return s.output.isosurface.enabled; })
@@ -448,6 +486,7 @@ std::string defaultText(const KeyDef& key) {
   defaults.fluid.blocks.resize(1);
   defaults.fluid.inflows.resize(1);
   defaults.rigid_bodies.resize(1);
+  defaults.rigid_bodies[0].motion.keyframes.resize(1);
   const Value value = key.get(defaults, 0);
   if (key.type == KeyType::String) return "\"" + std::get<std::string>(value) + "\"";
   return valueText(value);

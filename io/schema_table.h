@@ -76,7 +76,8 @@ struct EnumNames<BodyShape> {
 template <>
 struct EnumNames<MotionType> {
   static constexpr std::pair<MotionType, const char*> values[] = {{MotionType::None, "none"},
-                                                                    {MotionType::Constant, "constant"}};
+                                                                    {MotionType::Constant, "constant"},
+                                                                    {MotionType::Keyframes, "keyframes"}};
 };
 
 /// The YAML spelling of an enum value, e.g. enumName(KernelType::WendlandC2) == "wendland_c2".
@@ -146,14 +147,24 @@ struct KeyDef {
   std::function<void(SceneSpec&, std::size_t index, const Value&)> set;
   /// Sections (the section's loc) and lists (item `index`'s loc); null when there is none.
   std::function<SourceLoc*(SceneSpec&, std::size_t index)> loc;
-  /// Lists only: number of items, and resize to n default-constructed items.
-  std::function<std::size_t(const SceneSpec&)> count;
-  std::function<void(SceneSpec&, std::size_t n)> resize;
+  /// Lists only: number of items, and resize to n default-constructed items. `parent` is the
+  /// index of the item the list belongs to (a list inside a list item, such as
+  /// rigid_bodies[].motion.keyframes); top-level lists ignore it.
+  std::function<std::size_t(const SceneSpec&, std::size_t parent)> count;
+  std::function<void(SceneSpec&, std::size_t parent, std::size_t n)> resize;
+  /// Lists only: the index that the keys of item i take (see nestedIndex); i for top-level lists.
+  std::function<std::size_t(std::size_t parent, std::size_t i)> item_index;
 
   bool isLeaf() const { return type != KeyType::Map && type != KeyType::List; }
   std::string parent() const;  ///< "fluid.phases[]" for "fluid.phases[].name"; "" for top-level sections
   std::string name() const;    ///< last segment: "name"
 };
+
+/// The index passed to the keys of item `i` of a list inside item `parent` of a top-level list:
+/// the parent in the low 32 bits, the item in the high ones (nestedParent / nestedItem undo it).
+inline std::size_t nestedIndex(std::size_t parent, std::size_t i) { return (parent & 0xffffffffu) | (i << 32); }
+inline std::size_t nestedParent(std::size_t index) { return index & 0xffffffffu; }
+inline std::size_t nestedItem(std::size_t index) { return index >> 32; }
 
 /// Every key, parents before their children, in the order of the YAML sections.
 const std::vector<KeyDef>& schemaTable();

@@ -551,7 +551,10 @@ TEST_CASE("the schema text lists every key with type, default, unit and range", 
       "rigid_bodies[].dynamic", "rigid_bodies[].velocity", "rigid_bodies[].angular_velocity",
       "rigid_bodies[].friction", "rigid_bodies[].restitution", "rigid_bodies[].colour", "rigid_bodies[].grabbable",
       "rigid_bodies[].motion", "rigid_bodies[].motion.type", "rigid_bodies[].motion.velocity",
-      "rigid_bodies[].motion.angular_velocity", "output", "output.directory", "output.particles",
+      "rigid_bodies[].motion.angular_velocity", "rigid_bodies[].motion.keyframes", "rigid_bodies[].motion.keyframes[].time",
+      "rigid_bodies[].motion.keyframes[].position", "rigid_bodies[].motion.keyframes[].orientation_axis",
+      "rigid_bodies[].motion.keyframes[].orientation_angle", "output", "output.directory", "output.particles",
+      "output.step_forces",
       "output.isosurface", "output.isosurface.enabled", "output.isosurface.spacing", "output.isosurface.iso",
       "output.isosurface.vertex_colours", "output.isosurface.obj", "output.isosurface.vdb", "output.isosurface.vdb_level_set"};
   const auto& table = sph::io::schemaTable();
