@@ -7,6 +7,7 @@
 #include "core/rigid.h"
 #include "io/obj_io.h"
 #include "io/scene_loader.h"
+#include "tests/scene_issues.h"
 #include "tests/temp_dir.h"
 
 #include <catch2/catch.hpp>
@@ -57,31 +58,9 @@ std::vector<KeyframeSpec> unevenKeys() {
           key(1.0, {0.3, 0.0, 0.25}, {0, 1, 0}, -30)};
 }
 
-std::vector<InputIssue> issuesOf(const testing::TempDir& dir, const std::string& yaml) {
-  const fs::path scene = dir.write("scene.yaml", yaml);
-  try {
-    io::loadScene(scene.string());
-  } catch (const InputError& e) {
-    return e.issues();
-  }
-  return {};
-}
-
-bool hasIssue(const std::vector<InputIssue>& issues, int line, const std::vector<std::string>& parts) {
-  for (const auto& i : issues) {
-    if (i.line != line) continue;
-    bool all = true;
-    for (const auto& p : parts) all = all && i.message.find(p) != std::string::npos;
-    if (all) return true;
-  }
-  return false;
-}
-
-std::string dump(const std::vector<InputIssue>& issues) {
-  std::string s;
-  for (const auto& i : issues) s += i.str() + "\n";
-  return s;
-}
+using testing::dump;
+using testing::hasIssue;
+using testing::issuesOf;
 
 }  // namespace
 

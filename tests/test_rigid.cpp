@@ -9,6 +9,7 @@
 #include "io/obj_io.h"
 #include "io/scene_loader.h"
 #include "kernels/shared/sph_kernel.h"
+#include "tests/scene_issues.h"
 #include "tests/temp_dir.h"
 
 #include <catch2/catch.hpp>
@@ -49,31 +50,9 @@ void transform(TriMesh& m, const Eigen::Matrix3d& R, const Eigen::Vector3d& t) {
 std::string objOf(const TriMesh& m) { return io::objText(m); }
 
 /// The issues of loading `yaml` as `dir/scene.yaml`.
-std::vector<InputIssue> issuesOf(const testing::TempDir& dir, const std::string& yaml) {
-  const fs::path scene = dir.write("scene.yaml", yaml);
-  try {
-    io::loadScene(scene.string());
-  } catch (const InputError& e) {
-    return e.issues();
-  }
-  return {};
-}
-
-bool hasIssue(const std::vector<InputIssue>& issues, int line, const std::vector<std::string>& parts) {
-  for (const auto& i : issues) {
-    if (i.line != line) continue;
-    bool all = true;
-    for (const auto& p : parts) all = all && i.message.find(p) != std::string::npos;
-    if (all) return true;
-  }
-  return false;
-}
-
-std::string dump(const std::vector<InputIssue>& issues) {
-  std::string s;
-  for (const auto& i : issues) s += i.str() + "\n";
-  return s;
-}
+using testing::dump;
+using testing::hasIssue;
+using testing::issuesOf;
 
 const std::string kDomain = "domain: {min: [0, 0, 0], max: [1, 1, 1]}\n";
 
