@@ -7,7 +7,7 @@
  *   laminar (Morris, Fox & Zhu 1997, eq. 8):
  *     a_i += sum_j m_j (mu_i + mu_j) / (rho_i rho_j) (x_ij . grad W_ij) / (|x_ij|^2 + 0.01 h^2) v_ij,
  *     mu = rho nu (dynamic viscosity from the phase's kinematic viscosity nu)
- * Boundary particles take part with their velocity (pressure.cl, sph_boundary_viscosity). */
+ * Boundary particles take part with their velocity (shared/pair_loops.h, sph_boundary_viscosity). */
 __kernel void viscosity_force(const SimParams p, __global const float4* pos, __global const float4* vel,
                               __global const uint* phase, __global const float* density,
                               __global const uint* nbr, __global const uint* nbr_count,
