@@ -7,6 +7,7 @@
 #include "core/rigid.h"
 #include "io/obj_io.h"
 #include "io/scene_loader.h"
+#include "tests/run_binary.h"
 #include "tests/scene_issues.h"
 #include "tests/temp_dir.h"
 
@@ -244,17 +245,12 @@ TEST_CASE("Keyframes: bad keyframes are reported at their location, and validate
                         "      keyframes:\n"
                         "        - {time: 0.5, position: [0.5, 0.5, 0.5]}\n"
                         "        - {time: 0.2, position: [0.6, 0.5, 0.5]}\n");
-  const std::string cmd =
-      "cd '" + dir.path.string() + "' && '" + SPHAPTICS_BINARY + "' validate bad.yaml >out.txt 2>err.txt";
-  const int status = std::system(cmd.c_str());
-  REQUIRE(WIFEXITED(status));
-  CHECK(WEXITSTATUS(status) == 2);
-  std::ifstream in(dir.path / "err.txt");
-  std::stringstream err;
-  err << in.rdbuf();
-  INFO(err.str());
-  CHECK(err.str().find("bad.yaml:10:18: ") != std::string::npos);
-  CHECK(err.str().find("keyframe times strictly increase") != std::string::npos);
+  const testing::Result r = testing::sphaptics(dir.path, {"validate", "bad.yaml"});
+  INFO(r.err);
+  REQUIRE(r.code != -1);  // exited (no crash)
+  CHECK(r.code == 2);
+  CHECK(r.err.find("bad.yaml:10:18: ") != std::string::npos);
+  CHECK(r.err.find("keyframe times strictly increase") != std::string::npos);
 }
 
 TEST_CASE("Keyframes: the keys load with the body's orientation as default, and run.json lists them", "[kinematic]") {

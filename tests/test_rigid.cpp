@@ -9,6 +9,7 @@
 #include "io/obj_io.h"
 #include "io/scene_loader.h"
 #include "kernels/shared/sph_kernel.h"
+#include "tests/run_binary.h"
 #include "tests/scene_issues.h"
 #include "tests/temp_dir.h"
 
@@ -337,17 +338,12 @@ TEST_CASE("sphaptics validate: a bad mesh exits 2 naming the scene location and 
   dir.write("scene.yaml", kDomain +
                               "rigid_bodies:\n"
                               "  - {name: a, shape: mesh, mesh: open.obj, position: [0.5, 0.5, 0.5], density: 1000}\n");
-  const std::string cmd = "cd '" + dir.path.string() + "' && '" + SPHAPTICS_BINARY +
-                          "' validate scene.yaml >out.txt 2>err.txt";
-  const int status = std::system(cmd.c_str());
-  REQUIRE(WIFEXITED(status));
-  CHECK(WEXITSTATUS(status) == 2);
-  std::ifstream in(dir.path / "err.txt");
-  std::stringstream err;
-  err << in.rdbuf();
-  INFO(err.str());
-  CHECK(err.str().find("scene.yaml:3:") != std::string::npos);
-  CHECK(err.str().find("open.obj is not closed: 3 open (boundary) edge(s)") != std::string::npos);
+  const testing::Result r = testing::sphaptics(dir.path, {"validate", "scene.yaml"});
+  INFO(r.err);
+  REQUIRE(r.code != -1);  // exited (no crash)
+  CHECK(r.code == 2);
+  CHECK(r.err.find("scene.yaml:3:") != std::string::npos);
+  CHECK(r.err.find("open.obj is not closed: 3 open (boundary) edge(s)") != std::string::npos);
 }
 
 // ---------------------------------------------------------------------------------------------
