@@ -809,6 +809,11 @@ class Loader {
       issue(mesh_key, mark, label + ": mesh file '" + body.mesh + "' not found (looked for " + path.string() + ")");
       return;
     }
+    if (const auto size = fs::file_size(path, ec); !ec && size > kMaxMeshBytes) {
+      issue(mesh_key, mark, label + ": mesh file '" + body.mesh + "' has " + std::to_string(size) +
+                                " bytes, more than the " + std::to_string(kMaxMeshBytes) + " a mesh may have");
+      return;
+    }
     body.mesh = path.string();
     TriMesh mesh;
     try {
@@ -973,6 +978,12 @@ SceneSpec loadScene(const std::string& path, const std::vector<std::string>& ove
   std::error_code ec;
   if (!fs::exists(path, ec)) throw InputError(path, 0, 0, "cannot open the scene file: no such file");
   if (fs::is_directory(path, ec)) throw InputError(path, 0, 0, "cannot read the scene file: it is a directory");
+  // Only a regular file of sane size is read (not /dev/zero, a FIFO or a 10 GB file).
+  if (!fs::is_regular_file(path, ec))
+    throw InputError(path, 0, 0, "cannot read the scene file: not a regular file (a device, FIFO or socket)");
+  if (const auto size = fs::file_size(path, ec); !ec && size > kMaxSceneBytes)
+    throw InputError(path, 0, 0, "cannot read the scene file: " + std::to_string(size) + " bytes, more than the " +
+                                     std::to_string(kMaxSceneBytes) + " a scene may have");
   errno = 0;
   std::ifstream in(path, std::ios::binary);
   if (!in)
