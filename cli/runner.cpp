@@ -34,18 +34,15 @@ namespace {
 std::atomic<int> g_stop_signal{0};
 extern "C" void onStopSignal(int sig) { g_stop_signal = sig; }
 
-/// Installs the stop handlers, and ignores SIGPIPE (a closed stdout/stderr pipe, e.g. `| head`,
-/// must not kill the run: the write fails and the run goes on); restores the old ones at scope exit.
+/// Installs the stop handlers for the frame loop; restores the old ones at scope exit.
 class StopSignals {
  public:
   StopSignals() {
     g_stop_signal = 0;
     for (std::size_t i = 0; i < 3; ++i) old_[i] = std::signal(kSignals[i], onStopSignal);
-    old_pipe_ = std::signal(SIGPIPE, SIG_IGN);
   }
   ~StopSignals() {
     for (std::size_t i = 0; i < 3; ++i) std::signal(kSignals[i], old_[i]);
-    std::signal(SIGPIPE, old_pipe_);
   }
   StopSignals(const StopSignals&) = delete;
   StopSignals& operator=(const StopSignals&) = delete;
@@ -53,7 +50,19 @@ class StopSignals {
  private:
   static constexpr int kSignals[3] = {SIGINT, SIGTERM, SIGHUP};
   void (*old_[3])(int) = {};
-  void (*old_pipe_)(int) = nullptr;
+};
+
+/// Ignores SIGPIPE while in scope (a closed stdout/stderr pipe, e.g. `| head`: the write fails
+/// with EPIPE and the run goes on, instead of dying silently with run.json left "running").
+class IgnoreSigpipe {
+ public:
+  IgnoreSigpipe() : old_(std::signal(SIGPIPE, SIG_IGN)) {}
+  ~IgnoreSigpipe() { std::signal(SIGPIPE, old_); }
+  IgnoreSigpipe(const IgnoreSigpipe&) = delete;
+  IgnoreSigpipe& operator=(const IgnoreSigpipe&) = delete;
+
+ private:
+  void (*old_)(int);
 };
 
 const char* signalName(int sig) {
@@ -126,6 +135,7 @@ void writeSurfaceVdb(const fs::path& dir, int frame, const std::vector<PhaseSpec
 
 RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, const FrameReport&)>& on_frame) {
   RunResult res;
+  IgnoreSigpipe ignore_sigpipe;  // a closed stdout/stderr pipe must not kill the run
   const bool tty = !opt.quiet && isatty(fileno(stderr));
   auto log = [&](const std::string& line) {
     if (!opt.quiet) std::cerr << line << "\n";
@@ -231,26 +241,8 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
     iso_settings.vertex_colours = iso.vertex_colours;
     iso_settings.meshes = iso.obj;  // a VDB-only export needs the field, not the meshes
 
-    // --- Device and simulation -----------------------------------------------------------
-    ClContext cl(opt.device);
-    log("OpenCL " + cl.info().str());
-    Simulation sim(model, compiled.initial, cl);
-    for (const std::string& name : opt.disable) {
-      auto st = stageFromName(name);
-      if (!st) throw InputError("--disable", 0, 0, "unknown stage '" + name + "' (stages: " + stageNameList() + ")");
-      if (!sim.disable(*st)) throw InputError("--disable", 0, 0, "stage '" + name + "' cannot be disabled");
-    }
-    log("stages: " + sim.stages().str());
-    {
-      std::ostringstream s;
-      s << "scene: " << compiled.initial.size() << " fluid particles (budget " << model.capacity << "), "
-        << model.boundary.size() << " boundary particles, " << model.bodies.size() << " rigid bodies, dx = " << model.dx << " m, h = " << model.h
-        << " m, c0 = " << model.c0 << " m/s, " << model.num_frames << " frames at " << spec.simulation.frame_rate
-        << " fps";
-      log(s.str());
-    }
-
-    // --- Output folder: nothing from an earlier run may look like this run's result -------
+    // --- Output folder: locked before the device starts (a busy folder is refused at once);
+    // nothing from an earlier run may look like this run's result -------------------------
     if (opt.write_output) {
       fs::path dir;
       if (!opt.out.empty()) dir = opt.out;
@@ -280,6 +272,29 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
             (name.rfind("body_", 0) == 0 && ext == ".obj"))
           fs::remove(entry.path(), ec);
       }
+    }
+
+    // --- Device and simulation -----------------------------------------------------------
+    ClContext cl(opt.device);
+    log("OpenCL " + cl.info().str());
+    Simulation sim(model, compiled.initial, cl);
+    for (const std::string& name : opt.disable) {
+      auto st = stageFromName(name);
+      if (!st) throw InputError("--disable", 0, 0, "unknown stage '" + name + "' (stages: " + stageNameList() + ")");
+      if (!sim.disable(*st)) throw InputError("--disable", 0, 0, "stage '" + name + "' cannot be disabled");
+    }
+    log("stages: " + sim.stages().str());
+    {
+      std::ostringstream s;
+      s << "scene: " << compiled.initial.size() << " fluid particles (budget " << model.capacity << "), "
+        << model.boundary.size() << " boundary particles, " << model.bodies.size() << " rigid bodies, dx = " << model.dx << " m, h = " << model.h
+        << " m, c0 = " << model.c0 << " m/s, " << model.num_frames << " frames at " << spec.simulation.frame_rate
+        << " fps";
+      log(s.str());
+    }
+
+    // --- Output: run.json says "running", the writers open ---------------------------------
+    if (opt.write_output) {
       info.scene_file = spec.source_file;
       info.scene_json = io::sceneToJson(spec);
       info.device = cl.info().str();

@@ -127,7 +127,7 @@ namespace {
 
 // Bytes per item, host and device together (measured with Simulation::deviceBytes() on pocl and
 // rounded up; README "Bounded resources" gives the measurement).
-constexpr double kBytesPerFluidParticle = 1500;  ///< buffers, 4 neighbour lists, host copies (unit: bytes)
+constexpr double kBytesPerFluidParticle = 3000;  ///< buffers, 4 neighbour lists, host copies (unit: bytes)
 constexpr double kBytesPerBoundaryParticle = 64;  ///< lattice point, volume, cell sort (unit: bytes)
 constexpr double kBytesPerBodyArea = 500;         ///< per dx^2 of body surface: particles + mesh (unit: bytes)
 constexpr double kBytesPerGridCell = 16;          ///< cell start tables, host and device (unit: bytes)
