@@ -517,8 +517,8 @@ Compiled compile(const SceneSpec& spec, const ResourceLimits& limits) {
     for (const auto& b : m.bodies) moving += b.kind != rigid::BodyKind::Static;
     if (moving > 0 && (!fl.blocks.empty() || !fl.inflows.empty()))
       m.notes.push_back(std::to_string(moving) +
-                        " moving rigid bod(ies): coupled to the fluid by pressure and contact (no viscous "
-                        "coupling yet); contact with the closed walls, none between bodies yet");
+                        " moving rigid bod(ies): coupled to the fluid by pressure, viscosity and contact "
+                        "(Akinci et al. 2012); contact with the closed walls and between bodies");
   }
 
   // --- Particle budget: initial + what the nozzles emit over their active time ---------------

@@ -16,7 +16,7 @@ std::string bodiesCsvHeader() {
          "# com_*: centre of mass (world); q*: orientation quaternion body -> world (w, x, y, z);\n"
          "# v*: velocity of the centre of mass; w*: angular velocity (world frame).\n"
          "# fluid_f*, fluid_t*: the fluid's force and torque about the centre of mass in the frame's last step\n"
-         "# (pressure and contact with the fluid; no viscous coupling yet; 0 for static bodies);\n"
+         "# (the fluid's pressure, viscous and contact forces; 0 for static bodies);\n"
          "# contact_f*: the contact force in that step, from the closed walls and other bodies (on static and\n"
          "# kinematic bodies: the reaction of the dynamic ones they touch).\n"
          "time,body,com_x,com_y,com_z,qw,qx,qy,qz,vx,vy,vz,wx,wy,wz,"

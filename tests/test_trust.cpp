@@ -31,6 +31,7 @@
 #include <filesystem>
 #include <fstream>
 #include <regex>
+#include <set>
 #include <string>
 #include <thread>
 #include <vector>
@@ -148,17 +149,21 @@ TEST_CASE("trust: a second real run into a busy folder exits 2 and the first com
           "[trust][lock]") {
   TempDir tmp;
   const fs::path out = tmp.path / "out";
-  // Run A: 12 frames of the tiny tank (several seconds); B starts once A writes its particles.
-  const pid_t a = startSphaptics(tmp.path, {"run", kTinyScene.string(), "--out", "out", "--duration", "0.2", "--quiet"});
+  // Run A: 30 frames of the tiny tank. Once it writes its particles it is paused (SIGSTOP), so
+  // that B surely meets it mid-run whatever the machine's load, and resumed after B.
+  const pid_t a = startSphaptics(tmp.path, {"run", kTinyScene.string(), "--out", "out", "--duration", "0.5", "--quiet"});
   REQUIRE(waitFor([&] { return fs::exists(out / "particles.h5part.partial"); }));
+  kill(a, SIGSTOP);
+  REQUIRE(fs::exists(out / sph::io::kRunLockName));  // A is still running
   const Result b = sphaptics(tmp.path, {"run", kTinyScene.string(), "--out", "out", "--duration", "0.0167", "--quiet"});
+  kill(a, SIGCONT);
   const int a_code = waitExit(a);
   INFO("B: exit " << b.code << ", stderr:\n" << b.err << "\nA: exit " << a_code << ", stderr:\n" << readFile(tmp.path / ".bg_err"));
   CHECK(b.code == 2);
   CHECK(contains(b.err, "in use by another run (pid " + std::to_string(a)));
   REQUIRE(a_code == 0);
   CHECK(contains(readFile(out / "run.json"), "\"status\": \"complete\""));
-  CHECK(h5partSteps(out / "particles.h5part") == 13);  // Step#0 .. Step#12
+  CHECK(h5partSteps(out / "particles.h5part") == 31);  // Step#0 .. Step#30
   CHECK_FALSE(fs::exists(out / sph::io::kRunLockName));  // released at the end
 }
 
@@ -399,4 +404,80 @@ TEST_CASE("trust: the memory estimate bounds what a run allocates on the device"
     CHECK(est.bytes >= static_cast<double>(res.device_bytes));
     CHECK(est.bytes <= 20.0 * static_cast<double>(res.device_bytes));
   }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Item 6: inputs that are accepted do what they say
+// ---------------------------------------------------------------------------------------------
+
+TEST_CASE("trust: body names that are not safe file names, and dynamic bodies outside the domain, are refused at their keys",
+          "[trust][bodies]") {
+  TempDir tmp;
+  const std::string scene =
+      "domain: {min: [0, 0, 0], max: [1, 1, 1]}\n"                                                    // 1
+      "fluid:\n  particle_spacing: 0.05\n  blocks: [{min: [0, 0, 0], max: [1, 1, 0.3]}]\n"             // 2-4
+      "rigid_bodies:\n"                                                                              // 5
+      "  - {name: x/../../escaped, shape: sphere, radius: 0.1, position: [0.5, 0.5, 0.6], density: 500}\n"  // 6
+      "  - {name: .hidden, shape: sphere, radius: 0.1, position: [0.2, 0.2, 0.6], density: 500}\n"    // 7
+      "  - {name: away, shape: sphere, radius: 0.1, position: [0.5, 0.5, 5], density: 500, dynamic: true}\n";  // 8
+  tmp.write("bodies.yaml", scene);
+  const Result r = sphaptics(tmp.path, {"validate", "bodies.yaml"});
+  INFO(r.err);
+  CHECK(r.code == 2);
+  CHECK(contains(r.err, "bodies.yaml:6:12: rigid body name 'x/../../escaped' is used in file names"));
+  CHECK(contains(r.err, "bodies.yaml:7:12: rigid body name '.hidden' is used in file names"));
+  CHECK(contains(r.err, "bodies.yaml:8:56: rigid body 'away' is dynamic but starts outside the domain"));
+}
+
+// ---------------------------------------------------------------------------------------------
+// Item 7: messages say what the code does today
+// ---------------------------------------------------------------------------------------------
+
+TEST_CASE("trust: a frame with only repaired wall crossings prints no warning line; the summary and run.json count them",
+          "[trust][warnings]") {
+  // The tiny tank thrown at the x_max wall and the floor at 4 m/s: particles cross the walls and
+  // are put back (a repair, nothing to act on). Before: one "warning: frame ..." line per frame.
+  TempDir tmp;
+  const Result r = sphaptics(tmp.path, {"run", kTinyScene.string(), "--out", "out", "--duration", "0.05", "--set",
+                                        "fluid.blocks[0].velocity=[4, 0, -4]"});
+  INFO(r.err);
+  REQUIRE(r.code == 0);
+  CHECK_FALSE(contains(r.err, "warning: frame"));
+  std::smatch m;
+  REQUIRE(std::regex_search(r.err, m, std::regex("warnings: ([0-9]+) wall crossing\\(s\\) in ([0-9]+) frame\\(s\\)")));
+  const std::string json = readFile(tmp.path / "out" / "run.json");
+  CHECK(contains(json, "\"wall_crossings\": " + m[1].str()));
+  CHECK(std::stoi(m[1]) > 0);
+}
+
+TEST_CASE("trust: the moving-body note and the bodies.csv header describe today's coupling", "[trust][messages]") {
+  // Viscous coupling (kernels/rigid.cl, sph_boundary_viscosity) and contact between bodies
+  // (core/contact.h) exist: no message may say they do not.
+  TempDir tmp;
+  const Result r = sphaptics(tmp.path, {"run", (kSourceDir / "scenes" / "tests" / "floating_block.yaml").string(), "--out",
+                                        "out", "--duration", "0.034"});
+  INFO(r.err);
+  REQUIRE(r.code == 0);
+  const std::string csv = readFile(tmp.path / "out" / "bodies.csv");
+  for (const std::string& text : {r.err, csv, readFile(tmp.path / "out" / "run.json")}) {
+    CHECK_FALSE(contains(text, "no viscous coupling"));
+    CHECK_FALSE(contains(text, "none between bodies"));
+  }
+  CHECK(contains(r.err, "coupled to the fluid by pressure, viscosity and contact"));
+  CHECK(contains(csv, "viscous"));
+}
+
+TEST_CASE("trust: README names exactly the scenes that have an output.isosurface section", "[trust][messages]") {
+  const std::string readme = readFile(kSourceDir / "README.md");
+  const auto from = readme.find("Of the scenes in `scenes/`,");
+  REQUIRE(from != std::string::npos);
+  const std::string sentence = readme.substr(from, readme.find("have the section", from) - from);
+  std::set<std::string> claimed, actual;
+  const std::regex name("`([a-z_]+\\.yaml)`");
+  for (auto it = std::sregex_iterator(sentence.begin(), sentence.end(), name); it != std::sregex_iterator(); ++it)
+    claimed.insert((*it)[1]);
+  for (const auto& e : fs::directory_iterator(kSourceDir / "scenes"))
+    if (e.path().extension() == ".yaml" && sph::io::loadScene(e.path().string()).output.isosurface.enabled)
+      actual.insert(e.path().filename().string());
+  CHECK(claimed == actual);
 }
