@@ -241,10 +241,10 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
     iso_settings.vertex_colours = iso.vertex_colours;
     iso_settings.meshes = iso.obj;  // a VDB-only export needs the field, not the meshes
 
-    // --- Output folder: locked before the device starts (a busy folder is refused at once);
-    // nothing from an earlier run may look like this run's result -------------------------
+    // --- Output folder: locked before the device starts (a busy folder is refused at once,
+    // having touched nothing but the lock) ---------------------------------------------------
+    fs::path dir;
     if (opt.write_output) {
-      fs::path dir;
       if (!opt.out.empty()) dir = opt.out;
       else if (!spec.output.directory.empty()) dir = spec.output.directory;
       else dir = fs::path("out") / fs::path(opt.scene).stem();
@@ -258,6 +258,22 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
         log("note: " + note);
         info.notes.push_back(note);
       }
+    }
+
+    // --- Device and simulation -----------------------------------------------------------
+    ClContext cl(opt.device);
+    log("OpenCL " + cl.info().str());
+    Simulation sim(model, compiled.initial, cl);
+    for (const std::string& name : opt.disable) {
+      auto st = stageFromName(name);
+      if (!st) throw InputError("--disable", 0, 0, "unknown stage '" + name + "' (stages: " + stageNameList() + ")");
+      if (!sim.disable(*st)) throw InputError("--disable", 0, 0, "stage '" + name + "' cannot be disabled");
+    }
+
+    // --- Output folder: nothing from an earlier run may look like this run's result (only once
+    // the device is up and the options are good: a run that fails before leaves the folder as it was)
+    if (opt.write_output) {
+      std::error_code ec;
       out_dir = dir;  // from here on, failures are recorded in run.json
       h5_final = out_dir / "particles.h5part";
       h5_partial = out_dir / "particles.h5part.partial";
@@ -272,16 +288,6 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
             (name.rfind("body_", 0) == 0 && ext == ".obj"))
           fs::remove(entry.path(), ec);
       }
-    }
-
-    // --- Device and simulation -----------------------------------------------------------
-    ClContext cl(opt.device);
-    log("OpenCL " + cl.info().str());
-    Simulation sim(model, compiled.initial, cl);
-    for (const std::string& name : opt.disable) {
-      auto st = stageFromName(name);
-      if (!st) throw InputError("--disable", 0, 0, "unknown stage '" + name + "' (stages: " + stageNameList() + ")");
-      if (!sim.disable(*st)) throw InputError("--disable", 0, 0, "stage '" + name + "' cannot be disabled");
     }
     log("stages: " + sim.stages().str());
     {

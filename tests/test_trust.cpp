@@ -167,6 +167,23 @@ TEST_CASE("trust: a second real run into a busy folder exits 2 and the first com
   CHECK_FALSE(fs::exists(out / sph::io::kRunLockName));  // released at the end
 }
 
+TEST_CASE("trust: a run refused after taking the lock leaves the earlier run's files as they were", "[trust][lock]") {
+  // A bad --disable is found once the device is up: the folder (an earlier run's outputs) stays
+  // untouched and the lock is released.
+  TempDir tmp;
+  const fs::path out = tmp.path / "out";
+  fs::create_directories(out);
+  std::ofstream(out / "run.json") << "{\"status\": \"complete\"}\n";
+  std::ofstream(out / "particles.h5part") << "earlier frames\n";
+  const Result r = sphaptics(tmp.path, {"run", kTinyScene.string(), "--out", "out", "--duration", "0.0167", "--quiet",
+                                        "--disable", "bogus"});
+  INFO(r.err);
+  CHECK(r.code == 2);
+  CHECK(readFile(out / "run.json") == "{\"status\": \"complete\"}\n");
+  CHECK(readFile(out / "particles.h5part") == "earlier frames\n");
+  CHECK_FALSE(fs::exists(out / sph::io::kRunLockName));
+}
+
 TEST_CASE("trust: a stale lock of a dead run is taken over with a note", "[trust][lock]") {
   TempDir tmp;
   const fs::path out = tmp.path / "out";
@@ -433,7 +450,7 @@ TEST_CASE("trust: body names that are not safe file names, and dynamic bodies ou
 // Item 7: messages say what the code does today
 // ---------------------------------------------------------------------------------------------
 
-TEST_CASE("trust: a frame with only repaired wall crossings prints no warning line; the summary and run.json count them",
+TEST_CASE("trust: a frame with only repaired wall crossings prints no warning line, and the summary and run.json count them",
           "[trust][warnings]") {
   // The tiny tank thrown at the x_max wall and the floor at 4 m/s: particles cross the walls and
   // are put back (a repair, nothing to act on). Before: one "warning: frame ..." line per frame.
