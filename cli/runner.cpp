@@ -243,6 +243,9 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
 
     // --- Output folder: locked before the device starts (a busy folder is refused at once,
     // having touched nothing but the lock) ---------------------------------------------------
+    // From here on a stop signal ends the run through finish() (run.json, lock released); before,
+    // nothing was touched and the default action (exit) is right.
+    StopSignals stop_signals;
     fs::path dir;
     if (opt.write_output) {
       if (!opt.out.empty()) dir = opt.out;
@@ -322,7 +325,6 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
     }
 
     // --- Frames ---------------------------------------------------------------------------
-    StopSignals stop_signals;
     // Per output frame: read back what is exported (the device work happens here), then hand the
     // files to the writer thread, which formats and writes them while the simulation goes on.
     const bool write_obj = writer && iso.enabled && iso.obj;

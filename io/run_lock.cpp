@@ -3,6 +3,7 @@
 #include "core/errors.h"
 
 #include <fcntl.h>
+#include <sys/file.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -33,16 +34,25 @@ std::string utcNow() {
   return buf;
 }
 
-/// Creates `path` exclusively and writes `text` into it. Returns 0, or the errno of the failure
-/// (EEXIST: another lock is there). A failed write removes the file again.
-int createExclusive(const std::string& path, const std::string& text) {
-  const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
-  if (fd < 0) return errno;
-  const ssize_t n = ::write(fd, text.data(), text.size());
-  const int err = n == static_cast<ssize_t>(text.size()) ? 0 : (n < 0 ? errno : EIO);
-  ::close(fd);
-  if (err) ::unlink(path.c_str());
-  return err;
+/// Reads the whole of an open file from its start ("" on failure).
+std::string readAll(int fd) {
+  std::string text;
+  char buf[512];
+  off_t at = 0;
+  for (;;) {
+    const ssize_t n = ::pread(fd, buf, sizeof buf, at);
+    if (n <= 0) break;
+    text.append(buf, static_cast<std::size_t>(n));
+    at += n;
+  }
+  return text;
+}
+
+/// Replaces the content of an open file with `text`; 0 or errno.
+int rewrite(int fd, const std::string& text) {
+  if (::ftruncate(fd, 0) != 0) return errno;
+  const ssize_t n = ::pwrite(fd, text.data(), text.size(), 0);
+  return n == static_cast<ssize_t>(text.size()) ? 0 : (n < 0 ? errno : EIO);
 }
 
 }  // namespace
@@ -60,8 +70,15 @@ LockOwner RunLock::self() {
 }
 
 bool RunLock::read(const std::string& path, LockOwner& owner) {
-  std::ifstream in(path);
-  if (!in) return false;
+  std::ifstream file(path);
+  if (!file) return false;
+  std::stringstream text;
+  text << file.rdbuf();
+  return parse(text.str(), owner);
+}
+
+bool RunLock::parse(const std::string& text, LockOwner& owner) {
+  std::istringstream in(text);
   std::string line;
   // Format: "pid <n>\nhost <name>\nstarted <time>\n"
   bool have_pid = false;
@@ -88,37 +105,83 @@ std::string RunLock::acquire(const std::string& dir) {
   const std::string path = (std::filesystem::path(dir) / kRunLockName).string();
   const LockOwner me = self();
   const std::string text = "pid " + std::to_string(me.pid) + "\nhost " + me.host + "\nstarted " + me.started + "\n";
-  std::string note;
-  // Two attempts: the second only after a stale lock was removed.
-  for (int attempt = 0; attempt < 2; ++attempt) {
-    const int err = createExclusive(path, text);
-    if (err == 0) {
+  auto cannot = [&](int err) {
+    return InputError(dir, 0, 0, "cannot lock the output folder (" + path + "): " + std::strerror(err));
+  };
+  auto busy = [&](const LockOwner& other, bool named) {
+    return InputError(dir, 0, 0,
+                      named ? "the output folder is in use by another run (" + other.str() + "; lock file " + path +
+                                  "): choose another folder with --out, or wait for that run to end"
+                            : "the output folder is in use: lock file " + path +
+                                  " exists but names no run (remove it if no run is using the folder)");
+  };
+  // A few attempts: a lock released between our open() and flock() is retried.
+  for (int attempt = 0; attempt < 3; ++attempt) {
+    // A free folder: create the lock file exclusively, flock it, then name this run in it.
+    int fd = ::open(path.c_str(), O_RDWR | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
+    if (fd >= 0) {
+      if (::flock(fd, LOCK_EX | LOCK_NB) != 0) {  // another run took it over in between: it runs
+        ::close(fd);
+        LockOwner other;
+        const bool named = read(path, other);
+        throw busy(other, named);
+      }
+      if (const int err = rewrite(fd, text); err != 0) {
+        ::unlink(path.c_str());
+        ::close(fd);
+        throw cannot(err);
+      }
+      fd_ = fd;
       path_ = path;
-      return note;
+      return "";
     }
-    if (err != EEXIST)
-      throw InputError(dir, 0, 0, "cannot lock the output folder (" + path + "): " + std::strerror(err));
-    // The folder has a lock: busy unless its pid is dead on this host.
+    if (errno != EEXIST) throw cannot(errno);
+
+    // A lock file exists. Its run holds an flock on it as long as it lives (the kernel drops the
+    // flock when the process dies, however it dies).
+    fd = ::open(path.c_str(), O_RDWR | O_CLOEXEC);
+    if (fd < 0) {
+      if (errno == ENOENT) continue;  // released in between: try again
+      throw cannot(errno);
+    }
     LockOwner other;
-    if (!read(path, other))
-      throw InputError(dir, 0, 0, "the output folder is in use: lock file " + path +
-                                      " exists but names no run (remove it if no run is using the folder)");
-    const bool same_host = other.host == me.host;
-    const bool alive = !same_host || ::kill(static_cast<pid_t>(other.pid), 0) == 0 || errno == EPERM;
-    if (alive || attempt > 0)
-      throw InputError(dir, 0, 0, "the output folder is in use by another run (" + other.str() + "; lock file " +
-                                      path + "): choose another folder with --out, or wait for that run to end");
-    // Stale: the run that held it is gone. Take it over (unlink, then create exclusively again,
-    // so that of two runs taking over at once only one wins).
-    ::unlink(path.c_str());
-    note = "took over the stale lock of a run that no longer exists (" + other.str() + ")";
+    const bool named = parse(readAll(fd), other);
+    if (::flock(fd, LOCK_EX | LOCK_NB) != 0) {
+      ::close(fd);
+      throw busy(other, named);
+    }
+    // We hold the flock: its run is gone, unless the file was unlinked meanwhile (then retry).
+    struct stat held{}, now{};
+    if (::fstat(fd, &held) != 0 || ::stat(path.c_str(), &now) != 0 || held.st_ino != now.st_ino ||
+        held.st_dev != now.st_dev) {
+      ::close(fd);
+      continue;
+    }
+    // Conservative: a lock that names a live pid on this host, or another host, stays busy (a
+    // run of an older version holds no flock); only a dead pid on this host is stale.
+    const bool alive = named && (other.host != me.host || ::kill(static_cast<pid_t>(other.pid), 0) == 0 || errno == EPERM);
+    if (!named || alive) {
+      ::close(fd);
+      throw busy(other, named);
+    }
+    if (const int err = rewrite(fd, text); err != 0) {
+      ::close(fd);
+      throw cannot(err);
+    }
+    fd_ = fd;
+    path_ = path;
+    return "took over the stale lock of a run that no longer exists (" + other.str() + ")";
   }
-  return note;  // not reached
+  throw InputError(dir, 0, 0, "cannot lock the output folder (" + path + "): it changed hands repeatedly; try again");
 }
 
 void RunLock::release() {
   if (path_.empty()) return;
+  // Unlink while still holding the flock, then close: a run waiting on the old file sees it is
+  // no longer at the path (inode check above) and creates a new one.
   ::unlink(path_.c_str());
+  ::close(fd_);
+  fd_ = -1;
   path_.clear();
 }
 

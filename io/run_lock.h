@@ -2,10 +2,15 @@
 //
 // `sphaptics run` takes the lock before it touches anything in the folder, and releases it when
 // the run ends (whatever the end: complete, failed, interrupted). The lock is a file created with
-// O_CREAT | O_EXCL (atomic on a local file system), holding "pid host start-time". A second run
-// that finds the file reads it: when the pid is alive on this host (or the host is another one),
-// the folder is busy and the run stops before writing anything; when the pid is dead on this host,
-// the lock is stale (a run that was killed) and is taken over, with a note.
+// O_CREAT | O_EXCL (atomic), holding "pid host start-time", on which the run holds an flock() for
+// its whole life; the kernel drops the flock when the process dies, however it dies.
+//
+// A second run that finds the file tries the flock: held -> the folder is busy, the run stops
+// before writing anything, naming the other run. Free -> the run that wrote the file is gone,
+// unless the file names a pid that is alive on this host or another host (an older version
+// without the flock, or a run elsewhere on a shared file system): then it is busy too. Otherwise
+// the lock is stale (a run that was killed) and is taken over under the flock, with a note, so
+// that of two runs taking over at once exactly one wins.
 #pragma once
 
 #include <string>
@@ -42,9 +47,12 @@ class RunLock {
   static LockOwner self();
   /// Reads a lock file; false when it cannot be read or parsed.
   static bool read(const std::string& path, LockOwner& owner);
+  /// Parses a lock file's text; false when it names no pid.
+  static bool parse(const std::string& text, LockOwner& owner);
 
  private:
   std::string path_;  ///< the lock file while held
+  int fd_ = -1;       ///< open and flock()ed while held
 };
 
 }  // namespace sph::io

@@ -23,6 +23,7 @@
 
 #include <fcntl.h>
 #include <signal.h>
+#include <sys/file.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -182,6 +183,31 @@ TEST_CASE("trust: a run refused after taking the lock leaves the earlier run's f
   CHECK(readFile(out / "run.json") == "{\"status\": \"complete\"}\n");
   CHECK(readFile(out / "particles.h5part") == "earlier frames\n");
   CHECK_FALSE(fs::exists(out / sph::io::kRunLockName));
+}
+
+TEST_CASE("trust: the lock is held by the flock of a live run, whatever pid its file names", "[trust][lock]") {
+  // A lock file naming a dead pid, but flock()ed by a live process (this test): busy.
+  TempDir tmp;
+  const fs::path out = tmp.path / "out";
+  fs::create_directories(out);
+  const pid_t dead = deadPid();
+  std::ofstream(out / sph::io::kRunLockName) << lockText(dead);
+  const int fd = open((out / sph::io::kRunLockName).c_str(), O_RDWR);
+  REQUIRE(flock(fd, LOCK_EX | LOCK_NB) == 0);
+  const Result r = sphaptics(tmp.path, {"run", kTinyScene.string(), "--out", "out", "--duration", "0.0167", "--quiet"});
+  INFO(r.err);
+  CHECK(r.code == 2);
+  CHECK(contains(r.err, "in use by another run (pid " + std::to_string(dead)));
+  close(fd);
+  // In one process: a second RunLock on the folder is refused until the first is released.
+  sph::io::RunLock first, second;
+  fs::remove(out / sph::io::kRunLockName);
+  CHECK(first.acquire(out.string()).empty());
+  CHECK_THROWS_WITH(second.acquire(out.string()), Catch::Contains("in use by another run (pid " + std::to_string(getpid())));
+  first.release();
+  CHECK_FALSE(fs::exists(out / sph::io::kRunLockName));
+  CHECK(second.acquire(out.string()).empty());
+  CHECK(second.held());
 }
 
 TEST_CASE("trust: a stale lock of a dead run is taken over with a note", "[trust][lock]") {
