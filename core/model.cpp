@@ -276,6 +276,7 @@ Compiled compile(const SceneSpec& spec, const ResourceLimits& limits) {
   };
 
   // --- Lengths and times -------------------------------------------------------------------
+  m.max_steps_per_frame = limits.max_steps_per_frame;
   m.dx = fl.particle_spacing;
   m.support = sim.support_ratio * m.dx;
   m.h = 0.5 * m.support;

@@ -61,6 +61,9 @@ struct Model {
 
   std::vector<Emitter> emitters;
   std::size_t capacity = 0;   ///< particle budget (device buffers are this large)
+  /// Time steps one frame may take under CFL subdivision (ResourceLimits; compile() refuses scenes
+  /// that need more at the start; a run that needs more later should stop with a reason). (unit: 1)
+  double max_steps_per_frame = 1.0e5;
 
   std::vector<std::string> notes;  ///< derived choices worth telling the user (c0, budget, ...)
 };
