@@ -97,7 +97,8 @@ class Simulation {
 
   /// Copies the fluid particles to the host.
   ParticleFrame readFrame();
-  /// FNV-1a hash of positions, velocities, colours, phases and ids (bitwise determinism checks).
+  /// FNV-1a hash of the particles' positions, velocities, colours, phases and ids and the rigid
+  /// bodies' poses, velocities and angular momenta (bitwise determinism checks). Reads only.
   uint64_t stateHash();
 
   /// Isosurface of the current state: one mesh per phase (index = phase), from the device
@@ -127,6 +128,7 @@ class Simulation {
   void sortBoundary();
   void gatherBodyForces();
   FrameReport runDiagnostics();
+  void prepareInitialState();
   cl::Buffer makeBuffer(std::size_t bytes);
 
   // A timed block: waits for the queue at its end so the profile is per stage.
@@ -181,6 +183,7 @@ class Simulation {
   uint32_t stamp_ = 0;
   // Verlet lists: rebuilt when particles were added or some particle may have moved skin / 2.
   bool lists_valid_ = false;
+  bool grid_built_ = false;  // the fluid is in cell order with cell_start_ (isosurface gathers through it)
   double travel_since_build_ = 0.0;  // sum over steps of max speed * dt (unit: m)
   PrefixSum prefix_sum_;
   std::unique_ptr<SurfaceMesher> mesher_;  // isosurface stage, created on first use
