@@ -151,6 +151,7 @@ Simulation::Simulation(const Model& model, const HostParticles& initial, ClConte
   for (const rigid::RigidBody& body : model_.bodies) bodies_.push_back(rigid::initialState(body));
   if (on(Stage::RigidDynamics)) contacts_ = std::make_unique<rigid::ContactSolver>(model_.bodies, model_.dx);
   emitter_travel_.assign(model_.emitters.size(), model_.dx);  // the first layer leaves at the start time
+  if (on(Stage::Probes)) probes_ = std::make_unique<ProbeSampler>(model_, cl_);
   prepareInitialState();
 }
 
@@ -203,6 +204,7 @@ void Simulation::step(double dt) {
       buildGrid();                                     // sort by cell, reorder, Verlet lists
     }
     computeDensity();                                  // number density, rho, p (S&P 2008, Akinci 2012)
+    if (on(Stage::Probes) && probes_->due(time_)) sampleProbes();  // gauges read the state at the step's start
     pressureForces();                                  // wall pressure (Adami 2012), -grad p / rho + g (+ viscosity, fused)
     if (on(Stage::Viscosity) && !on(Stage::Pressure))
       viscosityForces();                               // Monaghan or Morris, on its own
@@ -338,6 +340,22 @@ void Simulation::computeDensity() {
   StageTimer timer(*this, Stage::Density);
   ++stamp_;  // marks the boundary particles within H of fluid this step (for boundary_pressure)
   kernels_.call("compute_density", n_, kLocal, params_, pos_[cur_], phase_[cur_], bpos_, nbr_, nbr_count_, bnbr_, bnbr_count_, density_, pressure_, pterm_, snbr_, snbr_count_, sbnbr_, sbnbr_count_, stamp_, bmark_);
+}
+
+void Simulation::sampleProbes() {
+  StageTimer timer(*this, Stage::Probes);
+  // Each sample point gathers fluid and boundary particles within H plus the drift since the grid
+  // was built (capped, as for the isosurface: a NaN run must not hang here).
+  const float reach = static_cast<float>(model_.support + std::min(travel_since_build_, 4.0 * model_.support));
+  const uint32_t count = static_cast<uint32_t>(probes_->numPoints());
+  kernels_.call("probe_sample", count, kLocal, params_, count, reach, probes_->pointBuffer(), pos_[cur_], vel_[cur_],
+                phase_[cur_], density_, pressure_, cell_start_, bpos_, bcell_start_, probes_->sumBuffer());
+  std::vector<float> sums(8 * std::size_t(count));
+  clCall("reading the probe samples",
+         [&] { return cl_.queue().enqueueReadBuffer(probes_->sumBuffer(), CL_TRUE, 0, sums.size() * 4, sums.data()); });
+  latest_probe_ = probes_->reduce(time_, sums);
+  if (record_probes_) probe_samples_.push_back(*latest_probe_);
+  probes_->taken(time_);
 }
 
 void Simulation::pressureForces() {

@@ -9,12 +9,14 @@
 #include "core/model.h"
 #include "core/particle_frame.h"
 #include "core/prefix_sum.h"
+#include "core/probes.h"
 #include "core/stages.h"
 
 #include <array>
 #include <chrono>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -95,6 +97,12 @@ class Simulation {
   void recordStepForces(bool on) { record_forces_ = on; }
   std::vector<StepForce> takeStepForces() { return std::exchange(step_forces_, {}); }
 
+  /// Probes (scene section `probes`): with recordProbeSamples(true) every sample is kept until
+  /// takeProbeSamples() hands them over; latestProbeSample() is the newest (null before the first).
+  void recordProbeSamples(bool on) { record_probes_ = on; }
+  std::vector<ProbeSample> takeProbeSamples() { return std::exchange(probe_samples_, {}); }
+  const ProbeSample* latestProbeSample() const { return latest_probe_ ? &*latest_probe_ : nullptr; }
+
   /// Copies the fluid particles to the host.
   ParticleFrame readFrame();
   /// FNV-1a hash of the particles' positions, velocities, colours, phases and ids and the rigid
@@ -119,6 +127,7 @@ class Simulation {
   void emitInflow(double dt);
   void buildGrid();
   void computeDensity();
+  void sampleProbes();
   void pressureForces();
   void viscosityForces();
   void diffuseColour();
@@ -187,6 +196,10 @@ class Simulation {
   double travel_since_build_ = 0.0;  // sum over steps of max speed * dt (unit: m)
   PrefixSum prefix_sum_;
   std::unique_ptr<SurfaceMesher> mesher_;  // isosurface stage, created on first use
+  std::unique_ptr<ProbeSampler> probes_;   // probes stage (scenes with a probes section)
+  bool record_probes_ = false;
+  std::vector<ProbeSample> probe_samples_; // taken since the last takeProbeSamples()
+  std::optional<ProbeSample> latest_probe_;
   uint32_t diag_groups_ = 0;
 };
 
