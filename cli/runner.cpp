@@ -4,6 +4,7 @@
 #include "io/bodies_writer.h"
 #include "io/async_writer.h"
 #include "io/h5part_writer.h"
+#include "io/probes_writer.h"
 #include "io/obj_io.h"
 #include "io/surface_export.h"
 #include "io/vdb_writer.h"
@@ -145,6 +146,7 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
   std::unique_ptr<io::H5PartWriter> h5;
   std::unique_ptr<io::BodiesCsvWriter> bodies_csv;
   std::unique_ptr<io::StepForcesCsvWriter> forces_csv;
+  std::unique_ptr<io::ProbesCsvWriter> probes_csv;
   std::unique_ptr<io::AsyncWriter> writer;  // after h5: destroyed (joined) before it
   fs::path out_dir, h5_partial, h5_final;
   bool h5_written = false;  // this run created h5_partial
@@ -168,6 +170,7 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
     if (h5) h5->close();
     if (bodies_csv) bodies_csv->close();
     if (forces_csv) forces_csv->close();
+    if (probes_csv) probes_csv->close();
     if (!out_dir.empty() && opt.write_output) {
       info.status = status;
       info.message = message;
@@ -284,6 +287,7 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
       fs::remove(out_dir / "run.json", ec);
       fs::remove(out_dir / "bodies.csv", ec);
       fs::remove(out_dir / "forces.csv", ec);
+      fs::remove(out_dir / "probes.csv", ec);
       for (const auto& entry : fs::directory_iterator(out_dir, ec)) {  // an earlier run's meshes
         const std::string name = entry.path().filename().string();
         const auto ext = entry.path().extension();
@@ -320,6 +324,10 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
         forces_csv = std::make_unique<io::StepForcesCsvWriter>((out_dir / "forces.csv").string());
         sim.recordStepForces(true);
       }
+      if (sim.stages().on(Stage::Probes)) {
+        probes_csv = std::make_unique<io::ProbesCsvWriter>((out_dir / "probes.csv").string(), spec.probes);
+        sim.recordProbeSamples(true);
+      }
       writer = std::make_unique<io::AsyncWriter>(3);
       res.out_dir = out_dir.string();
     }
@@ -347,6 +355,7 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
         io::writeBodyObjs(out_dir.string(), frame, model.bodies, sim.bodies());
       }
       if (forces_csv) forces_csv->write(sim.takeStepForces(), model.bodies);
+      if (probes_csv) probes_csv->write(sim.takeProbeSamples());
       if (!writer || (!h5 && !write_obj && !write_vdb)) {
         res.output_seconds += since(t0);
         return;

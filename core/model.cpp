@@ -678,6 +678,21 @@ Compiled compile(const SceneSpec& spec, const ResourceLimits& limits) {
   m.stages.set(Stage::RigidDynamics, moving_bodies);
   m.stages.set(Stage::RigidCoupling, moving_bodies && m.capacity > 0);
   m.stages.set(Stage::Diagnostics, true);
+  m.stages.set(Stage::Probes, spec.probes.any() && m.capacity > 0);
+
+  // --- Probes: every sample point inside the domain -----------------------------------------
+  auto inside = [&](const Eigen::Vector3d& x) {
+    return (x.array() >= dom.min.array()).all() && (x.array() <= dom.max.array()).all();
+  };
+  for (const PointProbeSpec& p : spec.probes.points)
+    if (!inside(p.position))
+      fail(p.loc, "probe '" + p.name + "' at [" + fmt(p.position.x()) + ", " + fmt(p.position.y()) + ", " +
+                      fmt(p.position.z()) + "] m is outside the domain");
+  for (const GaugeSpec& g : spec.probes.gauges)
+    if (!inside(g.position))
+      fail(g.loc, "gauge '" + g.name + "' foot at [" + fmt(g.position.x()) + ", " + fmt(g.position.y()) + ", " +
+                      fmt(g.position.z()) + "] m is outside the domain");
+  if (!issues.empty()) throw InputError(issues);
 
   // Fixed build options: the kernel and viscosity model are compile-time constants on the device.
   m.program_options = "-cl-std=CL1.2 -DSPH_KERNEL=" + std::to_string(P.kernel_type) +

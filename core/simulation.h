@@ -9,12 +9,14 @@
 #include "core/model.h"
 #include "core/particle_frame.h"
 #include "core/prefix_sum.h"
+#include "core/probes.h"
 #include "core/stages.h"
 
 #include <array>
 #include <chrono>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -95,9 +97,16 @@ class Simulation {
   void recordStepForces(bool on) { record_forces_ = on; }
   std::vector<StepForce> takeStepForces() { return std::exchange(step_forces_, {}); }
 
+  /// Probes (scene section `probes`): with recordProbeSamples(true) every sample is kept until
+  /// takeProbeSamples() hands them over; latestProbeSample() is the newest (null before the first).
+  void recordProbeSamples(bool on) { record_probes_ = on; }
+  std::vector<ProbeSample> takeProbeSamples() { return std::exchange(probe_samples_, {}); }
+  const ProbeSample* latestProbeSample() const { return latest_probe_ ? &*latest_probe_ : nullptr; }
+
   /// Copies the fluid particles to the host.
   ParticleFrame readFrame();
-  /// FNV-1a hash of positions, velocities, colours, phases and ids (bitwise determinism checks).
+  /// FNV-1a hash of the particles' positions, velocities, colours, phases and ids and the rigid
+  /// bodies' poses, velocities and angular momenta (bitwise determinism checks). Reads only.
   uint64_t stateHash();
 
   /// Isosurface of the current state: one mesh per phase (index = phase), from the device
@@ -118,6 +127,7 @@ class Simulation {
   void emitInflow(double dt);
   void buildGrid();
   void computeDensity();
+  void sampleProbes();
   void pressureForces();
   void viscosityForces();
   void diffuseColour();
@@ -127,6 +137,7 @@ class Simulation {
   void sortBoundary();
   void gatherBodyForces();
   FrameReport runDiagnostics();
+  void prepareInitialState();
   cl::Buffer makeBuffer(std::size_t bytes);
 
   // A timed block: waits for the queue at its end so the profile is per stage.
@@ -181,9 +192,14 @@ class Simulation {
   uint32_t stamp_ = 0;
   // Verlet lists: rebuilt when particles were added or some particle may have moved skin / 2.
   bool lists_valid_ = false;
+  bool grid_built_ = false;  // the fluid is in cell order with cell_start_ (isosurface gathers through it)
   double travel_since_build_ = 0.0;  // sum over steps of max speed * dt (unit: m)
   PrefixSum prefix_sum_;
   std::unique_ptr<SurfaceMesher> mesher_;  // isosurface stage, created on first use
+  std::unique_ptr<ProbeSampler> probes_;   // probes stage (scenes with a probes section)
+  bool record_probes_ = false;
+  std::vector<ProbeSample> probe_samples_; // taken since the last takeProbeSamples()
+  std::optional<ProbeSample> latest_probe_;
   uint32_t diag_groups_ = 0;
 };
 

@@ -713,6 +713,29 @@ class Loader {
     }
 
     checkBodies(spec);
+    checkProbes(spec);
+  }
+
+  // Probes and gauges: names unique across both lists, and made of letters, digits, '_' and '-'
+  // (they become probes.csv column names).
+  void checkProbes(const SceneSpec& spec) {
+    std::vector<std::pair<std::string, std::string>> seen;  // name, its item path
+    auto check = [&](const std::string& item, const std::string& name) {
+      if (!usable(item) || !given(item + ".name")) return;
+      const std::string at = item + ".name";
+      const bool safe = !name.empty() && std::all_of(name.begin(), name.end(), [](char c) {
+        return std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-';
+      });
+      if (!safe)
+        issue(at, markOf(at), "'" + at + "' = '" + name + "': use letters, digits, '_' and '-' (it names CSV columns)");
+      for (const auto& [other, where] : seen)
+        if (other == name) issue(at, markOf(at), "duplicate probe name '" + name + "' (already the name of " + where + ")");
+      seen.emplace_back(name, item);
+    };
+    for (std::size_t i = 0; i < spec.probes.points.size(); ++i)
+      check(indexed("probes.points", i), spec.probes.points[i].name);
+    for (std::size_t i = 0; i < spec.probes.gauges.size(); ++i)
+      check(indexed("probes.gauges", i), spec.probes.gauges[i].name);
   }
 
   // Rigid bodies: unique names, exactly one of density and mass, a nonzero orientation axis, no

@@ -176,6 +176,22 @@ struct InKeyframes {
   static auto& item(S& s, std::size_t i) { return list(s, i).at(nestedItem(i)); }
 };
 
+struct InProbePoints {
+  using Item = PointProbeSpec;
+  template <class S>
+  static auto& list(S& s) { return s.probes.points; }
+  template <class S>
+  static auto& item(S& s, std::size_t i) { return s.probes.points.at(i); }
+};
+
+struct InGauges {
+  using Item = GaugeSpec;
+  template <class S>
+  static auto& list(S& s) { return s.probes.gauges; }
+  template <class S>
+  static auto& item(S& s, std::size_t i) { return s.probes.gauges.at(i); }
+};
+
 /// Fluent builder for one KeyDef (see buildTable()).
 class Key {
  public:
@@ -422,6 +438,26 @@ std::vector<KeyDef> buildTable() {
           .unit("deg").defaultNote("(the body's orientation_angle)")
           .doc("orientation at this key: angle about orientation_axis; consecutive keys turn the short way (< 180 deg)"));
 
+  // probes: the fluid sampled at points and along vertical gauges -----------------------------
+  add(section("probes", [](SceneSpec& s) { return &s.probes.loc; })
+          .doc("pressure probes and water-height gauges, sampled into probes.csv (like an experiment's gauges)"));
+  add(field<InScene>("probes.rate", [](auto& s) -> auto& { return s.probes.rate; })
+          .unit("1/s").atLeast(0).doc("samples per simulated second; 0 = every time step"));
+  add(list<InProbePoints>("probes.points").defaultNote("[]")
+          .doc("points where pressure, density and velocity are read (Shepard-normalised kernel interpolation)"));
+  add(field<InProbePoints>("probes.points[].name", [](auto& p) -> auto& { return p.name; })
+          .required().doc("unique name (letters, digits, _ and -): the CSV columns <name>_pressure, ..."));
+  add(field<InProbePoints>("probes.points[].position", [](auto& p) -> auto& { return p.position; })
+          .unit("m").required().doc("the point, inside the domain"));
+  add(list<InGauges>("probes.gauges").defaultNote("[]")
+          .doc("vertical lines that read the height of the fluid column standing on their foot"));
+  add(field<InGauges>("probes.gauges[].name", [](auto& g) -> auto& { return g.name; })
+          .required().doc("unique name (letters, digits, _ and -): the CSV column <name>_height"));
+  add(field<InGauges>("probes.gauges[].position", [](auto& g) -> auto& { return g.position; })
+          .unit("m").required().doc("foot of the line (e.g. on the floor), inside the domain"));
+  add(field<InGauges>("probes.gauges[].length", [](auto& g) -> auto& { return g.length; })
+          .unit("m").atLeast(0).doc("length of the line upwards; 0 = up to the domain's top"));
+
   // output ------------------------------------------------------------------------------------
   add(section("output", [](SceneSpec& s) { return &s.output.loc; }).doc("what to write, and where"));
   add(field<InScene>("output.directory", [](auto& s) -> auto& { return s.output.directory; })
@@ -487,6 +523,8 @@ std::string defaultText(const KeyDef& key) {
   defaults.fluid.inflows.resize(1);
   defaults.rigid_bodies.resize(1);
   defaults.rigid_bodies[0].motion.keyframes.resize(1);
+  defaults.probes.points.resize(1);
+  defaults.probes.gauges.resize(1);
   const Value value = key.get(defaults, 0);
   if (key.type == KeyType::String) return "\"" + std::get<std::string>(value) + "\"";
   return valueText(value);
