@@ -1,5 +1,7 @@
 #include "cli/runner.h"
 
+#include "cli/haptics_setup.h"
+
 #include "core/errors.h"
 #include "io/bodies_writer.h"
 #include "io/async_writer.h"
@@ -17,6 +19,7 @@
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <iostream>
 #include <memory>
 #include <sstream>
@@ -100,6 +103,7 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
   std::unique_ptr<io::H5PartWriter> h5;
   std::unique_ptr<io::BodiesCsvWriter> bodies_csv;
   std::unique_ptr<io::StepForcesCsvWriter> forces_csv;
+  std::unique_ptr<std::ofstream> haptics_csv;
   std::unique_ptr<io::AsyncWriter> writer;  // after h5: destroyed (joined) before it
   fs::path out_dir, h5_partial, h5_final;
   io::RunInfo info;
@@ -120,6 +124,7 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
     if (h5) h5->close();
     if (bodies_csv) bodies_csv->close();
     if (forces_csv) forces_csv->close();
+    if (haptics_csv) haptics_csv->close();
     if (!out_dir.empty() && opt.write_output) {
       info.status = status;
       info.message = message;
@@ -173,6 +178,15 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
       if (!sim.disable(*st)) throw InputError("--disable", 0, 0, "stage '" + name + "' cannot be disabled");
     }
     log("stages: " + sim.stages().str());
+    // Haptics: only a scene with a `haptics` section (and a body to hold) gets a session; in batch
+    // runs the servo runs in virtual time between steps (haptics/session.h), no thread.
+    std::unique_ptr<haptics::BatchSession> haptic;
+    if (sim.stages().on(Stage::Haptics)) {
+      haptic = makeBatchSession(model);
+      sim.setExternalForces(haptic.get());
+      haptic->publish(sim.time(), sim.bodies());
+      res.haptics = true;
+    }
     {
       std::ostringstream s;
       s << "scene: " << compiled.initial.size() << " fluid particles (budget " << model.capacity << "), "
@@ -199,6 +213,7 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
       fs::remove(out_dir / "run.json", ec);
       fs::remove(out_dir / "bodies.csv", ec);
       fs::remove(out_dir / "forces.csv", ec);
+      fs::remove(out_dir / "haptics.csv", ec);
       for (const auto& entry : fs::directory_iterator(out_dir, ec)) {  // an earlier run's meshes
         const std::string name = entry.path().filename().string();
         const auto ext = entry.path().extension();
@@ -218,6 +233,11 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
       if (spec.output.step_forces && !model.bodies.empty()) {
         forces_csv = std::make_unique<io::StepForcesCsvWriter>((out_dir / "forces.csv").string());
         sim.recordStepForces(true);
+      }
+      if (haptic) {
+        haptics_csv = std::make_unique<std::ofstream>(out_dir / "haptics.csv", std::ios::trunc);
+        if (!*haptics_csv) throw std::runtime_error("cannot write " + (out_dir / "haptics.csv").string());
+        *haptics_csv << haptics::hapticsCsvHeader();
       }
       writer = std::make_unique<io::AsyncWriter>(3);
       res.out_dir = out_dir.string();
@@ -295,6 +315,12 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
     for (int f = 0; f < frames; ++f) {
       if (g_interrupted) break;
       const FrameReport rep = sim.advanceFrame();
+      if (haptic) {  // the frame's local model to the servo; the ticks so far to haptics.csv
+        haptic->publish(sim.time(), sim.bodies());
+        const auto rows = haptic->takeRows();
+        res.haptic_ticks += rows.size();
+        if (haptics_csv) haptics::writeHapticsRows(*haptics_csv, rows);
+      }
       for (const std::string& m : rep.messages) log((tty ? "\n" : "") + std::string("note: ") + m);
       if (!rep.clean()) {
         std::ostringstream s;

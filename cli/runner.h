@@ -40,6 +40,8 @@ struct RunResult {
   uint64_t state_hash = 0;
   std::map<std::string, uint64_t> dispatch_counts;
   std::vector<FrameReport> reports;  ///< one per frame
+  bool haptics = false;              ///< a haptic session ran (the scene has a `haptics` section)
+  std::size_t haptic_ticks = 0;      ///< servo ticks run (virtual time)
 };
 
 /// Surface grid spacing when output.isosurface.spacing is 0, as a fraction of the particle spacing

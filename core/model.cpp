@@ -479,6 +479,7 @@ Compiled compile(const SceneSpec& spec) {
   for (const auto& b : m.bodies) moving_bodies = moving_bodies || b.kind != rigid::BodyKind::Static;
   m.stages.set(Stage::RigidDynamics, moving_bodies);
   m.stages.set(Stage::RigidCoupling, moving_bodies && m.capacity > 0);
+  m.stages.set(Stage::Haptics, m.spec.haptics.enabled && moving_bodies);  // a `haptics` section and a body to hold
   m.stages.set(Stage::Diagnostics, true);
 
   // Fixed build options: the kernel and viscosity model are compile-time constants on the device.

@@ -3,8 +3,10 @@
 //   simulation ──publish(LocalModel)──► Servo::tick(DeviceState) every T = 1 ms ──► force
 //
 // Each tick (../shared/haptics.md, "Servo law"):
-//  1. first-order hold: the anchor a, its velocity and the feed-forward force are interpolated
-//     between the last two LocalModels over one frame interval (one frame of delay, no steps);
+//  1. first-order hold: the anchor a goes on from the newest LocalModel along its velocity (for
+//     at most one frame interval), so steady motion has no lag; the feed-forward force is
+//     interpolated between the last two LocalModels over one frame interval (one frame of delay,
+//     no steps, no overshoot);
 //  2. coupling: F_c = K_d (a - x) + B_d (da/dt - v), v from a finite difference over a 15 ms window
 //     (CHAI3D); plus the feed-forward force through a one-pole 25 Hz low-pass;
 //  3. passivity observer and controller (Hannaford & Ryu 2002, IEEE T-RA 18(1), eqs. 7-9): the

@@ -210,6 +210,9 @@ TEST_CASE("the schema defaults are read from core/scene_spec.h", "[io]") {
   d.fluid.blocks.resize(1);
   d.fluid.inflows.resize(1);
   d.rigid_bodies.resize(1);
+  d.haptics.path.resize(1);
+  d.haptics.waypoints.resize(1);
+  d.haptics.buttons.resize(1);
   for (const auto& key : sph::io::schemaTable()) {
     if (!key.isLeaf() || key.required || !key.default_note.empty()) continue;
     INFO(key.path);
@@ -556,7 +559,8 @@ TEST_CASE("the schema text lists every key with type, default, unit and range", 
       "rigid_bodies[].motion.keyframes[].orientation_angle", "output", "output.directory", "output.particles",
       "output.step_forces",
       "output.isosurface", "output.isosurface.enabled", "output.isosurface.spacing", "output.isosurface.iso",
-      "output.isosurface.vertex_colours", "output.isosurface.obj", "output.isosurface.vdb", "output.isosurface.vdb_level_set"};
+      "output.isosurface.vertex_colours", "output.isosurface.obj", "output.isosurface.vdb", "output.isosurface.vdb_level_set",
+      "haptics", "haptics.backend", "haptics.scale", "haptics.rotation_axis", "haptics.rotation_angle", "haptics.offset", "haptics.gain", "haptics.stiffness", "haptics.damping", "haptics.damping_ratio", "haptics.reach", "haptics.peak_force", "haptics.continuous_force", "haptics.ramp_time", "haptics.watchdog", "haptics.lowpass", "haptics.passivity", "haptics.servo_rate", "haptics.smoothing", "haptics.rolling_window", "haptics.hand_mass", "haptics.hand_stiffness", "haptics.hand_damping", "haptics.path", "haptics.path[].type", "haptics.path[].start", "haptics.path[].end", "haptics.path[].from", "haptics.path[].to", "haptics.path[].centre", "haptics.path[].radius", "haptics.path[].axis", "haptics.path[].period", "haptics.path[].phase", "haptics.path[].amplitude", "haptics.path[].f0", "haptics.path[].f1", "haptics.waypoints", "haptics.waypoints[].time", "haptics.waypoints[].position", "haptics.buttons", "haptics.buttons[].time", "haptics.buttons[].button", "haptics.buttons[].pressed"};
   const auto& table = sph::io::schemaTable();
   REQUIRE(table.size() == expected.size());
   for (std::size_t i = 0; i < expected.size(); ++i) {
