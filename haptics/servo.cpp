@@ -42,6 +42,7 @@ ServoOutput Servo::tick(const DeviceState& s) {
   ++ticks_;
 
   // Take the newest model from the mailbox; the previous one becomes the hold's start.
+  bool fresh = false;
   {
     std::lock_guard<std::mutex> lock(mutex_);
     if (pending_seq_ != seen_seq_) {
@@ -49,6 +50,7 @@ ServoOutput Servo::tick(const DeviceState& s) {
       m0_ = m1_;
       m1_ = pending_;
       ++models_;
+      fresh = true;
       rolling_.push_back(pending_.feed_forward);
       while (static_cast<int>(rolling_.size()) > std::max(1, cfg_.rolling_window)) rolling_.pop_front();
     }
@@ -77,6 +79,7 @@ ServoOutput Servo::tick(const DeviceState& s) {
     energy_ = 0;
     have_prev_ = false;
     fc_prev_.setZero();
+    have_anchor_ = false;  // a new grasp point: no prediction to blend from
     was_coupled_ = coupled;
   }
   if (m1_ && cfg_.smoothing == Smoothing::Servo) {
@@ -88,9 +91,22 @@ ServoOutput Servo::tick(const DeviceState& s) {
     const LocalModel& a = m0_ ? *m0_ : *m1_;
     const double d = b.stamp - a.stamp;
     const double u = d > 0 ? std::clamp((t - b.stamp) / d, 0.0, 1.0) : 1.0;
-    const double ahead = d > 0 ? std::clamp(t - b.stamp, 0.0, d) : 0.0;
-    const Eigen::Vector3d anchor = b.anchor + ahead * b.anchor_velocity;
-    const Eigen::Vector3d anchor_v = b.anchor_velocity;
+    // Extrapolated until the model expires (a dropped frame must not stall the anchor; the
+    //    watchdog fades the force out after that).
+    const double ahead = std::clamp(t - b.stamp, 0.0, std::min(cfg_.watchdog, b.ttl));
+    // The slope of the hold: the anchor's mean velocity over the last frame, (a1 - a0) / (t1 - t0),
+    //    exact for steady motion (the body's velocity at the frame's end may differ from its mean).
+    const Eigen::Vector3d slope =
+        d > 0 && a.coupled == b.coupled ? Eigen::Vector3d((b.anchor - a.anchor) / d) : b.anchor_velocity;
+    const Eigen::Vector3d predicted = b.anchor + ahead * slope;
+    // A new model corrects the old prediction: the jump is blended in over one frame interval, so
+    //    the anchor stays continuous (no force step at the frame rate).
+    if (fresh) blend_ = have_anchor_ ? Eigen::Vector3d(last_anchor_ + T_ * last_slope_ - predicted) : Eigen::Vector3d::Zero();
+    const Eigen::Vector3d anchor = predicted + (1.0 - u) * blend_;
+    const Eigen::Vector3d anchor_v = slope;
+    last_anchor_ = anchor;
+    last_slope_ = slope;
+    have_anchor_ = true;
     const Eigen::Vector3d ff = a.feed_forward + u * (b.feed_forward - a.feed_forward);
     out.target = anchor;
 

@@ -3,8 +3,11 @@
 //   simulation ──publish(LocalModel)──► Servo::tick(DeviceState) every T = 1 ms ──► force
 //
 // Each tick (../shared/haptics.md, "Servo law"):
-//  1. first-order hold: the anchor a goes on from the newest LocalModel along its velocity (for
-//     at most one frame interval), so steady motion has no lag; the feed-forward force is
+//  1. first-order hold: the anchor a goes on from the newest LocalModel along the slope of the
+//     last two, (a1 - a0) / (t1 - t0), until the model expires, so steady motion has no lag
+//     (an interpolating hold, one frame behind, would pull back by K_d v / f: 1 N at 0.25 m/s and
+//     60 Hz); a new model's correction of the prediction is blended in over one frame (the anchor
+//     stays continuous: no force steps at the frame rate); the feed-forward force is
 //     interpolated between the last two LocalModels over one frame interval (one frame of delay,
 //     no steps, no overshoot);
 //  2. coupling: F_c = K_d (a - x) + B_d (da/dt - v), v from a finite difference over a 15 ms window
@@ -133,6 +136,10 @@ class Servo {
   Eigen::Vector3d x_prev_ = Eigen::Vector3d::Zero(), a_prev_ = Eigen::Vector3d::Zero();
   Eigen::Vector3d fc_prev_ = Eigen::Vector3d::Zero();   // coupling force of the last tick
   Eigen::Vector3d ff_filtered_ = Eigen::Vector3d::Zero();
+  Eigen::Vector3d last_anchor_ = Eigen::Vector3d::Zero();  // anchor of the last tick
+  Eigen::Vector3d blend_ = Eigen::Vector3d::Zero();        // prediction error blended out over a frame
+  Eigen::Vector3d last_slope_ = Eigen::Vector3d::Zero();   // hold slope of the last tick (unit: m/s)
+  bool have_anchor_ = false;
   Eigen::Vector3d f_prev_ = Eigen::Vector3d::Zero();    // force sent last tick
   double energy_ = 0;
   bool have_prev_ = false;
