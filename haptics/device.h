@@ -11,6 +11,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
+#include <chrono>
 #include <cstdint>
 #include <stdexcept>
 #include <string>
@@ -75,6 +76,22 @@ class VirtualClock : public Clock {
 
  private:
   double t_ = 0;
+};
+
+}  // namespace sph::haptics
+
+namespace sph::haptics {
+
+/// Seconds since construction on std::chrono::steady_clock: live runs.
+class SteadyClock : public Clock {
+ public:
+  SteadyClock() : t0_(std::chrono::steady_clock::now()) {}
+  double now() const override {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0_).count();
+  }
+
+ private:
+  std::chrono::steady_clock::time_point t0_;
 };
 
 }  // namespace sph::haptics

@@ -96,8 +96,10 @@ ServoOutput Servo::tick(const DeviceState& s) {
     const double ahead = std::clamp(t - b.stamp, 0.0, std::min(cfg_.watchdog, b.ttl));
     // The slope of the hold: the anchor's mean velocity over the last frame, (a1 - a0) / (t1 - t0),
     //    exact for steady motion (the body's velocity at the frame's end may differ from its mean).
+    //    Models less than 5 ms apart (a bridge's jittery stamps) give no usable chord: then the
+    //    simulation's own anchor velocity.
     const Eigen::Vector3d slope =
-        d > 0 && a.coupled == b.coupled ? Eigen::Vector3d((b.anchor - a.anchor) / d) : b.anchor_velocity;
+        d > 5e-3 && a.coupled == b.coupled ? Eigen::Vector3d((b.anchor - a.anchor) / d) : b.anchor_velocity;
     const Eigen::Vector3d predicted = b.anchor + ahead * slope;
     // A new model corrects the old prediction: the jump is blended in over one frame interval, so
     //    the anchor stays continuous (no force step at the frame rate).
