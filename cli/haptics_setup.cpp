@@ -66,20 +66,22 @@ haptics::Mapping hapticMapping(const SceneSpec& spec) {
   return m;
 }
 
-std::unique_ptr<haptics::BatchSession> makeBatchSession(const Model& model) {
-  const HapticsSpec& h = model.spec.haptics;
-  auto clock = std::make_shared<haptics::VirtualClock>();
-  // Device backend on the virtual clock.
-  std::unique_ptr<haptics::Device> device;
+namespace {
+
+// The device backend on `clock`, and the grab controller, of a compiled model's `haptics` section.
+std::unique_ptr<haptics::Device> makeDevice(const HapticsSpec& h, const haptics::Clock& clock) {
   if (h.backend == HapticBackend::Simulated) {
     haptics::SimulatedHand hand;
     hand.mass = h.hand_mass;
     hand.hand_stiffness = h.hand_stiffness;
     hand.hand_damping = h.hand_damping;
-    device = std::make_unique<haptics::SimulatedDevice>(hapticPath(h), *clock, hand);
-  } else {
-    device = std::make_unique<haptics::ScriptedDevice>(hapticPath(h), *clock);
+    return std::make_unique<haptics::SimulatedDevice>(hapticPath(h), clock, hand);
   }
+  return std::make_unique<haptics::ScriptedDevice>(hapticPath(h), clock);
+}
+
+haptics::GrabController makeGrab(const Model& model) {
+  const HapticsSpec& h = model.spec.haptics;
   // Grabbable dynamic bodies, each with a closest-surface-point query on its mesh (body frame).
   std::vector<haptics::Grabbable> candidates;
   for (std::size_t b = 0; b < model.bodies.size(); ++b) {
@@ -96,8 +98,21 @@ std::unique_ptr<haptics::BatchSession> makeBatchSession(const Model& model) {
   g.reach = h.reach;
   g.ttl = h.watchdog;
   g.force_as_feed_forward = h.smoothing == HapticSmoothing::RollingAverage;
-  haptics::GrabController grab(hapticMapping(model.spec), g, std::move(candidates));
-  return std::make_unique<haptics::BatchSession>(std::move(device), clock, servoConfig(h), std::move(grab));
+  return haptics::GrabController(hapticMapping(model.spec), g, std::move(candidates));
+}
+
+}  // namespace
+
+std::unique_ptr<haptics::BatchSession> makeBatchSession(const Model& model) {
+  auto clock = std::make_shared<haptics::VirtualClock>();
+  auto device = makeDevice(model.spec.haptics, *clock);
+  return std::make_unique<haptics::BatchSession>(std::move(device), clock, servoConfig(model.spec.haptics), makeGrab(model));
+}
+
+std::unique_ptr<haptics::LiveSession> makeLiveSession(const Model& model) {
+  auto clock = std::make_shared<haptics::SteadyClock>();
+  auto device = makeDevice(model.spec.haptics, *clock);
+  return std::make_unique<haptics::LiveSession>(std::move(device), clock, servoConfig(model.spec.haptics), makeGrab(model));
 }
 
 }  // namespace sph::app

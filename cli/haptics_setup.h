@@ -4,6 +4,7 @@
 
 #include "core/model.h"
 #include "haptics/backends.h"
+#include "haptics/live.h"
 #include "haptics/session.h"
 
 #include <memory>
@@ -18,5 +19,7 @@ haptics::Trajectory hapticPath(const HapticsSpec& h);
 haptics::Mapping hapticMapping(const SceneSpec& spec);
 /// A batch (virtual-time) session for a compiled model whose scene has a `haptics` section.
 std::unique_ptr<haptics::BatchSession> makeBatchSession(const Model& model);
+/// A live session (servo thread, steady clock) for `sphaptics run --interactive`; not started.
+std::unique_ptr<haptics::LiveSession> makeLiveSession(const Model& model);
 
 }  // namespace sph::app

@@ -29,6 +29,9 @@ int main(int argc, char** argv) {
   cmd_run->add_option("--disable", run.disable, "Switch off a stage (" + stageNameList() + ")")->allow_extra_args(false);
   cmd_run->add_option("--duration", run.duration, "Simulated time in seconds (overrides simulation.duration)");
   cmd_run->add_flag("--quiet,-q", run.quiet, "No progress line and no summary");
+  cmd_run->add_flag("--interactive", run.interactive,
+                    "Live: the haptic servo on its own thread at its rate against the scene's device, frames paced to "
+                    "real time; prints simulation rate, servo rate, overruns and force");
 
   // validate
   std::vector<std::string> validate_files;

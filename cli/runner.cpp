@@ -23,6 +23,7 @@
 #include <iostream>
 #include <memory>
 #include <sstream>
+#include <thread>
 
 namespace fs = std::filesystem;
 
@@ -181,7 +182,14 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
     // Haptics: only a scene with a `haptics` section (and a body to hold) gets a session; in batch
     // runs the servo runs in virtual time between steps (haptics/session.h), no thread.
     std::unique_ptr<haptics::BatchSession> haptic;
-    if (sim.stages().on(Stage::Haptics)) {
+    std::unique_ptr<haptics::LiveSession> live;  // --interactive: the servo thread, real time
+    if (opt.interactive && !sim.stages().on(Stage::Haptics))
+      throw InputError("--interactive", 0, 0, "needs a scene with a 'haptics' section and a dynamic body");
+    if (opt.interactive) {
+      live = makeLiveSession(model);
+      sim.setExternalForces(live.get());
+      res.haptics = true;
+    } else if (sim.stages().on(Stage::Haptics)) {
       haptic = makeBatchSession(model);
       sim.setExternalForces(haptic.get());
       haptic->publish(sim.time(), sim.bodies());
@@ -312,9 +320,33 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
     t_start = Clock::now();
     double last_log = 0.0;
     const int frames = std::max(1, static_cast<int>(std::lround(spec.simulation.duration * spec.simulation.frame_rate)));
+    if (live) {
+      live->publish(sim.bodies());
+      live->start();
+    }
+    double last_live_log = 0.0;
+    uint64_t last_live_ticks = 0;
+    int last_live_frames = 0;
     for (int f = 0; f < frames; ++f) {
       if (g_interrupted) break;
       const FrameReport rep = sim.advanceFrame();
+      if (live) {  // live: the frame's local model; frames no faster than real time; a status line a second
+        live->publish(sim.bodies());
+        std::this_thread::sleep_until(t_start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(sim.time())));
+        const double wall = since(t_start);
+        if (wall - last_live_log >= 1.0 || f + 1 == frames) {
+          const haptics::LiveStats st = live->stats();
+          char buf[256];
+          std::snprintf(buf, sizeof buf, "live t=%.2f s: sim %.1f frames/s, servo %.0f Hz, overruns %llu, |F| = %.3f N",
+                        sim.time(), (f + 1 - last_live_frames) / std::max(wall - last_live_log, 1e-9),
+                        static_cast<double>(st.ticks - last_live_ticks) / std::max(wall - last_live_log, 1e-9),
+                        static_cast<unsigned long long>(st.overruns), st.force.norm());
+          if (!opt.quiet) std::cerr << buf << "\n";
+          last_live_log = wall;
+          last_live_ticks = st.ticks;
+          last_live_frames = f + 1;
+        }
+      }
       if (haptic) {  // the frame's local model to the servo; the ticks so far to haptics.csv
         haptic->publish(sim.time(), sim.bodies());
         const auto rows = haptic->takeRows();
@@ -350,6 +382,18 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
         else if (!tty && (wall - last_log > 10.0)) std::cerr << buf << "\n";
         if (!tty) last_log = wall;
       }
+    }
+    if (live) {
+      live->stop();
+      const haptics::LiveStats st = live->stats();
+      res.haptic_ticks = st.ticks;
+      res.servo_p99 = st.period_p99;
+      res.servo_overruns = st.overruns;
+      char buf[256];
+      std::snprintf(buf, sizeof buf, "live servo: %llu ticks, period p50 %.3f ms, p99 %.3f ms, max %.3f ms, %llu overruns%s",
+                    static_cast<unsigned long long>(st.ticks), 1e3 * st.period_p50, 1e3 * st.period_p99, 1e3 * st.period_max,
+                    static_cast<unsigned long long>(st.overruns), st.realtime ? " (real-time priority)" : " (no real-time priority)");
+      log(buf);
     }
     std::signal(SIGINT, old_handler);
     if (tty) std::cerr << "\n";

@@ -18,6 +18,7 @@ struct RunOptions {
   double duration = -1.0;             ///< simulated seconds; < 0 = the scene's
   bool quiet = false;                 ///< no progress line, no summary
   bool write_output = true;           ///< false: simulate only (benchmarks)
+  bool interactive = false;           ///< live: the servo on its own thread in real time, frames paced to the wall clock
 };
 
 /// What a finished run measured (for benchmarks and tests).
@@ -41,7 +42,9 @@ struct RunResult {
   std::map<std::string, uint64_t> dispatch_counts;
   std::vector<FrameReport> reports;  ///< one per frame
   bool haptics = false;              ///< a haptic session ran (the scene has a `haptics` section)
-  std::size_t haptic_ticks = 0;      ///< servo ticks run (virtual time)
+  std::size_t haptic_ticks = 0;      ///< servo ticks run (virtual time; live: real ticks)
+  double servo_p99 = 0;              ///< live: servo period, 99th percentile (unit: s)
+  uint64_t servo_overruns = 0;       ///< live: servo periods over 1.5 T
 };
 
 /// Surface grid spacing when output.isosurface.spacing is 0, as a fraction of the particle spacing

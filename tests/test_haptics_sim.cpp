@@ -8,6 +8,7 @@
 
 #include <catch2/catch.hpp>
 
+#include <chrono>
 #include <cmath>
 #include <fstream>
 #include <sstream>
@@ -204,4 +205,28 @@ TEST_CASE("Haptics: bad values in the haptics section are reported at file:line:
   const auto v = sph::testing::sphaptics(tmp.path, {"validate", "bad.yaml"});
   CHECK(v.code == 2);
   CHECK(v.err.find("bad.yaml:3:") != std::string::npos);
+}
+
+TEST_CASE("Haptics: --interactive runs the servo thread live and stops it, and needs a haptics section",
+          "[haptics][live]") {
+  // haptic_drag.yaml for 0.3 s of simulated time, paced to the wall clock: the servo thread ticks
+  // at 1 kHz meanwhile (at least a third of the ticks even on a loaded machine), then joins.
+  app::RunOptions o;
+  o.scene = (kSourceDir / "scenes" / "tests" / "haptic_drag.yaml").string();
+  o.quiet = true;
+  o.write_output = false;
+  o.duration = 0.3;
+  o.interactive = true;
+  const auto t0 = std::chrono::steady_clock::now();
+  const app::RunResult r = app::runScene(o);
+  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  REQUIRE(r.exit_code == 0);
+  CHECK(r.haptics);
+  CHECK(r.haptic_ticks > 100);
+  CHECK(wall >= 0.3);  // frames are not run ahead of real time
+  // A scene without a haptics section: exit 2, naming the option.
+  o.scene = (kSourceDir / "scenes" / "tests" / "tiny_tank.yaml").string();
+  const app::RunResult bad = app::runScene(o);
+  CHECK(bad.exit_code == 2);
+  CHECK(bad.message.find("--interactive") != std::string::npos);
 }
