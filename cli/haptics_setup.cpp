@@ -115,4 +115,8 @@ std::unique_ptr<haptics::LiveSession> makeLiveSession(const Model& model) {
   return std::make_unique<haptics::LiveSession>(std::move(device), clock, servoConfig(model.spec.haptics), makeGrab(model));
 }
 
+std::unique_ptr<haptics::ReplaySource> makeReplaySource(const Model& model, const haptics::Recording& rec) {
+  return std::make_unique<haptics::ReplaySource>(rec.steps, makeGrab(model));
+}
+
 }  // namespace sph::app

@@ -5,6 +5,7 @@
 #include "core/model.h"
 #include "haptics/backends.h"
 #include "haptics/live.h"
+#include "haptics/record.h"
 #include "haptics/session.h"
 
 #include <memory>
@@ -21,5 +22,7 @@ haptics::Mapping hapticMapping(const SceneSpec& spec);
 std::unique_ptr<haptics::BatchSession> makeBatchSession(const Model& model);
 /// A live session (servo thread, steady clock) for `sphaptics run --interactive`; not started.
 std::unique_ptr<haptics::LiveSession> makeLiveSession(const Model& model);
+/// The replay of a recording's device readings through the model's grab logic (`sphaptics replay`).
+std::unique_ptr<haptics::ReplaySource> makeReplaySource(const Model& model, const haptics::Recording& rec);
 
 }  // namespace sph::app

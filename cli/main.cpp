@@ -29,9 +29,17 @@ int main(int argc, char** argv) {
   cmd_run->add_option("--disable", run.disable, "Switch off a stage (" + stageNameList() + ")")->allow_extra_args(false);
   cmd_run->add_option("--duration", run.duration, "Simulated time in seconds (overrides simulation.duration)");
   cmd_run->add_flag("--quiet,-q", run.quiet, "No progress line and no summary");
+  cmd_run->add_option("--record", run.record,
+                      "With --interactive: write the device reading of every step and a state hash per frame to FILE "
+                      "(replay it with `sphaptics replay FILE`)");
   cmd_run->add_flag("--interactive", run.interactive,
                     "Live: the haptic servo on its own thread at its rate against the scene's device, frames paced to "
                     "real time; prints simulation rate, servo rate, overruns and force");
+
+  // replay
+  std::string replay_file;
+  auto* cmd_replay = app.add_subcommand("replay", "Re-run a recorded live haptic session headless and check every state hash");
+  cmd_replay->add_option("file", replay_file, "Recording written by `sphaptics run --interactive --record FILE`")->required();
 
   // validate
   std::vector<std::string> validate_files;
@@ -97,6 +105,24 @@ int main(int argc, char** argv) {
   }
 
   if (*cmd_run) return app::runScene(run).exit_code;
+  if (*cmd_replay) {
+    haptics::Recording rec;
+    try {
+      rec = haptics::readRecording(replay_file);
+    } catch (const std::exception& e) {
+      std::cerr << "error: " << e.what() << "\n";
+      return 2;
+    }
+    app::RunOptions o;
+    o.scene = rec.scene;
+    o.sets = rec.sets;
+    o.replay = &rec;
+    o.write_output = false;
+    const app::RunResult r = app::runScene(o);
+    if (r.exit_code == 0)
+      std::cout << "replay: " << r.replay_frames_checked << " frames, every state hash equal to the recording\n";
+    return r.exit_code;
+  }
   if (*cmd_validate) return app::validateCommand(validate_files);
   if (*cmd_schema) return app::schemaCommand();
   if (*cmd_devices) return app::devicesCommand();

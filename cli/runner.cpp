@@ -183,9 +183,18 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
     // runs the servo runs in virtual time between steps (haptics/session.h), no thread.
     std::unique_ptr<haptics::BatchSession> haptic;
     std::unique_ptr<haptics::LiveSession> live;  // --interactive: the servo thread, real time
+    std::unique_ptr<haptics::ReplaySource> replay;  // sphaptics replay: recorded readings, hashes checked
+    haptics::Recording recording;                    // --record
     if (opt.interactive && !sim.stages().on(Stage::Haptics))
       throw InputError("--interactive", 0, 0, "needs a scene with a 'haptics' section and a dynamic body");
-    if (opt.interactive) {
+    if (!opt.record.empty() && !opt.interactive) throw InputError("--record", 0, 0, "records a live run: add --interactive");
+    if (opt.replay && !sim.stages().on(Stage::Haptics))
+      throw InputError(opt.scene, 0, 0, "the recorded scene has no 'haptics' section (or no dynamic body) any more");
+    if (opt.replay) {
+      replay = makeReplaySource(model, *opt.replay);
+      sim.setExternalForces(replay.get());
+      res.haptics = true;
+    } else if (opt.interactive) {
       live = makeLiveSession(model);
       sim.setExternalForces(live.get());
       res.haptics = true;
@@ -319,8 +328,10 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
     res.output_seconds = 0;
     t_start = Clock::now();
     double last_log = 0.0;
-    const int frames = std::max(1, static_cast<int>(std::lround(spec.simulation.duration * spec.simulation.frame_rate)));
+    const int frames = opt.replay ? opt.replay->frames
+                                  : std::max(1, static_cast<int>(std::lround(spec.simulation.duration * spec.simulation.frame_rate)));
     if (live) {
+      live->record(!opt.record.empty());
       live->publish(sim.bodies());
       live->start();
     }
@@ -330,6 +341,18 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
     for (int f = 0; f < frames; ++f) {
       if (g_interrupted) break;
       const FrameReport rep = sim.advanceFrame();
+      if (live && !opt.record.empty()) {  // --record: the readings this frame's steps used, and its hash
+        const auto applied = live->takeApplied();
+        recording.steps.insert(recording.steps.end(), applied.begin(), applied.end());
+        recording.hashes.push_back(sim.stateHash());
+      }
+      if (replay) {  // replay: every frame's hash as recorded
+        const uint64_t h = sim.stateHash();
+        const std::size_t k = static_cast<std::size_t>(f);
+        if (k >= opt.replay->hashes.size() || h != opt.replay->hashes[k])
+          throw std::runtime_error("replay: the state hash differs from the recording at frame " + std::to_string(f + 1));
+        ++res.replay_frames_checked;
+      }
       if (live) {  // live: the frame's local model; frames no faster than real time; a status line a second
         live->publish(sim.bodies());
         std::this_thread::sleep_until(t_start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(sim.time())));
@@ -394,6 +417,14 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
                     static_cast<unsigned long long>(st.ticks), 1e3 * st.period_p50, 1e3 * st.period_p99, 1e3 * st.period_max,
                     static_cast<unsigned long long>(st.overruns), st.realtime ? " (real-time priority)" : " (no real-time priority)");
       log(buf);
+    }
+    if (live && !opt.record.empty()) {  // the recording, for `sphaptics replay`
+      recording.scene = spec.source_file;
+      recording.sets = opt.sets;
+      recording.frames = res.frames;
+      haptics::writeRecording(opt.record, recording);
+      log("recorded " + std::to_string(recording.steps.size()) + " steps and " + std::to_string(recording.frames) +
+          " frame hashes to " + opt.record);
     }
     std::signal(SIGINT, old_handler);
     if (tty) std::cerr << "\n";

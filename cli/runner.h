@@ -2,6 +2,7 @@
 #pragma once
 
 #include "core/simulation.h"
+#include "haptics/record.h"
 
 #include <functional>
 #include <string>
@@ -18,6 +19,8 @@ struct RunOptions {
   double duration = -1.0;             ///< simulated seconds; < 0 = the scene's
   bool quiet = false;                 ///< no progress line, no summary
   bool write_output = true;           ///< false: simulate only (benchmarks)
+  std::string record;                 ///< with interactive: write the device readings per step and a state hash per frame here
+  const haptics::Recording* replay = nullptr;  ///< replay this recording (its frames; every hash checked)
   bool interactive = false;           ///< live: the servo on its own thread in real time, frames paced to the wall clock
 };
 
@@ -45,6 +48,7 @@ struct RunResult {
   std::size_t haptic_ticks = 0;      ///< servo ticks run (virtual time; live: real ticks)
   double servo_p99 = 0;              ///< live: servo period, 99th percentile (unit: s)
   uint64_t servo_overruns = 0;       ///< live: servo periods over 1.5 T
+  int replay_frames_checked = 0;     ///< replay: frames whose state hash matched the recording
 };
 
 /// Surface grid spacing when output.isosurface.spacing is 0, as a fraction of the particle spacing

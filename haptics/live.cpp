@@ -69,6 +69,7 @@ void LiveSession::apply(double, double, const std::vector<rigid::RigidBody>&, co
     std::lock_guard<std::mutex> lock(mutex_);
     s = latest_;
   }
+  if (recording_) applied_.push_back(s);
   grab_.update(s, states, out);
 }
 

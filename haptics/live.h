@@ -13,6 +13,7 @@
 #include <memory>
 #include <mutex>
 #include <thread>
+#include <utility>
 #include <vector>
 
 namespace sph::haptics {
@@ -40,6 +41,9 @@ class LiveSession : public ExternalForceSource {
   void publish(const std::vector<rigid::BodyState>& states);
   LiveStats stats() const;
   bool running() const { return running_.load(); }
+  /// Keep the reading each apply() used (for --record); takeApplied() hands them over.
+  void record(bool on) { recording_ = on; }
+  std::vector<DeviceState> takeApplied() { return std::exchange(applied_, {}); }
 
  private:
   void loop();
@@ -53,6 +57,8 @@ class LiveSession : public ExternalForceSource {
   DeviceState latest_;
   LiveStats stats_;
   std::vector<double> periods_;
+  bool recording_ = false;              // simulation thread only
+  std::vector<DeviceState> applied_;    // simulation thread only
 };
 
 }  // namespace sph::haptics

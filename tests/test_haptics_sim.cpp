@@ -230,3 +230,43 @@ TEST_CASE("Haptics: --interactive runs the servo thread live and stops it, and n
   CHECK(bad.exit_code == 2);
   CHECK(bad.message.find("--interactive") != std::string::npos);
 }
+
+TEST_CASE("Haptics: a recorded live session replays with identical state hashes", "[haptics][live]") {
+  // haptic_drag.yaml live for 0.25 s with --record; the replay feeds the recorded readings to the
+  // same grab logic and checks the state hash after every frame. A recording with one reading
+  // moved by 1 mm must fail the check (the test can fail).
+  TempDir tmp;
+  const std::string file = (tmp.path / "session.rec").string();
+  app::RunOptions o;
+  o.scene = (kSourceDir / "scenes" / "tests" / "haptic_drag.yaml").string();
+  o.quiet = true;
+  o.write_output = false;
+  o.duration = 0.25;
+  o.interactive = true;
+  o.record = file;
+  const app::RunResult live = app::runScene(o);
+  REQUIRE(live.exit_code == 0);
+  const haptics::Recording rec = haptics::readRecording(file);
+  CHECK(rec.frames == live.frames);
+  CHECK(rec.hashes.size() == static_cast<std::size_t>(live.frames));
+  CHECK(rec.steps.size() >= static_cast<std::size_t>(live.frames));
+  CHECK(rec.hashes.back() == live.state_hash);
+
+  app::RunOptions r;
+  r.scene = rec.scene;
+  r.sets = rec.sets;
+  r.replay = &rec;
+  r.quiet = true;
+  r.write_output = false;
+  const app::RunResult replay = app::runScene(r);
+  CHECK(replay.exit_code == 0);
+  CHECK(replay.replay_frames_checked == live.frames);
+  CHECK(replay.state_hash == live.state_hash);
+
+  haptics::Recording tampered = rec;
+  tampered.steps[tampered.steps.size() / 2].position.x() += 1e-3;
+  r.replay = &tampered;
+  const app::RunResult bad = app::runScene(r);
+  CHECK(bad.exit_code != 0);
+  CHECK(bad.message.find("state hash differs") != std::string::npos);
+}
