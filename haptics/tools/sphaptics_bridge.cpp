@@ -13,6 +13,9 @@
 #include "haptics/servo.h"
 #include "haptics/udp.h"
 
+#include <pthread.h>
+#include <sched.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -73,6 +76,10 @@ int main(int argc, char** argv) {
     std::vector<double> periods;
     std::vector<uint8_t> buf(2048);
 
+    // Real-time priority when permitted (SCHED_FIFO), else the ordinary scheduler.
+    sched_param prio{};
+    prio.sched_priority = std::max(1, sched_get_priority_max(SCHED_FIFO) - 1);
+    const bool realtime = pthread_setschedparam(pthread_self(), SCHED_FIFO, &prio) == 0;
     // The loop: absolute deadlines T apart; a late tick counts as an overrun, the schedule goes on.
     const auto T = std::chrono::duration_cast<std::chrono::steady_clock::duration>(std::chrono::duration<double>(1.0 / rate));
     auto deadline = std::chrono::steady_clock::now();
@@ -112,6 +119,7 @@ int main(int argc, char** argv) {
     // Servo period statistics.
     std::sort(periods.begin(), periods.end());
     auto pct = [&](double q) { return periods.empty() ? 0.0 : periods[static_cast<std::size_t>(q * (periods.size() - 1))]; };
+    std::printf("%s: ", realtime ? "real-time priority" : "no real-time priority");
     std::printf("ticks %zu  period p50 %.3f ms  p99 %.3f ms  max %.3f ms  overruns %llu  models accepted %llu  rejected %llu\n",
                 periods.size(), 1e3 * pct(0.5), 1e3 * pct(0.99), 1e3 * (periods.empty() ? 0.0 : periods.back()),
                 static_cast<unsigned long long>(overruns), static_cast<unsigned long long>(filter.accepted()),
