@@ -35,6 +35,17 @@ int main(int argc, char** argv) {
       "Refuse scenes estimated to need more memory than this, e.g. 8G, 512M, 2GiB (default: the machine's memory)";
   std::string run_max_memory, validate_max_memory;
   cmd_run->add_option("--max-memory", run_max_memory, max_memory_help);
+  cmd_run->add_option("--record", run.record,
+                      "With --interactive: write the device reading of every step and a state hash per frame to FILE "
+                      "(replay it with `sphaptics replay FILE`)");
+  cmd_run->add_flag("--interactive", run.interactive,
+                    "Live: the haptic servo on its own thread at its rate against the scene's device, frames paced to "
+                    "real time; prints simulation rate, servo rate, overruns and force");
+
+  // replay
+  std::string replay_file;
+  auto* cmd_replay = app.add_subcommand("replay", "Re-run a recorded live haptic session headless and check every state hash");
+  cmd_replay->add_option("file", replay_file, "Recording written by `sphaptics run --interactive --record FILE`")->required();
 
   // validate
   std::vector<std::string> validate_files;
@@ -112,6 +123,24 @@ int main(int argc, char** argv) {
     run.duration_given = opt_duration->count() > 0;
     if (!maxMemory(run_max_memory, run.max_memory)) return kExitBadInput;
     return app::runScene(run).exit_code;
+  }
+  if (*cmd_replay) {
+    haptics::Recording rec;
+    try {
+      rec = haptics::readRecording(replay_file);
+    } catch (const std::exception& e) {
+      std::cerr << "error: " << e.what() << "\n";
+      return 2;
+    }
+    app::RunOptions o;
+    o.scene = rec.scene;
+    o.sets = rec.sets;
+    o.replay = &rec;
+    o.write_output = false;
+    const app::RunResult r = app::runScene(o);
+    if (r.exit_code == 0)
+      std::cout << "replay: " << r.replay_frames_checked << " frames, every state hash equal to the recording\n";
+    return r.exit_code;
   }
   if (*cmd_validate) {
     double bytes = 0;

@@ -1,5 +1,7 @@
 #include "cli/runner.h"
 
+#include "cli/haptics_setup.h"
+
 #include "core/errors.h"
 #include "io/bodies_writer.h"
 #include "io/async_writer.h"
@@ -18,11 +20,15 @@
 #include <chrono>
 #include <cmath>
 #include <csignal>
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <iostream>
 #include <memory>
 #include <sstream>
+#include <thread>
 
 namespace fs = std::filesystem;
 
@@ -147,6 +153,7 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
   std::unique_ptr<io::BodiesCsvWriter> bodies_csv;
   std::unique_ptr<io::StepForcesCsvWriter> forces_csv;
   std::unique_ptr<io::ProbesCsvWriter> probes_csv;
+  std::unique_ptr<std::ofstream> haptics_csv;
   std::unique_ptr<io::AsyncWriter> writer;  // after h5: destroyed (joined) before it
   fs::path out_dir, h5_partial, h5_final;
   bool h5_written = false;  // this run created h5_partial
@@ -171,6 +178,7 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
     if (bodies_csv) bodies_csv->close();
     if (forces_csv) forces_csv->close();
     if (probes_csv) probes_csv->close();
+    if (haptics_csv) haptics_csv->close();
     if (!out_dir.empty() && opt.write_output) {
       info.status = status;
       info.message = message;
@@ -288,6 +296,7 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
       fs::remove(out_dir / "bodies.csv", ec);
       fs::remove(out_dir / "forces.csv", ec);
       fs::remove(out_dir / "probes.csv", ec);
+      fs::remove(out_dir / "haptics.csv", ec);
       for (const auto& entry : fs::directory_iterator(out_dir, ec)) {  // an earlier run's meshes
         const std::string name = entry.path().filename().string();
         const auto ext = entry.path().extension();
@@ -297,6 +306,31 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
       }
     }
     log("stages: " + sim.stages().str());
+    // Haptics: only a scene with a `haptics` section (and a body to hold) gets a session; in batch
+    // runs the servo runs in virtual time between steps (haptics/session.h), no thread.
+    std::unique_ptr<haptics::BatchSession> haptic;
+    std::unique_ptr<haptics::LiveSession> live;  // --interactive: the servo thread, real time
+    std::unique_ptr<haptics::ReplaySource> replay;  // sphaptics replay: recorded readings, hashes checked
+    haptics::Recording recording;                    // --record
+    if (opt.interactive && !sim.stages().on(Stage::Haptics))
+      throw InputError("--interactive", 0, 0, "needs a scene with a 'haptics' section and a dynamic body");
+    if (!opt.record.empty() && !opt.interactive) throw InputError("--record", 0, 0, "records a live run: add --interactive");
+    if (opt.replay && !sim.stages().on(Stage::Haptics))
+      throw InputError(opt.scene, 0, 0, "the recorded scene has no 'haptics' section (or no dynamic body) any more");
+    if (opt.replay) {
+      replay = makeReplaySource(model, *opt.replay);
+      sim.setExternalForces(replay.get());
+      res.haptics = true;
+    } else if (opt.interactive) {
+      live = makeLiveSession(model);
+      sim.setExternalForces(live.get());
+      res.haptics = true;
+    } else if (sim.stages().on(Stage::Haptics)) {
+      haptic = makeBatchSession(model);
+      sim.setExternalForces(haptic.get());
+      haptic->publish(sim.time(), sim.bodies());
+      res.haptics = true;
+    }
     {
       std::ostringstream s;
       s << "scene: " << compiled.initial.size() << " fluid particles (budget " << model.capacity << "), "
@@ -327,6 +361,12 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
       if (sim.stages().on(Stage::Probes)) {
         probes_csv = std::make_unique<io::ProbesCsvWriter>((out_dir / "probes.csv").string(), spec.probes);
         sim.recordProbeSamples(true);
+      }
+      if (haptic) {
+        haptics_csv = std::make_unique<std::ofstream>(out_dir / "haptics.csv", std::ios::trunc);
+        if (!*haptics_csv)
+          throw std::runtime_error("cannot write " + (out_dir / "haptics.csv").string() + ": " + std::strerror(errno));
+        *haptics_csv << haptics::hapticsCsvHeader();
       }
       writer = std::make_unique<io::AsyncWriter>(3);
       res.out_dir = out_dir.string();
@@ -399,10 +439,61 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
     res.output_seconds = 0;
     t_start = Clock::now();
     double last_log = 0.0;
-    const int frames = std::max(1, static_cast<int>(std::lround(spec.simulation.duration * spec.simulation.frame_rate)));
+    const int frames = opt.replay ? opt.replay->frames
+                                  : std::max(1, static_cast<int>(std::lround(spec.simulation.duration * spec.simulation.frame_rate)));
+    if (live) {
+      live->record(!opt.record.empty());
+      live->publish(sim.bodies());
+      live->start();
+    }
+    double last_live_log = 0.0;
+    uint64_t last_live_ticks = 0;
+    int last_live_frames = 0;
     for (int f = 0; f < frames; ++f) {
       if (g_stop_signal) break;
       const FrameReport rep = sim.advanceFrame();
+      if (live && !opt.record.empty()) {  // --record: the readings this frame's steps used, and its hash
+        const auto applied = live->takeApplied();
+        recording.steps.insert(recording.steps.end(), applied.begin(), applied.end());
+        recording.hashes.push_back(sim.stateHash());
+      }
+      if (replay) {  // replay: every frame's hash as recorded
+        const uint64_t h = sim.stateHash();
+        const std::size_t k = static_cast<std::size_t>(f);
+        if (k >= opt.replay->hashes.size() || h != opt.replay->hashes[k])
+          throw std::runtime_error("replay: the state hash differs from the recording at frame " + std::to_string(f + 1));
+        ++res.replay_frames_checked;
+      }
+      if (live) {  // live: the frame's local model; frames no faster than real time; a status line a second
+        live->publish(sim.bodies());
+        std::this_thread::sleep_until(t_start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(sim.time())));
+        const double wall = since(t_start);
+        if (wall - last_live_log >= 1.0 || f + 1 == frames) {
+          const haptics::LiveStats st = live->stats();
+          char buf[256];
+          std::snprintf(buf, sizeof buf, "live t=%.2f s: sim %.1f frames/s, servo %.0f Hz, overruns %llu, |F| = %.3f N",
+                        sim.time(), (f + 1 - last_live_frames) / std::max(wall - last_live_log, 1e-9),
+                        static_cast<double>(st.ticks - last_live_ticks) / std::max(wall - last_live_log, 1e-9),
+                        static_cast<unsigned long long>(st.overruns), st.force.norm());
+          if (!opt.quiet) std::cerr << buf << "\n";
+          last_live_log = wall;
+          last_live_ticks = st.ticks;
+          last_live_frames = f + 1;
+        }
+      }
+      if (haptic) {  // the frame's local model to the servo; the ticks so far to haptics.csv
+        haptic->publish(sim.time(), sim.bodies());
+        const auto rows = haptic->takeRows();
+        res.haptic_ticks += rows.size();
+        if (haptics_csv) {
+          errno = 0;  // so that a failed write names its own reason
+          haptics::writeHapticsRows(*haptics_csv, rows);
+          haptics_csv->flush();
+          if (!*haptics_csv)
+            throw std::runtime_error("cannot write " + (out_dir / "haptics.csv").string() + ": " +
+                                     std::strerror(errno ? errno : EIO));
+        }
+      }
       for (const std::string& m : rep.messages) log((tty ? "\n" : "") + std::string("note: ") + m);
       // Warnings: what a user must act on (NaN/inf, a time step above the CFL limit, particles
       // moving more than h in a step) is printed the first time it happens, also under --quiet;
@@ -444,6 +535,26 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
         else if (!tty && (wall - last_log > 10.0)) std::cerr << buf << "\n";
         if (!tty) last_log = wall;
       }
+    }
+    if (live) {
+      live->stop();
+      const haptics::LiveStats st = live->stats();
+      res.haptic_ticks = st.ticks;
+      res.servo_p99 = st.period_p99;
+      res.servo_overruns = st.overruns;
+      char buf[256];
+      std::snprintf(buf, sizeof buf, "live servo: %llu ticks, period p50 %.3f ms, p99 %.3f ms, max %.3f ms, %llu overruns%s",
+                    static_cast<unsigned long long>(st.ticks), 1e3 * st.period_p50, 1e3 * st.period_p99, 1e3 * st.period_max,
+                    static_cast<unsigned long long>(st.overruns), st.realtime ? " (real-time priority)" : " (no real-time priority)");
+      log(buf);
+    }
+    if (live && !opt.record.empty()) {  // the recording, for `sphaptics replay`
+      recording.scene = spec.source_file;
+      recording.sets = opt.sets;
+      recording.frames = res.frames;
+      haptics::writeRecording(opt.record, recording);
+      log("recorded " + std::to_string(recording.steps.size()) + " steps and " + std::to_string(recording.frames) +
+          " frame hashes to " + opt.record);
     }
     if (tty) std::cerr << "\n";
     res.loop_seconds = since(t_start);

@@ -2,6 +2,7 @@
 #pragma once
 
 #include "core/simulation.h"
+#include "haptics/record.h"
 
 #include <functional>
 #include <string>
@@ -20,6 +21,9 @@ struct RunOptions {
   double max_memory = 0;              ///< refuse scenes estimated to need more (unit: bytes; 0 = the machine's memory)
   bool quiet = false;                 ///< no progress line, no summary
   bool write_output = true;           ///< false: simulate only (benchmarks)
+  std::string record;                 ///< with interactive: write the device readings per step and a state hash per frame here
+  const haptics::Recording* replay = nullptr;  ///< replay this recording (its frames; every hash checked)
+  bool interactive = false;           ///< live: the servo on its own thread in real time, frames paced to the wall clock
 };
 
 /// What a finished run measured (for benchmarks and tests).
@@ -42,6 +46,11 @@ struct RunResult {
   uint64_t state_hash = 0;
   std::map<std::string, uint64_t> dispatch_counts;
   std::vector<FrameReport> reports;  ///< one per frame
+  bool haptics = false;              ///< a haptic session ran (the scene has a `haptics` section)
+  std::size_t haptic_ticks = 0;      ///< servo ticks run (virtual time; live: real ticks)
+  double servo_p99 = 0;              ///< live: servo period, 99th percentile (unit: s)
+  uint64_t servo_overruns = 0;       ///< live: servo periods over 1.5 T
+  int replay_frames_checked = 0;     ///< replay: frames whose state hash matched the recording
 };
 
 /// Surface grid spacing when output.isosurface.spacing is 0, as a fraction of the particle spacing

@@ -677,6 +677,7 @@ Compiled compile(const SceneSpec& spec, const ResourceLimits& limits) {
   for (const auto& b : m.bodies) moving_bodies = moving_bodies || b.kind != rigid::BodyKind::Static;
   m.stages.set(Stage::RigidDynamics, moving_bodies);
   m.stages.set(Stage::RigidCoupling, moving_bodies && m.capacity > 0);
+  m.stages.set(Stage::Haptics, m.spec.haptics.enabled && moving_bodies);  // a `haptics` section and a body to hold
   m.stages.set(Stage::Diagnostics, true);
   m.stages.set(Stage::Probes, spec.probes.any() && m.capacity > 0);
 

@@ -276,9 +276,9 @@ void integrateVelocity(const RigidBody& body, BodyState& s, const Eigen::Vector3
   if (body.kind != BodyKind::Dynamic) return;
   // Forces at the start of the step. (Contact acts by impulses, core/contact.h; contact_force only
   // records them.)
-  const Eigen::Vector3d force = body.mass * g + s.fluid_force;
+  const Eigen::Vector3d force = body.mass * g + s.fluid_force + s.external_force;
   s.v += dt * force / body.mass;
-  s.L += dt * s.fluid_torque;
+  s.L += dt * (s.fluid_torque + s.external_torque);
   s.w = worldInverseInertia(body, s.q) * s.L;
 }
 

@@ -99,6 +99,8 @@ struct BodyState {
   Eigen::Vector3d fluid_torque = Eigen::Vector3d::Zero();  ///< about the centre of mass (unit: N m)
   Eigen::Vector3d contact_force = Eigen::Vector3d::Zero(); ///< from contacts, this step (unit: N)
   Eigen::Vector3d contact_torque = Eigen::Vector3d::Zero();///< (unit: N m)
+  Eigen::Vector3d external_force = Eigen::Vector3d::Zero(); ///< from outside (a haptic grab), this step (unit: N)
+  Eigen::Vector3d external_torque = Eigen::Vector3d::Zero();///< about the centre of mass (unit: N m)
   /// A body-frame point in the world.
   Eigen::Vector3d toWorld(const Eigen::Vector3d& p) const { return x + q * p; }
 };

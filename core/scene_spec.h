@@ -209,6 +209,80 @@ struct ProbesSpec {
   bool any() const { return !points.empty() || !gauges.empty(); }
 };
 
+// --- Haptics ------------------------------------------------------------------------------------
+
+enum class HapticBackend { Scripted, Simulated };
+enum class HapticSmoothing { Servo, RollingAverage };
+enum class PathSegmentType { Line, Circle, Sine };
+
+/// One piece of the scripted hand path (device frame, metres; haptics/trajectory.h).
+struct PathSegmentSpec {
+  PathSegmentType type = PathSegmentType::Line;
+  double start = 0.0;                                ///< (unit: s)
+  double end = 1.0;                                  ///< (unit: s)
+  Eigen::Vector3d from{0.0, 0.0, 0.0};               ///< line start (unit: m)
+  Eigen::Vector3d to{0.0, 0.0, 0.0};                 ///< line end (unit: m)
+  Eigen::Vector3d centre{0.0, 0.0, 0.0};             ///< circle centre; sine centre (unit: m)
+  double radius = 0.02;                              ///< circle radius (unit: m)
+  Eigen::Vector3d axis{0.0, 0.0, 1.0};               ///< circle plane normal (unit: 1)
+  double period = 1.0;                               ///< circle: one turn (unit: s)
+  double phase = 0.0;                                ///< circle: angle at start (unit: rad)
+  Eigen::Vector3d amplitude{0.01, 0.0, 0.0};         ///< sine sweep amplitude (unit: m)
+  double f0 = 1.0;                                   ///< sine sweep start frequency (unit: Hz)
+  double f1 = 1.0;                                   ///< sine sweep end frequency (unit: Hz)
+  SourceLoc loc;
+};
+
+/// A point the hand passes at a time (device frame; straight lines between waypoints).
+struct WaypointSpec {
+  double time = 0.0;                                 ///< (unit: s)
+  Eigen::Vector3d position{0.0, 0.0, 0.0};           ///< (unit: m)
+  SourceLoc loc;
+};
+
+/// A button pressed or released.
+struct ButtonEventSpec {
+  double time = 0.0;                                 ///< (unit: s)
+  int button = 0;                                    ///< 0 or 1
+  bool pressed = true;
+  SourceLoc loc;
+};
+
+/// The `haptics` section: a device grabs `grabbable` bodies (haptics/, ../shared/haptics.md). The
+/// stage runs only when the section is present.
+struct HapticsSpec {
+  bool enabled = false;                              ///< set by the loader when the section is given
+  HapticBackend backend = HapticBackend::Scripted;
+  // Workspace mapping: x_scene = scale R(axis, angle) x_device + offset.
+  double scale = 0.0;                                ///< 0 = automatic: largest domain extent / 0.15 m (unit: 1)
+  Eigen::Vector3d rotation_axis{0.0, 0.0, 1.0};      ///< (unit: 1)
+  double rotation_angle = 0.0;                       ///< (unit: deg)
+  Eigen::Vector3d offset{0.0, 0.0, 0.0};             ///< scene point of the device origin; default the domain centre (unit: m)
+  bool offset_given = false;                         ///< set by the loader when `offset` is written
+  double gain = 1.0;                                 ///< force gain g: felt force = g x force on the body ("haptic strength") (unit: 1)
+  double stiffness = 250.0;                          ///< coupling stiffness felt at the hand K_d (unit: N/m)
+  double damping = 1.5;                              ///< coupling damping felt at the hand B_d (unit: N s/m)
+  double damping_ratio = 0.9;                        ///< scene coupling damper B_s = 2 zeta sqrt(K_s m) (unit: 1)
+  double reach = 0.05;                               ///< grab a body whose surface is this close to the target (unit: m)
+  double peak_force = 3.0;                           ///< (unit: N)
+  double continuous_force = 0.85;                    ///< limit on the 1 s RMS (unit: N)
+  double ramp_time = 2.0;                            ///< start-up ramp (unit: s)
+  double watchdog = 0.1;                             ///< oldest usable local model (unit: s)
+  double lowpass = 25.0;                             ///< feed-forward low-pass cut-off (unit: Hz)
+  bool passivity = true;                             ///< passivity observer and controller
+  double servo_rate = 1000.0;                        ///< (unit: Hz)
+  HapticSmoothing smoothing = HapticSmoothing::Servo;
+  int rolling_window = 20;                           ///< rolling_average: frames averaged (unit: 1)
+  // Simulated backend: the hand.
+  double hand_mass = 0.15;                           ///< hand + end effector (unit: kg)
+  double hand_stiffness = 300.0;                     ///< grip spring to the scripted target (unit: N/m)
+  double hand_damping = 3.0;                         ///< grip damper (unit: N s/m)
+  std::vector<PathSegmentSpec> path;                 ///< scripted path (device frame)
+  std::vector<WaypointSpec> waypoints;               ///< scripted waypoints (device frame); used when `path` is empty
+  std::vector<ButtonEventSpec> buttons;              ///< button events
+  SourceLoc loc;
+};
+
 struct SceneSpec {
   std::string source_file;    ///< absolute path of the scene file ("" when built in code)
   SimulationSpec simulation;
@@ -217,6 +291,7 @@ struct SceneSpec {
   std::vector<RigidBodySpec> rigid_bodies;
   ProbesSpec probes;
   OutputSpec output;
+  HapticsSpec haptics;
 };
 
 }  // namespace sph

@@ -212,6 +212,7 @@ void Simulation::step(double dt) {
     if (on(Stage::RigidCoupling)) gatherBodyForces();  // fluid -> bodies: 6 numbers per body to the host
     integrate();                                       // semi-implicit Euler, closed walls
   }
+  if (on(Stage::Haptics) && external_) applyExternalForces(dt);  // a grabbed body's coupling spring
   if (on(Stage::RigidDynamics)) integrateBodies(dt);   // rigid bodies: momenta, poses (host)
   time_ += dt;
   ++profile_.steps;
@@ -470,6 +471,17 @@ void Simulation::gatherBodyForces() {
     s.fluid_force = sums[2 * m].head<3>().cast<double>();
     s.fluid_torque = sums[2 * m + 1].head<3>().cast<double>();
     if (record_forces_) step_forces_.push_back({time_, moving_[m], s.v, s.w, s.fluid_force, s.fluid_torque});
+  }
+}
+
+void Simulation::applyExternalForces(double dt) {
+  StageTimer timer(*this, Stage::Haptics);
+  // One wrench per body from the source (core/external_force.h), kept in the states for this step.
+  wrenches_.assign(bodies_.size(), BodyWrench{});
+  external_->apply(time_, dt, model_.bodies, bodies_, wrenches_);
+  for (std::size_t b = 0; b < bodies_.size(); ++b) {
+    bodies_[b].external_force = wrenches_[b].force;
+    bodies_[b].external_torque = wrenches_[b].torque;
   }
 }
 

@@ -5,6 +5,7 @@
 
 #include "core/cl_context.h"
 #include "core/contact.h"
+#include "core/external_force.h"
 #include "core/isosurface.h"
 #include "core/model.h"
 #include "core/particle_frame.h"
@@ -92,6 +93,9 @@ class Simulation {
 
   /// Rigid bodies: the compiled bodies (model().bodies) and their current states, same order.
   const std::vector<rigid::BodyState>& bodies() const { return bodies_; }
+  /// External forces on bodies (a haptic grab), called once per step while Stage::Haptics is on;
+  /// null = none. The source must outlive the simulation's steps.
+  void setExternalForces(ExternalForceSource* source) { external_ = source; }
   /// Per-step force log: when on, every step appends each moving body's fluid force (StepForce);
   /// takeStepForces() hands over what was recorded since the last call.
   void recordStepForces(bool on) { record_forces_ = on; }
@@ -133,6 +137,7 @@ class Simulation {
   void diffuseColour();
   void integrate();
   void integrateBodies(double dt);
+  void applyExternalForces(double dt);
   void placeBodyParticles();
   void sortBoundary();
   void gatherBodyForces();
@@ -172,6 +177,8 @@ class Simulation {
   std::vector<double> moving_reach_;      // farthest particle from the centre of mass (unit: m)
   uint32_t n_static_ = 0, n_moving_ = 0;  // boundary particles: static, moving
   double body_speed_ = 0.0;               // fastest moving body particle this step (unit: m/s)
+  ExternalForceSource* external_ = nullptr; // haptics: the grabbed body's coupling (not owned)
+  std::vector<BodyWrench> wrenches_;      // its output, one per body
   bool record_forces_ = false;            // per-step force log on
   std::vector<StepForce> step_forces_;    // recorded since the last takeStepForces()
   cl::Buffer bsrc_, blocal_, bbody_, bslot_, bpose_, bforce_, brange_, bsum_, bcell_, brank_, bsorted_, bcount_;

@@ -19,6 +19,7 @@ enum class Stage : int {
   Viscosity,        ///< artificial or laminar viscosity
   ColourDiffusion,  ///< colour mixing between particles
   RigidCoupling,    ///< moving bodies' particles follow their pose; fluid forces on them, summed per body
+  Haptics,          ///< external forces on bodies (a grabbed body's coupling spring), core/external_force.h
   Integrate,        ///< semi-implicit Euler, closed walls
   RigidDynamics,    ///< rigid bodies: momenta and poses on the host (Eigen); scripted bodies follow their motion
   Diagnostics,      ///< NaN/inf, escapes, CFL violations (once per frame)

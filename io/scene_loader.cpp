@@ -623,6 +623,10 @@ class Loader {
     if (marks_.count("output.isosurface") && !marks_.count("output.isosurface.enabled"))
       spec.output.isosurface.enabled = true;
 
+    // haptics: the section turns the stage on; the offset defaults to the domain centre; path
+    // segments and waypoints must make sense (haptics/trajectory.h).
+    if (marks_.count("haptics")) checkHaptics(spec);
+
     // Domain: max > min in every component.
     const DomainSpec& domain = spec.domain;
     bool domain_ok = given("domain.min") && given("domain.max");
@@ -808,6 +812,37 @@ class Loader {
       if (!usable(mesh_key)) continue;
       body.mesh_loc = locAt(mesh_key, markOf(mesh_key));
       loadBodyMesh(body, mesh_key, label);
+    }
+  }
+
+  void checkHaptics(SceneSpec& spec) {
+    HapticsSpec& h = spec.haptics;
+    h.enabled = true;
+    h.offset_given = marks_.count("haptics.offset") > 0;
+    if (!h.offset_given) h.offset = 0.5 * (spec.domain.min + spec.domain.max);
+    if (usable("haptics.rotation_axis") && h.rotation_axis.norm() == 0.0)
+      issue("haptics.rotation_axis", markOf("haptics.rotation_axis"), "'haptics.rotation_axis' must be nonzero");
+    if (usable("haptics.continuous_force") && usable("haptics.peak_force") && h.continuous_force > h.peak_force)
+      issue("haptics.continuous_force", markOf("haptics.continuous_force"),
+            "'haptics.continuous_force' = " + numberText(h.continuous_force) + " N must not exceed 'haptics.peak_force' = " +
+                numberText(h.peak_force) + " N");
+    for (std::size_t k = 0; k < h.path.size(); ++k) {
+      const std::string key = indexed("haptics.path", k);
+      if (!usable(key)) continue;
+      const PathSegmentSpec& p = h.path[k];
+      if (usable(key + ".end") && usable(key + ".start") && !(p.end > p.start))
+        issue(key + ".end", markOf(marks_.count(key + ".end") ? key + ".end" : key),
+              "'" + key + ".end' = " + numberText(p.end) + " s must be greater than its start " + numberText(p.start) + " s");
+      if (p.type == PathSegmentType::Circle && usable(key + ".axis") && p.axis.norm() == 0.0)
+        issue(key + ".axis", markOf(key + ".axis"), "'" + key + ".axis' must be nonzero");
+    }
+    for (std::size_t k = 1; k < h.waypoints.size(); ++k) {
+      const std::string key = indexed("haptics.waypoints", k);
+      if (given(key + ".time") && given(indexed("haptics.waypoints", k - 1) + ".time") &&
+          !(h.waypoints[k].time > h.waypoints[k - 1].time))
+        issue(key + ".time", markOf(key + ".time"),
+              "'" + key + ".time' = " + numberText(h.waypoints[k].time) + " must be greater than the previous waypoint's time " +
+                  numberText(h.waypoints[k - 1].time));
     }
   }
 

@@ -168,6 +168,27 @@ struct InBodies {
 };
 
 /// Keyframes of a body's motion: a list inside the rigid_bodies list (index: nestedIndex).
+struct InPath {
+  using Item = PathSegmentSpec;
+  template <class S>
+  static auto& list(S& s) { return s.haptics.path; }
+  template <class S>
+  static auto& item(S& s, std::size_t i) { return s.haptics.path.at(i); }
+};
+struct InWaypoints {
+  using Item = WaypointSpec;
+  template <class S>
+  static auto& list(S& s) { return s.haptics.waypoints; }
+  template <class S>
+  static auto& item(S& s, std::size_t i) { return s.haptics.waypoints.at(i); }
+};
+struct InButtons {
+  using Item = ButtonEventSpec;
+  template <class S>
+  static auto& list(S& s) { return s.haptics.buttons; }
+  template <class S>
+  static auto& item(S& s, std::size_t i) { return s.haptics.buttons.at(i); }
+};
 struct InKeyframes {
   using Item = KeyframeSpec;
   template <class S>
@@ -485,6 +506,75 @@ std::vector<KeyDef> buildTable() {
           .doc("write the surface field as fluid_%04d.vdb (fog grids 'density' = all phases, 'density_<phase>')"));
   add(field<InScene>("output.isosurface.vdb_level_set", [](auto& s) -> auto& { return s.output.isosurface.vdb_level_set; })
           .doc("also write a narrow-band level set 'surface' into each .vdb (3 voxels each side)"));
+
+  // haptics: a device that grabs grabbable bodies (haptics/, ../shared/haptics.md) ---------------
+  add(section("haptics", [](SceneSpec& s) { return &s.haptics.loc; })
+          .doc("a haptic device that grabs 'grabbable' bodies; the section turns the haptics stage on"));
+  add(field<InScene>("haptics.backend", [](auto& s) -> auto& { return s.haptics.backend; })
+          .doc("scripted (the device follows haptics.path) or simulated (a hand mass pulled towards haptics.path)"));
+  add(field<InScene>("haptics.scale", [](auto& s) -> auto& { return s.haptics.scale; })
+          .unit("1").atLeast(0).doc("workspace mapping x_scene = scale R x_device + offset; 0 = largest domain extent / 0.15 m"));
+  add(field<InScene>("haptics.rotation_axis", [](auto& s) -> auto& { return s.haptics.rotation_axis; })
+          .unit("1").doc("workspace mapping: axis of R (nonzero)"));
+  add(field<InScene>("haptics.rotation_angle", [](auto& s) -> auto& { return s.haptics.rotation_angle; })
+          .unit("deg").doc("workspace mapping: angle of R about rotation_axis"));
+  add(field<InScene>("haptics.offset", [](auto& s) -> auto& { return s.haptics.offset; })
+          .unit("m").defaultNote("(the domain centre)").doc("workspace mapping: scene point of the device origin"));
+  add(field<InScene>("haptics.gain", [](auto& s) -> auto& { return s.haptics.gain; })
+          .unit("1").greaterThan(0).doc("force gain ('haptic strength'): felt force = gain x coupling force on the body"));
+  add(field<InScene>("haptics.stiffness", [](auto& s) -> auto& { return s.haptics.stiffness; })
+          .unit("N/m").greaterThan(0).atMost(400).doc("coupling stiffness felt at the hand K_d (the body's spring is K_d / (gain scale))"));
+  add(field<InScene>("haptics.damping", [](auto& s) -> auto& { return s.haptics.damping; })
+          .unit("N s/m").atLeast(0).atMost(4).doc("coupling damping felt at the hand B_d"));
+  add(field<InScene>("haptics.damping_ratio", [](auto& s) -> auto& { return s.haptics.damping_ratio; })
+          .unit("1").atLeast(0).doc("damping ratio of the body's coupling spring: B_s = 2 ratio sqrt(K_s m)"));
+  add(field<InScene>("haptics.reach", [](auto& s) -> auto& { return s.haptics.reach; })
+          .unit("m").greaterThan(0).doc("a button press grabs the nearest grabbable body whose surface is this close to the target"));
+  add(field<InScene>("haptics.peak_force", [](auto& s) -> auto& { return s.haptics.peak_force; })
+          .unit("N").greaterThan(0).doc("largest force sent to the device (capped by the device's own)"));
+  add(field<InScene>("haptics.continuous_force", [](auto& s) -> auto& { return s.haptics.continuous_force; })
+          .unit("N").greaterThan(0).doc("limit on the 1 s RMS of the force sent"));
+  add(field<InScene>("haptics.ramp_time", [](auto& s) -> auto& { return s.haptics.ramp_time; })
+          .unit("s").atLeast(0).doc("start-up ramp of the force"));
+  add(field<InScene>("haptics.watchdog", [](auto& s) -> auto& { return s.haptics.watchdog; })
+          .unit("s").greaterThan(0).doc("a local model older than this fades the force to 0 over 200 ms"));
+  add(field<InScene>("haptics.lowpass", [](auto& s) -> auto& { return s.haptics.lowpass; })
+          .unit("Hz").greaterThan(0).doc("cut-off of the one-pole low-pass on the feed-forward force"));
+  add(field<InScene>("haptics.passivity", [](auto& s) -> auto& { return s.haptics.passivity; })
+          .doc("passivity observer and controller (Hannaford & Ryu 2002)"));
+  add(field<InScene>("haptics.servo_rate", [](auto& s) -> auto& { return s.haptics.servo_rate; })
+          .unit("Hz").atLeast(100).atMost(10000).doc("servo loop rate"));
+  add(field<InScene>("haptics.smoothing", [](auto& s) -> auto& { return s.haptics.smoothing; })
+          .doc("servo (first-order hold + coupling + low-pass, default) or rolling_average (the paper's: mean force of the last rolling_window frames)"));
+  add(field<InScene>("haptics.rolling_window", [](auto& s) -> auto& { return s.haptics.rolling_window; })
+          .unit("1").atLeast(1).atMost(1000).doc("rolling_average: frames averaged (delay (N - 1) / (2 frame_rate))"));
+  add(field<InScene>("haptics.hand_mass", [](auto& s) -> auto& { return s.haptics.hand_mass; })
+          .unit("kg").greaterThan(0).doc("simulated backend: hand + end-effector mass"));
+  add(field<InScene>("haptics.hand_stiffness", [](auto& s) -> auto& { return s.haptics.hand_stiffness; })
+          .unit("N/m").atLeast(0).doc("simulated backend: grip spring to the scripted target"));
+  add(field<InScene>("haptics.hand_damping", [](auto& s) -> auto& { return s.haptics.hand_damping; })
+          .unit("N s/m").atLeast(0).doc("simulated backend: grip damper to the scripted target"));
+  add(list<InPath>("haptics.path").defaultNote("[]").doc("scripted hand path, device frame: line, circle or sine segments; the latest started segment rules, its end is held"));
+  add(field<InPath>("haptics.path[].type", [](auto& p) -> auto& { return p.type; }).required().doc("segment kind"));
+  add(field<InPath>("haptics.path[].start", [](auto& p) -> auto& { return p.start; }).unit("s").atLeast(0).doc("segment start time"));
+  add(field<InPath>("haptics.path[].end", [](auto& p) -> auto& { return p.end; }).unit("s").atLeast(0).doc("segment end time (> start)"));
+  add(field<InPath>("haptics.path[].from", [](auto& p) -> auto& { return p.from; }).unit("m").doc("line: start point"));
+  add(field<InPath>("haptics.path[].to", [](auto& p) -> auto& { return p.to; }).unit("m").doc("line: end point"));
+  add(field<InPath>("haptics.path[].centre", [](auto& p) -> auto& { return p.centre; }).unit("m").doc("circle and sine: centre"));
+  add(field<InPath>("haptics.path[].radius", [](auto& p) -> auto& { return p.radius; }).unit("m").greaterThan(0).doc("circle: radius"));
+  add(field<InPath>("haptics.path[].axis", [](auto& p) -> auto& { return p.axis; }).unit("1").doc("circle: plane normal (nonzero)"));
+  add(field<InPath>("haptics.path[].period", [](auto& p) -> auto& { return p.period; }).unit("s").greaterThan(0).doc("circle: time of one turn"));
+  add(field<InPath>("haptics.path[].phase", [](auto& p) -> auto& { return p.phase; }).unit("rad").doc("circle: angle at start"));
+  add(field<InPath>("haptics.path[].amplitude", [](auto& p) -> auto& { return p.amplitude; }).unit("m").doc("sine: amplitude vector"));
+  add(field<InPath>("haptics.path[].f0", [](auto& p) -> auto& { return p.f0; }).unit("Hz").atLeast(0).doc("sine: frequency at start (linear chirp)"));
+  add(field<InPath>("haptics.path[].f1", [](auto& p) -> auto& { return p.f1; }).unit("Hz").atLeast(0).doc("sine: frequency at end"));
+  add(list<InWaypoints>("haptics.waypoints").defaultNote("[]").doc("scripted hand path as straight lines between points (used when 'path' is empty)"));
+  add(field<InWaypoints>("haptics.waypoints[].time", [](auto& w) -> auto& { return w.time; }).unit("s").atLeast(0).required().doc("time (strictly increasing)"));
+  add(field<InWaypoints>("haptics.waypoints[].position", [](auto& w) -> auto& { return w.position; }).unit("m").required().doc("device-frame position"));
+  add(list<InButtons>("haptics.buttons").defaultNote("[]").doc("button events; button 0 pressed grabs, released lets go"));
+  add(field<InButtons>("haptics.buttons[].time", [](auto& b) -> auto& { return b.time; }).unit("s").atLeast(0).required().doc("time of the event"));
+  add(field<InButtons>("haptics.buttons[].button", [](auto& b) -> auto& { return b.button; }).unit("1").atLeast(0).atMost(1).doc("button index"));
+  add(field<InButtons>("haptics.buttons[].pressed", [](auto& b) -> auto& { return b.pressed; }).doc("true: pressed, false: released"));
   return t;
 }
 
@@ -525,6 +615,9 @@ std::string defaultText(const KeyDef& key) {
   defaults.rigid_bodies[0].motion.keyframes.resize(1);
   defaults.probes.points.resize(1);
   defaults.probes.gauges.resize(1);
+  defaults.haptics.path.resize(1);
+  defaults.haptics.waypoints.resize(1);
+  defaults.haptics.buttons.resize(1);
   const Value value = key.get(defaults, 0);
   if (key.type == KeyType::String) return "\"" + std::get<std::string>(value) + "\"";
   return valueText(value);

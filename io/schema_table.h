@@ -80,6 +80,23 @@ struct EnumNames<MotionType> {
                                                                     {MotionType::Keyframes, "keyframes"}};
 };
 
+template <>
+struct EnumNames<HapticBackend> {
+  static constexpr std::pair<HapticBackend, const char*> values[] = {{HapticBackend::Scripted, "scripted"},
+                                                                       {HapticBackend::Simulated, "simulated"}};
+};
+template <>
+struct EnumNames<HapticSmoothing> {
+  static constexpr std::pair<HapticSmoothing, const char*> values[] = {{HapticSmoothing::Servo, "servo"},
+                                                                         {HapticSmoothing::RollingAverage, "rolling_average"}};
+};
+template <>
+struct EnumNames<PathSegmentType> {
+  static constexpr std::pair<PathSegmentType, const char*> values[] = {{PathSegmentType::Line, "line"},
+                                                                         {PathSegmentType::Circle, "circle"},
+                                                                         {PathSegmentType::Sine, "sine"}};
+};
+
 /// The YAML spelling of an enum value, e.g. enumName(KernelType::WendlandC2) == "wendland_c2".
 template <class E>
 const char* enumName(E e) {

@@ -1,29 +1,23 @@
-#!/usr/bin/env python3
+#!/usr/bin/python3
 """Plot the force sent to the haptic device against time from haptics.csv (sphaptics run with a
-`haptics` section): one line per component and the magnitude, with the held body shaded.
+`haptics` section): one line per component and the magnitude, the time a body is held shaded.
 
-    python3 scripts/plot_haptics.py out/haptic_stir/haptics.csv out/haptic_stir/haptics.png
+Usage: /usr/bin/python3 scripts/plot_haptics.py out/haptic_stir/haptics.csv out/haptic_stir/haptics.png
+Needs Debian's python3-matplotlib (installed by scripts/install_deps.sh).
 """
 import csv
 import sys
 
+import matplotlib
 
-def main() -> int:
-    if len(sys.argv) != 3:
-        print(__doc__.strip(), file=sys.stderr)
-        return 2
-    src, png = sys.argv[1], sys.argv[2]
-    try:
-        import matplotlib
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:
-        print("error: matplotlib is needed (apt-get install python3-matplotlib)", file=sys.stderr)
-        return 2
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+
+
+def main(src, dst):
     t, fx, fy, fz, held = [], [], [], [], []
     with open(src, newline="") as f:
-        rows = csv.DictReader(line for line in f if not line.startswith("#"))
-        for r in rows:
+        for r in csv.DictReader(line for line in f if not line.startswith("#")):
             t.append(float(r["time"]))
             fx.append(float(r["fx"]))
             fy.append(float(r["fy"]))
@@ -42,20 +36,22 @@ def main() -> int:
         elif not h and start is not None:
             ax.axvspan(start, ti, color="0.92", lw=0)
             start = None
-    ax.plot(t, fx, lw=0.8, label="fx")
-    ax.plot(t, fy, lw=0.8, label="fy")
-    ax.plot(t, fz, lw=0.8, label="fz")
+    for comp, name in ((fx, "fx"), (fy, "fy"), (fz, "fz")):
+        ax.plot(t, comp, lw=0.8, label=name)
     ax.plot(t, mag, lw=1.2, color="k", label="|f|")
     ax.set_xlabel("time (s)")
     ax.set_ylabel("force sent to the device (N)")
-    ax.set_title(src + "  (grey: a body is held)")
+    ax.set_title(f"{src}  (grey: a body is held)", fontsize=9)
     ax.legend(loc="upper right", ncol=4)
     ax.grid(alpha=0.3)
     fig.tight_layout()
-    fig.savefig(png, dpi=120)
-    print(f"wrote {png}")
+    fig.savefig(dst, dpi=120)
+    print(f"wrote {dst}")
     return 0
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    if len(sys.argv) != 3:
+        print(__doc__.strip(), file=sys.stderr)
+        sys.exit(2)
+    sys.exit(main(sys.argv[1], sys.argv[2]))

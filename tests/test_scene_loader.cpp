@@ -212,6 +212,9 @@ TEST_CASE("the schema defaults are read from core/scene_spec.h", "[io]") {
   d.rigid_bodies.resize(1);
   d.probes.points.resize(1);
   d.probes.gauges.resize(1);
+  d.haptics.path.resize(1);
+  d.haptics.waypoints.resize(1);
+  d.haptics.buttons.resize(1);
   for (const auto& key : sph::io::schemaTable()) {
     if (!key.isLeaf() || key.required || !key.default_note.empty()) continue;
     INFO(key.path);
@@ -560,7 +563,8 @@ TEST_CASE("the schema text lists every key with type, default, unit and range", 
       "probes.gauges[].position", "probes.gauges[].length", "output", "output.directory", "output.particles",
       "output.step_forces",
       "output.isosurface", "output.isosurface.enabled", "output.isosurface.spacing", "output.isosurface.iso",
-      "output.isosurface.vertex_colours", "output.isosurface.obj", "output.isosurface.vdb", "output.isosurface.vdb_level_set"};
+      "output.isosurface.vertex_colours", "output.isosurface.obj", "output.isosurface.vdb", "output.isosurface.vdb_level_set",
+      "haptics", "haptics.backend", "haptics.scale", "haptics.rotation_axis", "haptics.rotation_angle", "haptics.offset", "haptics.gain", "haptics.stiffness", "haptics.damping", "haptics.damping_ratio", "haptics.reach", "haptics.peak_force", "haptics.continuous_force", "haptics.ramp_time", "haptics.watchdog", "haptics.lowpass", "haptics.passivity", "haptics.servo_rate", "haptics.smoothing", "haptics.rolling_window", "haptics.hand_mass", "haptics.hand_stiffness", "haptics.hand_damping", "haptics.path", "haptics.path[].type", "haptics.path[].start", "haptics.path[].end", "haptics.path[].from", "haptics.path[].to", "haptics.path[].centre", "haptics.path[].radius", "haptics.path[].axis", "haptics.path[].period", "haptics.path[].phase", "haptics.path[].amplitude", "haptics.path[].f0", "haptics.path[].f1", "haptics.waypoints", "haptics.waypoints[].time", "haptics.waypoints[].position", "haptics.buttons", "haptics.buttons[].time", "haptics.buttons[].button", "haptics.buttons[].pressed"};
   const auto& table = sph::io::schemaTable();
   REQUIRE(table.size() == expected.size());
   for (std::size_t i = 0; i < expected.size(); ++i) {
@@ -597,10 +601,13 @@ TEST_CASE("sceneToJson writes every key of the resolved scene", "[io]") {
   const SceneSpec s = loadSceneFromString(yaml, "scene.yaml");
   const std::string json = sph::io::sceneToJson(s);
   INFO(json);
-  // Every key name of the table appears (list items because the scene has one of each but blocks).
+  // Every key name of the table appears (list items because the scene has one of each but blocks,
+  // bodies and the haptic path, waypoints and buttons).
   for (const auto& key : sph::io::schemaTable()) {
     if (key.path.rfind("fluid.blocks[]", 0) == 0 || key.path.rfind("rigid_bodies[]", 0) == 0 ||
-        key.path.rfind("probes.points[]", 0) == 0 || key.path.rfind("probes.gauges[]", 0) == 0)
+        key.path.rfind("probes.points[]", 0) == 0 || key.path.rfind("probes.gauges[]", 0) == 0 ||
+        key.path.rfind("haptics.path[]", 0) == 0 || key.path.rfind("haptics.waypoints[]", 0) == 0 ||
+        key.path.rfind("haptics.buttons[]", 0) == 0)
       continue;
     CHECK(json.find("\"" + key.name() + "\":") != std::string::npos);
   }

@@ -1,0 +1,28 @@
+// Wiring the `haptics` scene section to the haptics library: device backend, servo settings,
+// workspace mapping and the grabbable bodies (cli/ is the only place that joins core, io and haptics).
+#pragma once
+
+#include "core/model.h"
+#include "haptics/backends.h"
+#include "haptics/live.h"
+#include "haptics/record.h"
+#include "haptics/session.h"
+
+#include <memory>
+
+namespace sph::app {
+
+/// The servo settings of a scene's `haptics` section.
+haptics::ServoConfig servoConfig(const HapticsSpec& h);
+/// The scripted path (device frame) of a scene's `haptics` section.
+haptics::Trajectory hapticPath(const HapticsSpec& h);
+/// x_scene = scale R x_device + offset, with the automatic scale (largest domain extent / 0.15 m).
+haptics::Mapping hapticMapping(const SceneSpec& spec);
+/// A batch (virtual-time) session for a compiled model whose scene has a `haptics` section.
+std::unique_ptr<haptics::BatchSession> makeBatchSession(const Model& model);
+/// A live session (servo thread, steady clock) for `sphaptics run --interactive`; not started.
+std::unique_ptr<haptics::LiveSession> makeLiveSession(const Model& model);
+/// The replay of a recording's device readings through the model's grab logic (`sphaptics replay`).
+std::unique_ptr<haptics::ReplaySource> makeReplaySource(const Model& model, const haptics::Recording& rec);
+
+}  // namespace sph::app

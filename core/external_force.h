@@ -1,0 +1,30 @@
+// External forces on rigid bodies, from outside the simulation: the interface through which a
+// grabbed body gets the coupling spring of a haptic device (haptics/ implements it, cli/ wires it).
+// core/ declares it and calls it once per step (Stage::Haptics) before the bodies are integrated.
+#pragma once
+
+#include "core/rigid.h"
+
+#include <Eigen/Core>
+
+#include <vector>
+
+namespace sph {
+
+/// A force through the centre of mass and a torque about it, world frame.
+struct BodyWrench {
+  Eigen::Vector3d force = Eigen::Vector3d::Zero();   ///< (unit: N)
+  Eigen::Vector3d torque = Eigen::Vector3d::Zero();  ///< (unit: N m)
+};
+
+class ExternalForceSource {
+ public:
+  virtual ~ExternalForceSource() = default;
+  /// Called once per time step, after the fluid forces of this step are known and before the
+  /// bodies are integrated: `time` is the step's start, `dt` its length (unit: s); `states` the
+  /// bodies in Model::bodies order. Writes one wrench per body into `out` (already sized, zeroed).
+  virtual void apply(double time, double dt, const std::vector<rigid::RigidBody>& bodies,
+                     const std::vector<rigid::BodyState>& states, std::vector<BodyWrench>& out) = 0;
+};
+
+}  // namespace sph

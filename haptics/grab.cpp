@@ -1,0 +1,75 @@
+#include "haptics/grab.h"
+
+#include <cmath>
+#include <limits>
+
+namespace sph::haptics {
+
+GrabController::GrabController(Mapping mapping, GrabSettings settings, std::vector<Grabbable> candidates)
+    : mapping_(std::move(mapping)), settings_(settings), candidates_(std::move(candidates)) {}
+
+void GrabController::update(const DeviceState& device, const std::vector<rigid::BodyState>& states,
+                            std::vector<BodyWrench>& out) {
+  // The device target in the scene.
+  target_ = mapping_.toScene(device.position);
+  const Eigen::Vector3d target_v = mapping_.velocityToScene(device.velocity);
+  const bool pressed = (device.buttons & 1u) != 0;
+
+  // Press: the nearest grabbable body within reach, at its closest surface point (ties: first listed).
+  if (pressed && !was_pressed_ && held_ < 0) {
+    double best = settings_.reach;
+    for (std::size_t c = 0; c < candidates_.size(); ++c) {
+      const rigid::BodyState& s = states[candidates_[c].body];
+      const Eigen::Vector3d local = s.q.conjugate() * (target_ - s.x);
+      const Eigen::Vector3d p = candidates_[c].closest(local);
+      const double d = (p - local).norm();
+      if (d <= best) {
+        best = d;
+        held_ = static_cast<long>(c);
+        grasp_ = p;
+        rest_ = target_ - s.toWorld(p);
+      }
+    }
+  }
+  // Release: the coupling ends; the body keeps its momentum.
+  if (!pressed && was_pressed_) held_ = -1;
+  was_pressed_ = pressed;
+  coupling_.setZero();
+  if (held_ < 0) return;
+
+  // Coupling spring and damper between the target and the grasp point, acting at the grasp point.
+  const Grabbable& g = candidates_[static_cast<std::size_t>(held_)];
+  const rigid::BodyState& s = states[g.body];
+  const Eigen::Vector3d r = s.q * grasp_;
+  const Eigen::Vector3d pg = s.x + r + rest_;
+  const Eigen::Vector3d vg = s.v + s.w.cross(r);
+  const double ks = bodyStiffness();
+  const double bs = 2.0 * settings_.damping_ratio * std::sqrt(ks * g.mass);
+  const Eigen::Vector3d f = ks * (target_ - pg) + bs * (target_v - vg);
+  coupling_ = f;
+  out[g.body].force += f;
+  out[g.body].torque += r.cross(f);
+}
+
+LocalModel GrabController::localModel(double stamp, const std::vector<rigid::BodyState>& states) const {
+  LocalModel m;
+  m.stamp = stamp;
+  m.stiffness = settings_.stiffness;
+  m.damping = settings_.damping;
+  m.ttl = settings_.ttl;
+  m.coupled = held_ >= 0;
+  if (held_ < 0) return m;
+  // The grasp point, mapped back to the device: the anchor the hand is pulled to.
+  const rigid::BodyState& s = states[candidates_[static_cast<std::size_t>(held_)].body];
+  const Eigen::Vector3d r = s.q * grasp_;
+  m.anchor = mapping_.toDevice(s.x + r + rest_);
+  m.anchor_velocity = mapping_.velocityToDevice(s.v + s.w.cross(r));
+  if (settings_.force_as_feed_forward) {
+    // Felt force = -g x (the coupling force on the body), in the device frame.
+    m.feed_forward = -settings_.gain * (mapping_.rotation.transpose() * coupling_);
+    m.coupled = false;
+  }
+  return m;
+}
+
+}  // namespace sph::haptics

@@ -1,0 +1,89 @@
+// Grab and release on the simulation side (../shared/haptics.md, "Simulation side").
+//
+//   device x ──map──► target p_t (scene) ──spring K_s, damper B_s──► grasp point p_g on the body
+//   grasp point ──map back──► LocalModel anchor a (device) ──servo──► F = K_d (a - x) + ...
+//
+// A press of button 0 attaches the nearest grabbable body whose surface is within `reach` of the
+// target, at its closest surface point p_g; the gap d0 = p_t - p_g at that moment is kept as the
+// spring's rest offset (so a grab starts with no force, no jump); while held, with p_g' = p_g + d0, F_s = K_s (p_t - p_g') + B_s (v_t - v_g) acts at
+// p_g (with its torque about the centre of mass), so the body keeps feeling the fluid and contacts
+// too; a release ends the coupling and the body goes on with its momentum. The hand feels
+// K_d = g s K_s (g the gain, s the mapping scale): in steady state the felt force is -g F_s, i.e.
+// g times the fluid and contact forces the hand holds the body against. B_s = 2 zeta sqrt(K_s m).
+#pragma once
+
+#include "core/external_force.h"
+#include "haptics/device.h"
+#include "haptics/servo.h"
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include <functional>
+#include <vector>
+
+namespace sph::haptics {
+
+/// x_scene = scale R x_device + offset.
+struct Mapping {
+  double scale = 1.0;                                   ///< (unit: 1)
+  Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d offset = Eigen::Vector3d::Zero();     ///< (unit: m)
+  Eigen::Vector3d toScene(const Eigen::Vector3d& x) const { return scale * (rotation * x) + offset; }
+  Eigen::Vector3d toDevice(const Eigen::Vector3d& p) const { return rotation.transpose() * (p - offset) / scale; }
+  Eigen::Vector3d velocityToScene(const Eigen::Vector3d& v) const { return scale * (rotation * v); }
+  Eigen::Vector3d velocityToDevice(const Eigen::Vector3d& v) const { return rotation.transpose() * v / scale; }
+};
+
+struct GrabSettings {
+  double gain = 1.0;            ///< felt force / force on the body (unit: 1)
+  double stiffness = 250.0;     ///< K_d, felt at the hand (unit: N/m)
+  double damping = 1.5;         ///< B_d, felt at the hand (unit: N s/m)
+  double damping_ratio = 0.9;   ///< zeta of the body's coupling (unit: 1)
+  double reach = 0.05;          ///< largest grab distance, scene (unit: m)
+  double ttl = 0.1;             ///< validity of each LocalModel (unit: s)
+  /// The paper's mode (Smoothing::RollingAverage): the LocalModel carries the felt force
+  /// -g R^T F_s as feed-forward (the servo averages it over frames) instead of the anchor.
+  bool force_as_feed_forward = false;
+};
+
+/// A body the device may grab: its index in Model::bodies, mass, and the closest point of its
+/// surface to a point, both in the body frame (origin at the centre of mass).
+struct Grabbable {
+  std::size_t body = 0;
+  double mass = 1.0;  ///< (unit: kg)
+  std::function<Eigen::Vector3d(const Eigen::Vector3d&)> closest;
+};
+
+class GrabController {
+ public:
+  GrabController(Mapping mapping, GrabSettings settings, std::vector<Grabbable> candidates);
+  /// Once per simulation step: the device reading, the bodies; writes the coupling wrench of the
+  /// held body into `out` (sized as `states`). Grabs on a press of button 0, releases on its release.
+  void update(const DeviceState& device, const std::vector<rigid::BodyState>& states, std::vector<BodyWrench>& out);
+  /// The local model for the servo at `stamp` (servo clock), from the current states.
+  LocalModel localModel(double stamp, const std::vector<rigid::BodyState>& states) const;
+  /// Index of the held body in Model::bodies, or -1.
+  long grabbed() const { return held_ < 0 ? -1 : static_cast<long>(candidates_[static_cast<std::size_t>(held_)].body); }
+  /// The spring on the body (scene, N/m) for the current gain and mapping.
+  double bodyStiffness() const { return settings_.stiffness / (settings_.gain * mapping_.scale); }
+  /// Changed while running (the next step uses them).
+  void setGain(double gain) { settings_.gain = gain; }
+  void setMapping(const Mapping& m) { mapping_ = m; }
+  const Mapping& mapping() const { return mapping_; }
+  /// The target (scene) of the last update.
+  const Eigen::Vector3d& target() const { return target_; }
+
+ private:
+  Mapping mapping_;
+  GrabSettings settings_;
+  std::vector<Grabbable> candidates_;
+  long held_ = -1;                                   // index into candidates_
+  Eigen::Vector3d grasp_ = Eigen::Vector3d::Zero();  // grasp point, body frame (unit: m)
+  Eigen::Vector3d rest_ = Eigen::Vector3d::Zero();   // target - grasp point at the grab, world (unit: m)
+  Eigen::Vector3d target_ = Eigen::Vector3d::Zero();
+  Eigen::Vector3d coupling_ = Eigen::Vector3d::Zero();  // last F_s on the body, scene (unit: N)
+  bool was_pressed_ = false;
+};
+
+}  // namespace sph::haptics
