@@ -99,10 +99,12 @@ class RunData {
     return reader_->readStep(k);
   }
 
-  /// Meshes of frame k from every OBJ sequence, as flat triangle lists with normals.
-  std::vector<LoadedMesh> meshes(int k) const {
+  /// Meshes of frame k from the OBJ sequences (fluid surfaces, bodies, or both), as flat
+  /// triangle lists with normals.
+  std::vector<LoadedMesh> meshes(int k, bool surfaces = true, bool bodies = true) const {
     std::vector<LoadedMesh> out;
     for (const auto& s : sequences_) {
+      if (s.body ? !bodies : !surfaces) continue;
       const auto it = s.frames.find(k);
       if (it == s.frames.end()) continue;
       LoadedMesh m;
@@ -474,7 +476,7 @@ class Viewer {
         run_.rescan();
         if (follow_ && run_.frames() > before) frame_ = run_.frames() - 1;
       }
-      if (frame_ != loaded_) load(frame_);
+      if (frame_ != loaded_ || loaded_layers_ != std::array<bool, 2>{layers_.surfaces, layers_.bodies}) load(frame_);
 
       int w = 0, h = 0;
       glfwGetFramebufferSize(window_, &w, &h);
@@ -508,7 +510,9 @@ class Viewer {
     loaded_ = k;
     try {
       current_ = run_.particles(k);
-      meshes_ = run_.meshes(k);
+      // Hidden layers are not read (a surface OBJ of 50k particles takes longer than the particles).
+      meshes_ = run_.meshes(k, layers_.surfaces, layers_.bodies);
+      loaded_layers_ = {layers_.surfaces, layers_.bodies};
       load_error_.clear();
     } catch (const std::exception& e) {
       // A frame still being written: show the message, keep the last good frame on screen.
@@ -528,14 +532,16 @@ class Viewer {
   /// Particle colours for the current mode (the range from this frame unless fixed), then upload.
   void uploadParticles() {
     const ParticleFrame& f = current_;
+    // Automatic range: the 1st to 99th percentile of this frame, so that a few outliers (a
+    // pressure spike at a wall) do not wash out the rest.
     if (colour_ != ColourBy::Phase && !fix_range_ && f.size() > 0) {
-      range_[0] = std::numeric_limits<float>::max();
-      range_[1] = -range_[0];
-      for (std::size_t i = 0; i < f.size(); ++i) {
-        const float s = scalarOf(f, i, colour_);
-        range_[0] = std::min(range_[0], s);
-        range_[1] = std::max(range_[1], s);
-      }
+      std::vector<float> values(f.size());
+      for (std::size_t i = 0; i < f.size(); ++i) values[i] = scalarOf(f, i, colour_);
+      const std::size_t lo = values.size() / 100, hi = values.size() - 1 - values.size() / 100;
+      std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(lo), values.end());
+      range_[0] = values[lo];
+      std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(hi), values.end());
+      range_[1] = values[hi];
     }
     std::vector<float> data;
     data.reserve(f.size() * 6);
@@ -766,6 +772,7 @@ class Viewer {
   float point_scale_ = 1.0f;
   float radius_ = 0.005f;
   int frame_ = 0, loaded_ = -1;
+  std::array<bool, 2> loaded_layers_{false, false};  ///< surfaces, bodies read for the loaded frame
   bool playing_ = false, loop_ = true, follow_ = true;
   double fps_ = 0;
   double mouse_[2] = {0, 0};
