@@ -230,7 +230,16 @@ FrameReport Simulation::advanceFrame() {
   double dt = model_.frame_dt / steps;
   if (dt > limit * (1.0 + 1e-9)) {
     if (sim.time_step_control == TimeStepControl::Subdivide) {
-      steps = static_cast<int>(std::ceil(model_.frame_dt / limit));
+      // A speed that blew up mid-run would make the frame take unbounded steps: stop with the reason.
+      const double needed = std::ceil(model_.frame_dt / limit);
+      if (!(needed <= model_.max_steps_per_frame)) {
+        std::ostringstream s;
+        s << "numerical failure at frame " << frame_ << ", t = " << time_ << " s: the CFL limit " << limit
+          << " s (largest speed " << last_max_speed_ << " m/s) would need " << needed << " steps for this frame, more than "
+          << model_.max_steps_per_frame << " (stage: time-step control); the flow has blown up";
+        throw NumericalError(s.str());
+      }
+      steps = static_cast<int>(needed);
       dt = model_.frame_dt / steps;
       ++profile_.subdivided_frames;
     } else {

@@ -1,7 +1,9 @@
 #include "io/probes_writer.h"
 
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <stdexcept>
 
 namespace sph::io {
@@ -34,7 +36,7 @@ std::string probesCsvHeader(const ProbesSpec& spec) {
 }
 
 ProbesCsvWriter::ProbesCsvWriter(const std::string& path, const ProbesSpec& spec) : path_(path), out_(path, std::ios::trunc) {
-  if (!out_) throw std::runtime_error("cannot write " + path);
+  if (!out_) throw std::runtime_error("cannot write " + path + ": " + std::strerror(errno));
   out_ << probesCsvHeader(spec);
 }
 
@@ -57,8 +59,9 @@ void ProbesCsvWriter::write(const std::vector<ProbeSample>& samples) {
     for (double h : s.heights) num(h);
     out_ << "\n";
   }
+  errno = 0;  // so that a failed flush names its own reason
   out_.flush();
-  if (!out_) throw std::runtime_error("cannot write " + path_);
+  if (!out_) throw std::runtime_error("cannot write " + path_ + ": " + std::strerror(errno ? errno : EIO));
 }
 
 void ProbesCsvWriter::close() {

@@ -375,7 +375,7 @@ std::vector<KeyDef> buildTable() {
   add(list<InBodies>("rigid_bodies").defaultNote("[]")
           .doc("rigid bodies (static, kinematic or dynamic); pose: x_world = position + R(axis, angle) (scale x_body)"));
   add(field<InBodies>("rigid_bodies[].name", [](auto& b) -> auto& { return b.name; })
-          .required().doc("unique body name (output files body_<name>_NNNN.obj)"));
+          .required().doc("unique body name (output files body_<name>_NNNN.obj): letters, digits, '_', '-' and '.', at most 64, not starting with '.'"));
   add(field<InBodies>("rigid_bodies[].shape", [](auto& b) -> auto& { return b.shape; })
           .doc("mesh (uses mesh), sphere (radius), box (size), cylinder and capsule (radius, height; axis = body z)"));
   add(field<InBodies>("rigid_bodies[].mesh", [](auto& b) -> auto& { return b.mesh; })
@@ -389,7 +389,7 @@ std::vector<KeyDef> buildTable() {
           .unit("m").greaterThan(0).doc("cylinder length; capsule distance between its cap centres (along body z)"));
   add(field<InBodies>("rigid_bodies[].position", [](auto& b) -> auto& { return b.position; })
           .unit("m").defaultNote("(required; keyframes: the first key's)")
-          .doc("world position of the body origin (the primitive's centre, the mesh's origin); a keyframed body may leave it out"));
+          .doc("world position of the body origin (the primitive's centre, the mesh's origin); a keyframed body may leave it out; a dynamic body's must lie inside the domain"));
   add(field<InBodies>("rigid_bodies[].orientation_axis", [](auto& b) -> auto& { return b.orientation_axis; })
           .unit("1").doc("axis of the initial rotation, nonzero (normalised when compiled)"));
   add(field<InBodies>("rigid_bodies[].orientation_angle", [](auto& b) -> auto& { return b.orientation_angle; })
