@@ -5,6 +5,7 @@
 #include "cli/force_analysis.h"
 #include "cli/runner.h"
 #include "core/errors.h"
+#include "viewer/view_options.h"
 
 #include <CLI/CLI.hpp>
 
@@ -104,6 +105,26 @@ int main(int argc, char** argv) {
   cmd_forces->add_option("--frame-rate", forces.frame_rate,
                          "Also report the noise of per-frame samples at this rate, as bodies.csv sees it (unit: 1/s)");
 
+  // view (the desktop viewer; see viewer/ and README "Viewer")
+  viewer::ViewOptions view;
+  auto* cmd_view = app.add_subcommand("view", "Play back an output folder (finished or still being written) in a window, "
+                                              "or write one frame as a PNG with --screenshot");
+  cmd_view->add_option("run_dir", view.dir, "Output folder of a run")->required();
+  cmd_view->add_option("--screenshot", view.screenshot, "Write this frame as a PNG file and exit (no window shown)");
+  cmd_view->add_option("--frame", view.frame, "Frame to show first or to screenshot: an index from 0, or 'last'")
+      ->capture_default_str();
+  cmd_view->add_option("--width", view.width, "Window / screenshot width (unit: pixels)")->capture_default_str();
+  cmd_view->add_option("--height", view.height, "Window / screenshot height (unit: pixels)")->capture_default_str();
+  cmd_view->add_option("--colour", view.colour, "Particle colour: phase, pressure, speed or density")
+      ->check(CLI::IsMember(viewer::viewColourNames()))
+      ->capture_default_str();
+  cmd_view->add_option("--hide", view.hide, "Layer to switch off: particles, surfaces, bodies, box (repeatable)")
+      ->check(CLI::IsMember(viewer::viewLayerNames()))
+      ->allow_extra_args(false);
+  cmd_view->add_option("--fps", view.fps, "Playback rate (unit: frames/s; default: the run's frame rate, real time)");
+  cmd_view->add_option("--benchmark", view.benchmark,
+                       "Play for this long, print the viewer's drawn frames per second, exit (unit: s)");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -152,5 +173,15 @@ int main(int argc, char** argv) {
   if (*cmd_bench) return app::benchCommand(bench);
   if (*cmd_compare) return app::compareCommand(compare, std::cout, std::cerr);
   if (*cmd_forces) return app::forcesCommand(forces, std::cout, std::cerr);
+  if (*cmd_view) {
+#ifdef SPHAPTICS_HAVE_VIEWER
+    return viewer::viewCommand(view);
+#else
+    std::cerr << "view: this sphaptics was built without the viewer (GLFW 3.3, OpenGL or Dear ImGui were not found "
+                 "when it was configured; Debian: apt-get install libglfw3-dev libgl-dev libimgui-dev libstb-dev, "
+                 "then build again)\n";
+    return kExitDevice;
+#endif
+  }
   return kExitBadInput;
 }

@@ -8,7 +8,8 @@ PACKAGES=(
   ocl-icd-opencl-dev opencl-c-headers opencl-clhpp-headers pocl-opencl-icd clinfo
   libeigen3-dev libyaml-cpp-dev libcli11-dev libtinyobjloader-dev
   libhdf5-dev libopenvdb-dev libboost-iostreams-dev libtbb-dev
-  catch2
+  catch2 zlib1g-dev
+  libglfw3-dev libgl-dev libimgui-dev libstb-dev libgl1-mesa-dri xvfb xauth
   python3-numpy python3-matplotlib python3-h5py
 )
 

@@ -1,0 +1,841 @@
+// `sphaptics view RUN_DIR`: plays back an output folder (finished or still being written) in a GLFW
+// window with OpenGL 3.3 core and a Dear ImGui panel, or writes one frame as a PNG (--screenshot).
+//
+//   RunData    the folder: particle steps (io::H5PartReader), OBJ sequences, run.json; re-scanned
+//              while the run is still going
+//   Scene GL   particles as point sprites shaded as spheres, surfaces and bodies as lit meshes,
+//              the domain box as lines and its floor as a quad
+//   Panel      play / pause / step / timeline, colour mode and legend, layers, camera
+#include "viewer/view_options.h"
+
+#include "core/errors.h"
+#include "core/mesh.h"
+#include "io/h5part_reader.h"
+#include "io/obj_io.h"
+#include "io/png.h"
+#include "io/run_folder.h"
+#include "viewer/camera.h"
+
+#include <GL/gl.h>
+#include <GL/glext.h>
+#include <GLFW/glfw3.h>
+#include <imgui.h>
+#include <imgui_impl_glfw.h>
+#include <imgui_impl_opengl3.h>
+
+#include <algorithm>
+#include <array>
+#include <cctype>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <limits>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace sph::viewer {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+enum class ColourBy { Phase = 0, Pressure = 1, Speed = 2, Density = 3 };
+const char* const kColourLabels[] = {"phase colour", "pressure (Pa)", "speed (m/s)", "density (kg/m^3)"};
+
+/// A failure to open a window or to set up OpenGL (exit code 3).
+struct WindowError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+// -----------------------------------------------------------------------------------------------
+// The run folder
+
+/// One loaded mesh of an OBJ sequence at the current frame.
+struct LoadedMesh {
+  std::string name;           ///< sequence name (fluid_water, body_ball)
+  bool body = false;
+  Eigen::Vector3f colour;     ///< linear RGB
+  std::vector<float> vertices;  ///< (triangles x 3 corners) x (position 3, normal 3)
+};
+
+/// The folder's content as of the last scan.
+class RunData {
+ public:
+  explicit RunData(std::string dir) : dir_(std::move(dir)) { rescan(); }
+
+  /// Re-reads run.json, reopens the particle file and lists the OBJ sequences (for a run still
+  /// being written). A particle file that cannot be opened just now keeps the previous count.
+  void rescan() {
+    info_ = io::readRunFolderInfo(dir_);
+    const std::string file = io::particlesFile(dir_);
+    if (!file.empty()) {
+      try {
+        reader_ = std::make_unique<io::H5PartReader>(file);
+      } catch (const std::runtime_error&) {
+        // Being created or renamed this instant: try again at the next scan.
+      }
+    }
+    sequences_ = io::scanObjSequences(dir_);
+  }
+
+  const io::RunFolderInfo& info() const { return info_; }
+  bool running() const { return info_.status == "running"; }
+  bool hasParticles() const { return reader_ && reader_->steps() > 0; }
+
+  /// Frames available: the most of the particle steps and the OBJ sequences' frames.
+  int frames() const {
+    int n = reader_ ? reader_->steps() : 0;
+    for (const auto& s : sequences_)
+      if (!s.frames.empty()) n = std::max(n, s.frames.rbegin()->first + 1);
+    return n;
+  }
+
+  /// Particles of frame k (an empty frame when the file has no such step).
+  ParticleFrame particles(int k) const {
+    if (!reader_ || k >= reader_->steps()) return {};
+    return reader_->readStep(k);
+  }
+
+  /// Meshes of frame k from the OBJ sequences (fluid surfaces, bodies, or both), as flat
+  /// triangle lists with normals.
+  std::vector<LoadedMesh> meshes(int k, bool surfaces = true, bool bodies = true) const {
+    std::vector<LoadedMesh> out;
+    for (const auto& s : sequences_) {
+      if (s.body ? !bodies : !surfaces) continue;
+      const auto it = s.frames.find(k);
+      if (it == s.frames.end()) continue;
+      LoadedMesh m;
+      m.name = s.name;
+      m.body = s.body;
+      m.colour = colourOf(s);
+      flatten(io::readObj(it->second, /*allow_empty=*/true), m.vertices);
+      out.push_back(std::move(m));
+    }
+    return out;
+  }
+
+  /// Domain box: run.json's, else the bounds of the particles and meshes of frame 0.
+  std::pair<Eigen::Vector3f, Eigen::Vector3f> bounds() const {
+    if (info_.has_domain) return {info_.domain_min, info_.domain_max};
+    Eigen::Vector3f lo = Eigen::Vector3f::Constant(std::numeric_limits<float>::max()), hi = -lo;
+    const ParticleFrame p = particles(0);
+    for (std::size_t i = 0; i < p.size(); ++i) {
+      lo = lo.cwiseMin(Eigen::Vector3f(p.x[i], p.y[i], p.z[i]));
+      hi = hi.cwiseMax(Eigen::Vector3f(p.x[i], p.y[i], p.z[i]));
+    }
+    for (const auto& m : meshes(0))
+      for (std::size_t i = 0; i + 5 < m.vertices.size(); i += 6) {
+        lo = lo.cwiseMin(Eigen::Vector3f(m.vertices[i], m.vertices[i + 1], m.vertices[i + 2]));
+        hi = hi.cwiseMax(Eigen::Vector3f(m.vertices[i], m.vertices[i + 1], m.vertices[i + 2]));
+      }
+    if (!(lo.array() <= hi.array()).all()) return {Eigen::Vector3f::Zero(), Eigen::Vector3f::Ones()};
+    return {lo, hi};
+  }
+
+  /// Particle radius for the sprites: half the spacing (unit: m).
+  float particleRadius(const ParticleFrame& f) const {
+    if (info_.particle_spacing > 0) return static_cast<float>(0.5 * info_.particle_spacing);
+    // Without run.json: the spacing of n particles filling their bounding box.
+    const auto [lo, hi] = bounds();
+    const float volume = std::max((hi - lo).prod(), 1e-9f);
+    return 0.5f * std::cbrt(volume / static_cast<float>(std::max<std::size_t>(f.size(), 1)));
+  }
+
+ private:
+  /// A sequence's colour: its body's or phase's colour from run.json, else a neutral grey.
+  Eigen::Vector3f colourOf(const io::ObjSequence& s) const {
+    const std::string key = s.name.substr(s.body ? 5 : 6);
+    for (const auto& [name, colour] : s.body ? info_.bodies : info_.phases) {
+      std::string sanitised = name;  // as io::surfaceObjName writes phase names
+      for (char& c : sanitised)
+        if (!std::isalnum(static_cast<unsigned char>(c)) && c != '_' && c != '-') c = '_';
+      if (name == key || sanitised == key) return colour;
+    }
+    return s.body ? Eigen::Vector3f(0.7f, 0.7f, 0.7f) : Eigen::Vector3f(0.2f, 0.4f, 0.9f);
+  }
+
+  /// Triangles as (position, normal) per corner; vertex normals from the file, else face normals.
+  static void flatten(const TriMesh& mesh, std::vector<float>& out) {
+    const bool has_normals = mesh.normals.size() == mesh.positions.size() && !mesh.normals.empty();
+    out.reserve(mesh.triangles.size() * 18);
+    for (const auto& t : mesh.triangles) {
+      const Eigen::Vector3f& a = mesh.positions[t[0]];
+      const Eigen::Vector3f face = (mesh.positions[t[1]] - a).cross(mesh.positions[t[2]] - a).normalized();
+      for (int k = 0; k < 3; ++k) {
+        const Eigen::Vector3f& p = mesh.positions[t[static_cast<std::size_t>(k)]];
+        const Eigen::Vector3f n = has_normals ? mesh.normals[t[static_cast<std::size_t>(k)]] : face;
+        out.insert(out.end(), {p.x(), p.y(), p.z(), n.x(), n.y(), n.z()});
+      }
+    }
+  }
+
+  std::string dir_;
+  io::RunFolderInfo info_;
+  std::unique_ptr<io::H5PartReader> reader_;
+  std::vector<io::ObjSequence> sequences_;
+};
+
+// -----------------------------------------------------------------------------------------------
+// Colours
+
+/// Linear RGB from sRGB (IEC 61966-2-1), so that colour maps given in sRGB survive the shader's
+/// linear -> sRGB conversion.
+float srgbToLinear(float c) { return c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f); }
+
+/// Viridis colour map (van der Walt & Smith, matplotlib) through five of its sRGB samples, linear in
+/// between; t in [0, 1]; returns linear RGB.
+Eigen::Vector3f viridis(float t) {
+  static const float keys[5][3] = {{0x44, 0x01, 0x54}, {0x3b, 0x52, 0x8b}, {0x21, 0x91, 0x8c}, {0x5e, 0xc9, 0x62}, {0xfd, 0xe7, 0x25}};
+  t = std::clamp(t, 0.0f, 1.0f) * 4.0f;
+  const int i = std::min(static_cast<int>(t), 3);
+  const float u = t - static_cast<float>(i);
+  Eigen::Vector3f c;
+  for (int ch = 0; ch < 3; ++ch)
+    c[ch] = srgbToLinear(((1 - u) * keys[i][ch] + u * keys[i + 1][ch]) / 255.0f);
+  return c;
+}
+
+/// The scalar a colour mode shows for particle i.
+float scalarOf(const ParticleFrame& f, std::size_t i, ColourBy by) {
+  switch (by) {
+    case ColourBy::Pressure: return f.pressure[i];
+    case ColourBy::Speed: return std::sqrt(f.vx[i] * f.vx[i] + f.vy[i] * f.vy[i] + f.vz[i] * f.vz[i]);
+    case ColourBy::Density: return f.density[i];
+    case ColourBy::Phase: break;
+  }
+  return 0.0f;
+}
+
+// -----------------------------------------------------------------------------------------------
+// OpenGL
+
+const char* const kPointVs = R"(#version 330 core
+layout(location = 0) in vec3 position;
+layout(location = 1) in vec3 colour;
+uniform mat4 view;
+uniform mat4 projection;
+uniform float radius;     // sphere radius (m)
+uniform float viewport_h; // viewport height (pixels)
+out vec3 v_colour;
+void main() {
+  gl_Position = projection * view * vec4(position, 1.0);
+  // Projected diameter of a sphere of this radius at this depth.
+  gl_PointSize = max(2.0, viewport_h * projection[1][1] * radius / gl_Position.w);
+  v_colour = colour;
+})";
+
+// Point sprite shaded as a sphere: the normal from the sprite coordinate, a head light plus ambient.
+const char* const kPointFs = R"(#version 330 core
+in vec3 v_colour;
+out vec4 frag;
+void main() {
+  vec2 d = gl_PointCoord * 2.0 - 1.0;
+  float r2 = dot(d, d);
+  if (r2 > 1.0) discard;
+  vec3 n = vec3(d.x, -d.y, sqrt(1.0 - r2));
+  float light = 0.35 + 0.65 * max(dot(n, normalize(vec3(0.3, 0.5, 1.0))), 0.0);
+  frag = vec4(pow(v_colour * light, vec3(1.0 / 2.2)), 1.0);
+})";
+
+const char* const kMeshVs = R"(#version 330 core
+layout(location = 0) in vec3 position;
+layout(location = 1) in vec3 normal;
+uniform mat4 view;
+uniform mat4 projection;
+out vec3 v_normal;
+void main() {
+  gl_Position = projection * view * vec4(position, 1.0);
+  v_normal = mat3(view) * normal;
+})";
+
+// Two-sided Lambert in eye space, the light over the viewer's shoulder.
+const char* const kMeshFs = R"(#version 330 core
+in vec3 v_normal;
+uniform vec3 colour;
+uniform float lit;   // 1: shaded, 0: flat colour (lines)
+out vec4 frag;
+void main() {
+  vec3 n = normalize(v_normal);
+  float light = mix(1.0, 0.3 + 0.7 * abs(dot(n, normalize(vec3(0.3, 0.5, 1.0)))), lit);
+  frag = vec4(pow(colour * light, vec3(1.0 / 2.2)), 1.0);
+})";
+
+GLuint compileProgram(const char* vs_src, const char* fs_src) {
+  auto shader = [](GLenum type, const char* src) {
+    const GLuint s = glCreateShader(type);
+    glShaderSource(s, 1, &src, nullptr);
+    glCompileShader(s);
+    GLint ok = 0;
+    glGetShaderiv(s, GL_COMPILE_STATUS, &ok);
+    if (!ok) {
+      char log[2048];
+      glGetShaderInfoLog(s, sizeof log, nullptr, log);
+      throw WindowError(std::string("OpenGL shader does not compile: ") + log);
+    }
+    return s;
+  };
+  const GLuint vs = shader(GL_VERTEX_SHADER, vs_src), fs = shader(GL_FRAGMENT_SHADER, fs_src);
+  const GLuint p = glCreateProgram();
+  glAttachShader(p, vs);
+  glAttachShader(p, fs);
+  glLinkProgram(p);
+  glDeleteShader(vs);
+  glDeleteShader(fs);
+  GLint ok = 0;
+  glGetProgramiv(p, GL_LINK_STATUS, &ok);
+  if (!ok) {
+    char log[2048];
+    glGetProgramInfoLog(p, sizeof log, nullptr, log);
+    throw WindowError(std::string("OpenGL program does not link: ") + log);
+  }
+  return p;
+}
+
+/// A vertex array of interleaved float attributes (3 + 3 floats per vertex).
+struct VertexBuffer {
+  GLuint vao = 0, vbo = 0;
+  GLsizei count = 0;
+  void create() {
+    glGenVertexArrays(1, &vao);
+    glGenBuffers(1, &vbo);
+    glBindVertexArray(vao);
+    glBindBuffer(GL_ARRAY_BUFFER, vbo);
+    glEnableVertexAttribArray(0);
+    glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 6 * sizeof(float), nullptr);
+    glEnableVertexAttribArray(1);
+    glVertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, 6 * sizeof(float), reinterpret_cast<void*>(3 * sizeof(float)));
+    glBindVertexArray(0);
+  }
+  void upload(const std::vector<float>& data) {
+    glBindBuffer(GL_ARRAY_BUFFER, vbo);
+    glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(data.size() * sizeof(float)), data.data(), GL_DYNAMIC_DRAW);
+    count = static_cast<GLsizei>(data.size() / 6);
+  }
+  void destroy() {
+    if (vbo) glDeleteBuffers(1, &vbo);
+    if (vao) glDeleteVertexArrays(1, &vao);
+    vao = vbo = 0;
+  }
+};
+
+// -----------------------------------------------------------------------------------------------
+// The viewer
+
+struct Layers {
+  bool particles = true, surfaces = true, bodies = true, box = true;
+};
+
+class Viewer {
+ public:
+  Viewer(const ViewOptions& opt, RunData& run) : opt_(opt), run_(run) {
+    for (const std::string& h : opt.hide) {
+      if (h == "particles") layers_.particles = false;
+      if (h == "surfaces") layers_.surfaces = false;
+      if (h == "bodies") layers_.bodies = false;
+      if (h == "box") layers_.box = false;
+    }
+    const auto& names = viewColourNames();
+    colour_ = static_cast<ColourBy>(std::find(names.begin(), names.end(), opt.colour) - names.begin());
+  }
+
+  /// Creates the window (hidden for a screenshot) and the OpenGL objects.
+  void open(bool visible) {
+    glfwSetErrorCallback([](int, const char* text) { std::cerr << "GLFW: " << text << "\n"; });
+    if (!glfwInit())
+      throw WindowError("cannot open a window: no display (set DISPLAY, or run under `xvfb-run -a` for --screenshot)");
+    glfw_ = true;
+    glfwWindowHint(GLFW_CONTEXT_VERSION_MAJOR, 3);
+    glfwWindowHint(GLFW_CONTEXT_VERSION_MINOR, 3);
+    glfwWindowHint(GLFW_OPENGL_PROFILE, GLFW_OPENGL_CORE_PROFILE);
+    glfwWindowHint(GLFW_OPENGL_FORWARD_COMPAT, GLFW_TRUE);
+    glfwWindowHint(GLFW_VISIBLE, visible ? GLFW_TRUE : GLFW_FALSE);
+    const std::string title = "sphaptics view " + opt_.dir;
+    window_ = glfwCreateWindow(opt_.width, opt_.height, title.c_str(), nullptr, nullptr);
+    if (!window_) throw WindowError("cannot open an OpenGL 3.3 core window (GLFW reported why above)");
+    glfwMakeContextCurrent(window_);
+    glfwSwapInterval(opt_.benchmark > 0 ? 0 : 1);
+    glfwSetWindowUserPointer(window_, this);
+    // Wheel zoom (installed before ImGui, which chains to it).
+    glfwSetScrollCallback(window_, [](GLFWwindow* w, double, double dy) {
+      auto* self = static_cast<Viewer*>(glfwGetWindowUserPointer(w));
+      self->scroll_ += static_cast<float>(dy);
+    });
+
+    // ImGui with its GLFW and OpenGL 3 backends.
+    IMGUI_CHECKVERSION();
+    ImGui::CreateContext();
+    ImGui::GetIO().IniFilename = nullptr;  // no imgui.ini in the user's folder
+    ImGui::StyleColorsDark();
+    ImGui_ImplGlfw_InitForOpenGL(window_, true);
+    ImGui_ImplOpenGL3_Init("#version 330 core");
+    imgui_ = true;
+
+    // Programs and buffers.
+    point_program_ = compileProgram(kPointVs, kPointFs);
+    mesh_program_ = compileProgram(kMeshVs, kMeshFs);
+    particles_.create();
+    box_.create();
+    floor_.create();
+    buildBox();
+    const auto [lo, hi] = run_.bounds();
+    camera_.frame(lo, hi, static_cast<float>(opt_.width) / static_cast<float>(opt_.height));
+  }
+
+  ~Viewer() {
+    if (window_) {
+      glfwMakeContextCurrent(window_);
+      particles_.destroy();
+      box_.destroy();
+      floor_.destroy();
+      for (auto& m : mesh_buffers_) m.destroy();
+      if (point_program_) glDeleteProgram(point_program_);
+      if (mesh_program_) glDeleteProgram(mesh_program_);
+      if (fbo_) glDeleteFramebuffers(1, &fbo_);
+      if (rbo_[0]) glDeleteRenderbuffers(2, rbo_);
+    }
+    if (imgui_) {
+      ImGui_ImplOpenGL3_Shutdown();
+      ImGui_ImplGlfw_Shutdown();
+      ImGui::DestroyContext();
+    }
+    if (window_) glfwDestroyWindow(window_);
+    if (glfw_) glfwTerminate();
+  }
+  Viewer(const Viewer&) = delete;
+  Viewer& operator=(const Viewer&) = delete;
+
+  /// Renders frame k into an off-screen framebuffer of the requested size and writes the PNG.
+  void screenshot(int k, const std::string& path) {
+    load(k);
+    // Off-screen colour and depth targets: a hidden window's own framebuffer is not reliable.
+    glGenFramebuffers(1, &fbo_);
+    glGenRenderbuffers(2, rbo_);
+    glBindRenderbuffer(GL_RENDERBUFFER, rbo_[0]);
+    glRenderbufferStorage(GL_RENDERBUFFER, GL_RGBA8, opt_.width, opt_.height);
+    glBindRenderbuffer(GL_RENDERBUFFER, rbo_[1]);
+    glRenderbufferStorage(GL_RENDERBUFFER, GL_DEPTH_COMPONENT24, opt_.width, opt_.height);
+    glBindFramebuffer(GL_FRAMEBUFFER, fbo_);
+    glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, rbo_[0]);
+    glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, rbo_[1]);
+    if (glCheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
+      throw WindowError("cannot create an off-screen OpenGL framebuffer");
+
+    // The scene, then the legend (no panel) through ImGui.
+    drawScene(opt_.width, opt_.height);
+    ImGui_ImplOpenGL3_NewFrame();
+    ImGui_ImplGlfw_NewFrame();
+    ImGui::GetIO().DisplaySize = ImVec2(static_cast<float>(opt_.width), static_cast<float>(opt_.height));
+    ImGui::NewFrame();
+    drawLegend();
+    ImGui::Render();
+    ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
+
+    // Read back (bottom-up in OpenGL), flip, write.
+    io::RgbImage img;
+    img.width = opt_.width;
+    img.height = opt_.height;
+    img.rgb.resize(static_cast<std::size_t>(opt_.width) * static_cast<std::size_t>(opt_.height) * 3);
+    std::vector<uint8_t> rows(img.rgb.size());
+    glPixelStorei(GL_PACK_ALIGNMENT, 1);
+    glReadPixels(0, 0, opt_.width, opt_.height, GL_RGB, GL_UNSIGNED_BYTE, rows.data());
+    const std::size_t stride = static_cast<std::size_t>(opt_.width) * 3;
+    for (int y = 0; y < opt_.height; ++y)
+      std::copy_n(&rows[static_cast<std::size_t>(opt_.height - 1 - y) * stride], stride, &img.rgb[static_cast<std::size_t>(y) * stride]);
+    glBindFramebuffer(GL_FRAMEBUFFER, 0);
+    io::writePng(path, img);
+  }
+
+  /// The interactive loop; with opt.benchmark > 0 plays for that long and returns the frame rate.
+  double loop(int first) {
+    frame_ = first;
+    load(frame_);
+    if (opt_.benchmark > 0) playing_ = true;
+    double last = glfwGetTime(), last_scan = last, accumulator = 0;
+    const double t0 = last;
+    long drawn = 0;
+    while (!glfwWindowShouldClose(window_)) {
+      glfwPollEvents();
+      const double now = glfwGetTime();
+      // Playback clock: frames advance at the playback rate, looping at the end.
+      const double rate = playbackRate();
+      if (playing_ && run_.frames() > 0) {
+        accumulator += (now - last) * rate;
+        while (accumulator >= 1.0) {
+          accumulator -= 1.0;
+          frame_ = (frame_ + 1 < run_.frames()) ? frame_ + 1 : (loop_ || opt_.benchmark > 0 ? 0 : frame_);
+        }
+      }
+      last = now;
+      // A run still being written: look for new frames twice a second.
+      if (run_.running() && now - last_scan > 0.5) {
+        last_scan = now;
+        const int before = run_.frames();
+        run_.rescan();
+        if (follow_ && run_.frames() > before) frame_ = run_.frames() - 1;
+      }
+      if (frame_ != loaded_ || loaded_layers_ != std::array<bool, 2>{layers_.surfaces, layers_.bodies}) load(frame_);
+
+      int w = 0, h = 0;
+      glfwGetFramebufferSize(window_, &w, &h);
+      ImGui_ImplOpenGL3_NewFrame();
+      ImGui_ImplGlfw_NewFrame();
+      ImGui::NewFrame();
+      handleInput(h);
+      drawPanel();
+      drawLegend();
+      ImGui::Render();
+      glBindFramebuffer(GL_FRAMEBUFFER, 0);
+      drawScene(w, h);
+      ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
+      glfwSwapBuffers(window_);
+      ++drawn;
+      if (opt_.benchmark > 0 && now - t0 >= opt_.benchmark) break;
+    }
+    const double elapsed = glfwGetTime() - t0;
+    return elapsed > 0 ? static_cast<double>(drawn) / elapsed : 0.0;
+  }
+
+ private:
+  double playbackRate() const {
+    if (fps_ > 0) return fps_;
+    if (opt_.fps > 0) return opt_.fps;
+    return run_.info().frame_rate > 0 ? run_.info().frame_rate : 30.0;
+  }
+
+  /// Reads frame k (particles and meshes) and uploads it.
+  void load(int k) {
+    loaded_ = k;
+    try {
+      current_ = run_.particles(k);
+      // Hidden layers are not read (a surface OBJ of 50k particles takes longer than the particles).
+      meshes_ = run_.meshes(k, layers_.surfaces, layers_.bodies);
+      loaded_layers_ = {layers_.surfaces, layers_.bodies};
+      load_error_.clear();
+    } catch (const std::exception& e) {
+      // A frame still being written: show the message, keep the last good frame on screen.
+      load_error_ = e.what();
+      return;
+    }
+    radius_ = run_.particleRadius(current_);
+    uploadParticles();
+    for (auto& b : mesh_buffers_) b.destroy();
+    mesh_buffers_.assign(meshes_.size(), VertexBuffer{});
+    for (std::size_t i = 0; i < meshes_.size(); ++i) {
+      mesh_buffers_[i].create();
+      mesh_buffers_[i].upload(meshes_[i].vertices);
+    }
+  }
+
+  /// Particle colours for the current mode (the range from this frame unless fixed), then upload.
+  void uploadParticles() {
+    const ParticleFrame& f = current_;
+    // Automatic range: the 1st to 99th percentile of this frame, so that a few outliers (a
+    // pressure spike at a wall) do not wash out the rest.
+    if (colour_ != ColourBy::Phase && !fix_range_ && f.size() > 0) {
+      std::vector<float> values(f.size());
+      for (std::size_t i = 0; i < f.size(); ++i) values[i] = scalarOf(f, i, colour_);
+      const std::size_t lo = values.size() / 100, hi = values.size() - 1 - values.size() / 100;
+      std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(lo), values.end());
+      range_[0] = values[lo];
+      std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(hi), values.end());
+      range_[1] = values[hi];
+    }
+    std::vector<float> data;
+    data.reserve(f.size() * 6);
+    const float span = std::max(range_[1] - range_[0], 1e-12f);
+    for (std::size_t i = 0; i < f.size(); ++i) {
+      const Eigen::Vector3f c = colour_ == ColourBy::Phase ? Eigen::Vector3f(f.r[i], f.g[i], f.b[i])
+                                                           : viridis((scalarOf(f, i, colour_) - range_[0]) / span);
+      data.insert(data.end(), {f.x[i], f.y[i], f.z[i], c.x(), c.y(), c.z()});
+    }
+    particles_.upload(data);
+  }
+
+  /// The domain box's twelve edges and its floor.
+  void buildBox() {
+    const auto [lo, hi] = run_.bounds();
+    std::vector<float> lines;
+    auto corner = [&](int i) { return Eigen::Vector3f(i & 1 ? hi.x() : lo.x(), i & 2 ? hi.y() : lo.y(), i & 4 ? hi.z() : lo.z()); };
+    for (int a = 0; a < 8; ++a)
+      for (int bit = 1; bit < 8; bit <<= 1)
+        if (!(a & bit)) {
+          const Eigen::Vector3f p = corner(a), q = corner(a | bit);
+          lines.insert(lines.end(), {p.x(), p.y(), p.z(), 0, 0, 1, q.x(), q.y(), q.z(), 0, 0, 1});
+        }
+    box_.upload(lines);
+    const float z = lo.z();
+    floor_.upload({lo.x(), lo.y(), z, 0, 0, 1, hi.x(), lo.y(), z, 0, 0, 1, hi.x(), hi.y(), z, 0, 0, 1,
+                   lo.x(), lo.y(), z, 0, 0, 1, hi.x(), hi.y(), z, 0, 0, 1, lo.x(), hi.y(), z, 0, 0, 1});
+  }
+
+  /// Clears and draws the 3D layers into the bound framebuffer.
+  void drawScene(int w, int h) {
+    glViewport(0, 0, w, h);
+    // Neutral grey background (equal R, G, B), so that coloured pixels are the scene's.
+    glClearColor(0.16f, 0.16f, 0.16f, 1.0f);
+    glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+    glEnable(GL_DEPTH_TEST);
+    glDisable(GL_BLEND);
+    glDisable(GL_CULL_FACE);
+    glEnable(GL_PROGRAM_POINT_SIZE);
+    const Eigen::Matrix4f view = camera_.view();
+    const Eigen::Matrix4f proj = camera_.projection(static_cast<float>(w) / static_cast<float>(std::max(h, 1)));
+
+    // Meshes: floor, box, surfaces, bodies.
+    glUseProgram(mesh_program_);
+    glUniformMatrix4fv(glGetUniformLocation(mesh_program_, "view"), 1, GL_FALSE, view.data());
+    glUniformMatrix4fv(glGetUniformLocation(mesh_program_, "projection"), 1, GL_FALSE, proj.data());
+    const GLint colour_loc = glGetUniformLocation(mesh_program_, "colour"), lit_loc = glGetUniformLocation(mesh_program_, "lit");
+    if (layers_.box) {
+      glUniform1f(lit_loc, 0.0f);
+      glUniform3f(colour_loc, 0.09f, 0.09f, 0.09f);
+      glEnable(GL_POLYGON_OFFSET_FILL);
+      glPolygonOffset(1.0f, 1.0f);  // the floor behind what rests on it
+      glBindVertexArray(floor_.vao);
+      glDrawArrays(GL_TRIANGLES, 0, floor_.count);
+      glDisable(GL_POLYGON_OFFSET_FILL);
+      glUniform3f(colour_loc, 0.5f, 0.5f, 0.5f);
+      glBindVertexArray(box_.vao);
+      glDrawArrays(GL_LINES, 0, box_.count);
+    }
+    glUniform1f(lit_loc, 1.0f);
+    for (std::size_t i = 0; i < meshes_.size() && i < mesh_buffers_.size(); ++i) {
+      if (meshes_[i].body ? !layers_.bodies : !layers_.surfaces) continue;
+      const Eigen::Vector3f& c = meshes_[i].colour;
+      glUniform3f(colour_loc, c.x(), c.y(), c.z());
+      glBindVertexArray(mesh_buffers_[i].vao);
+      glDrawArrays(GL_TRIANGLES, 0, mesh_buffers_[i].count);
+    }
+
+    // Particles as sphere sprites.
+    if (layers_.particles && particles_.count > 0) {
+      glUseProgram(point_program_);
+      glUniformMatrix4fv(glGetUniformLocation(point_program_, "view"), 1, GL_FALSE, view.data());
+      glUniformMatrix4fv(glGetUniformLocation(point_program_, "projection"), 1, GL_FALSE, proj.data());
+      glUniform1f(glGetUniformLocation(point_program_, "radius"), radius_ * point_scale_);
+      glUniform1f(glGetUniformLocation(point_program_, "viewport_h"), static_cast<float>(h));
+      glBindVertexArray(particles_.vao);
+      glDrawArrays(GL_POINTS, 0, particles_.count);
+    }
+    glBindVertexArray(0);
+    glUseProgram(0);
+  }
+
+  /// Colour bar with the range, for the scalar colour modes.
+  void drawLegend() {
+    if (colour_ == ColourBy::Phase || !layers_.particles) return;
+    const ImVec2 size(260, 62);
+    ImGui::SetNextWindowPos(ImVec2(ImGui::GetIO().DisplaySize.x - size.x - 10, ImGui::GetIO().DisplaySize.y - size.y - 10));
+    ImGui::SetNextWindowSize(size);
+    ImGui::Begin("legend", nullptr, ImGuiWindowFlags_NoDecoration | ImGuiWindowFlags_NoInputs | ImGuiWindowFlags_NoSavedSettings);
+    ImGui::TextUnformatted(kColourLabels[static_cast<int>(colour_)]);
+    ImDrawList* dl = ImGui::GetWindowDrawList();
+    const ImVec2 p = ImGui::GetCursorScreenPos();
+    const float bar_w = size.x - 20, bar_h = 12;
+    for (int s = 0; s < 32; ++s) {
+      // Back to sRGB for ImGui, which draws colours as given.
+      auto col = [&](float t) {
+        const Eigen::Vector3f c = viridis(t);
+        return ImGui::GetColorU32(ImVec4(std::pow(c.x(), 1 / 2.2f), std::pow(c.y(), 1 / 2.2f), std::pow(c.z(), 1 / 2.2f), 1));
+      };
+      const float x0 = p.x + bar_w * s / 32.0f, x1 = p.x + bar_w * (s + 1) / 32.0f;
+      dl->AddRectFilledMultiColor(ImVec2(x0, p.y), ImVec2(x1, p.y + bar_h), col(s / 32.0f), col((s + 1) / 32.0f),
+                                  col((s + 1) / 32.0f), col(s / 32.0f));
+    }
+    ImGui::Dummy(ImVec2(bar_w, bar_h));
+    ImGui::Text("%.4g", range_[0]);
+    char hi[32];
+    std::snprintf(hi, sizeof hi, "%.4g", range_[1]);
+    ImGui::SameLine(bar_w - ImGui::CalcTextSize(hi).x + 8);
+    ImGui::TextUnformatted(hi);
+    ImGui::End();
+  }
+
+  /// The control panel: playback, colour, layers, camera, help.
+  void drawPanel() {
+    ImGui::SetNextWindowPos(ImVec2(10, 10), ImGuiCond_FirstUseEver);
+    ImGui::SetNextWindowSize(ImVec2(330, 0), ImGuiCond_FirstUseEver);
+    ImGui::Begin("sphaptics view");
+    const int n = run_.frames();
+    ImGui::TextWrapped("%s", opt_.dir.c_str());
+    ImGui::Text("status: %s   frames: %d", run_.info().status.empty() ? "(no run.json)" : run_.info().status.c_str(), n);
+    ImGui::Text("frame %d   t = %.4f s   %zu particles", frame_, current_.time, current_.size());
+    if (!load_error_.empty()) ImGui::TextWrapped("cannot read this frame yet: %s", load_error_.c_str());
+
+    // Playback.
+    if (ImGui::Button("|<")) frame_ = 0;
+    ImGui::SameLine();
+    if (ImGui::Button("<")) frame_ = std::max(frame_ - 1, 0);
+    ImGui::SameLine();
+    if (ImGui::Button(playing_ ? "pause" : "play")) playing_ = !playing_;
+    ImGui::SameLine();
+    if (ImGui::Button(">")) frame_ = std::min(frame_ + 1, std::max(n - 1, 0));
+    ImGui::SameLine();
+    if (ImGui::Button(">|")) frame_ = std::max(n - 1, 0);
+    ImGui::SameLine();
+    ImGui::Checkbox("loop", &loop_);
+    ImGui::SliderInt("frame", &frame_, 0, std::max(n - 1, 0));
+    float fps = static_cast<float>(playbackRate());
+    if (ImGui::SliderFloat("frames/s", &fps, 1.0f, 240.0f, "%.0f", ImGuiSliderFlags_Logarithmic)) fps_ = fps;
+    if (run_.running()) ImGui::Checkbox("follow the newest frame", &follow_);
+
+    // Colour.
+    int mode = static_cast<int>(colour_);
+    if (ImGui::Combo("colour", &mode, kColourLabels, 4)) {
+      colour_ = static_cast<ColourBy>(mode);
+      fix_range_ = false;
+      uploadParticles();
+    }
+    if (colour_ != ColourBy::Phase) {
+      if (ImGui::Checkbox("fix range", &fix_range_) && !fix_range_) uploadParticles();
+      if (fix_range_ && ImGui::InputFloat2("range", range_)) uploadParticles();
+    }
+    ImGui::SliderFloat("particle size", &point_scale_, 0.2f, 3.0f, "%.2f x");
+
+    // Layers.
+    ImGui::Checkbox("particles (1)", &layers_.particles);
+    ImGui::SameLine();
+    ImGui::Checkbox("surfaces (2)", &layers_.surfaces);
+    ImGui::Checkbox("bodies (3)", &layers_.bodies);
+    ImGui::SameLine();
+    ImGui::Checkbox("box (4)", &layers_.box);
+    if (ImGui::Button("frame the domain (F)")) resetCamera();
+    ImGui::Text("viewer: %.0f frames/s", static_cast<double>(ImGui::GetIO().Framerate));
+    if (ImGui::CollapsingHeader("mouse and keys"))
+      ImGui::TextUnformatted("left drag: orbit   right / middle drag: pan\nwheel: zoom   space: play / pause\n"
+                             "left / right: step   home / end: first / last\n1-4: layers   C: colour   F: frame   Q / Esc: quit");
+    ImGui::End();
+  }
+
+  void resetCamera() {
+    int w = 0, h = 0;
+    glfwGetFramebufferSize(window_, &w, &h);
+    const auto [lo, hi] = run_.bounds();
+    const float fovy = camera_.fovy;
+    camera_ = OrbitCamera{};
+    camera_.fovy = fovy;
+    camera_.frame(lo, hi, static_cast<float>(w) / static_cast<float>(std::max(h, 1)));
+  }
+
+  /// Mouse (orbit, pan, zoom) and keys, unless the panel has them.
+  void handleInput(int height) {
+    const ImGuiIO& io = ImGui::GetIO();
+    double x = 0, y = 0;
+    glfwGetCursorPos(window_, &x, &y);
+    const float dx = static_cast<float>(x - mouse_[0]), dy = static_cast<float>(y - mouse_[1]);
+    mouse_[0] = x;
+    mouse_[1] = y;
+    if (!io.WantCaptureMouse) {
+      if (glfwGetMouseButton(window_, GLFW_MOUSE_BUTTON_LEFT) == GLFW_PRESS) camera_.orbit(dx, dy);
+      if (glfwGetMouseButton(window_, GLFW_MOUSE_BUTTON_RIGHT) == GLFW_PRESS ||
+          glfwGetMouseButton(window_, GLFW_MOUSE_BUTTON_MIDDLE) == GLFW_PRESS)
+        camera_.pan(dx, dy, static_cast<float>(height));
+      camera_.zoom(scroll_);
+    }
+    scroll_ = 0;
+    if (io.WantCaptureKeyboard) return;
+    // ImGui 1.86 indexes keys by the GLFW key codes.
+    const int n = run_.frames();
+    if (ImGui::IsKeyPressed(GLFW_KEY_SPACE)) playing_ = !playing_;
+    if (ImGui::IsKeyPressed(GLFW_KEY_RIGHT)) frame_ = std::min(frame_ + 1, std::max(n - 1, 0));
+    if (ImGui::IsKeyPressed(GLFW_KEY_LEFT)) frame_ = std::max(frame_ - 1, 0);
+    if (ImGui::IsKeyPressed(GLFW_KEY_HOME)) frame_ = 0;
+    if (ImGui::IsKeyPressed(GLFW_KEY_END)) frame_ = std::max(n - 1, 0);
+    if (ImGui::IsKeyPressed(GLFW_KEY_1)) layers_.particles = !layers_.particles;
+    if (ImGui::IsKeyPressed(GLFW_KEY_2)) layers_.surfaces = !layers_.surfaces;
+    if (ImGui::IsKeyPressed(GLFW_KEY_3)) layers_.bodies = !layers_.bodies;
+    if (ImGui::IsKeyPressed(GLFW_KEY_4)) layers_.box = !layers_.box;
+    if (ImGui::IsKeyPressed(GLFW_KEY_F)) resetCamera();
+    if (ImGui::IsKeyPressed(GLFW_KEY_C)) {
+      colour_ = static_cast<ColourBy>((static_cast<int>(colour_) + 1) % 4);
+      fix_range_ = false;
+      uploadParticles();
+    }
+    if (ImGui::IsKeyPressed(GLFW_KEY_Q) || ImGui::IsKeyPressed(GLFW_KEY_ESCAPE)) glfwSetWindowShouldClose(window_, 1);
+  }
+
+  const ViewOptions& opt_;
+  RunData& run_;
+  GLFWwindow* window_ = nullptr;
+  bool glfw_ = false, imgui_ = false;
+  GLuint point_program_ = 0, mesh_program_ = 0, fbo_ = 0, rbo_[2] = {0, 0};
+  VertexBuffer particles_, box_, floor_;
+  std::vector<VertexBuffer> mesh_buffers_;
+  OrbitCamera camera_;
+  Layers layers_;
+  ColourBy colour_ = ColourBy::Phase;
+  float range_[2] = {0, 1};
+  bool fix_range_ = false;
+  float point_scale_ = 1.0f;
+  float radius_ = 0.005f;
+  int frame_ = 0, loaded_ = -1;
+  std::array<bool, 2> loaded_layers_{false, false};  ///< surfaces, bodies read for the loaded frame
+  bool playing_ = false, loop_ = true, follow_ = true;
+  double fps_ = 0;
+  double mouse_[2] = {0, 0};
+  float scroll_ = 0;
+  ParticleFrame current_;
+  std::vector<LoadedMesh> meshes_;
+  std::string load_error_;
+};
+
+}  // namespace
+
+int viewCommand(const ViewOptions& opt) {
+  // Bad input first (exit 2): the folder, its run.json, the frame.
+  int first = 0;
+  std::unique_ptr<RunData> run;
+  try {
+    if (!fs::is_directory(opt.dir)) throw InputError(opt.dir, 0, 0, "no such output folder");
+    run = std::make_unique<RunData>(opt.dir);
+    if (run->frames() == 0 && !run->running())
+      throw InputError(opt.dir, 0, 0, "nothing to show: no particles.h5part(.partial) and no fluid_*/body_* OBJ files");
+    if (opt.width < 16 || opt.height < 16 || opt.width > 8192 || opt.height > 8192)
+      throw InputError("--size", 0, 0, "width and height must be 16 to 8192 pixels");
+    const int n = run->frames();
+    if (opt.frame == "last") {
+      first = std::max(n - 1, 0);
+    } else {
+      std::size_t used = 0;
+      try {
+        first = std::stoi(opt.frame, &used);
+      } catch (const std::exception&) {
+        used = 0;
+      }
+      if (used != opt.frame.size() || first < 0) throw InputError("--frame", 0, 0, "'" + opt.frame + "' is not a frame index or 'last'");
+      if (first >= n && !(n == 0 && first == 0))
+        throw InputError("--frame", 0, 0, "frame " + opt.frame + " is not in the run (frames 0 to " + std::to_string(n - 1) + ")");
+    }
+  } catch (const InputError& e) {
+    std::cerr << e.what() << "\n";
+    return kExitBadInput;
+  }
+
+  try {
+    Viewer viewer(opt, *run);
+    viewer.open(/*visible=*/opt.screenshot.empty());
+    if (!opt.screenshot.empty()) {
+      viewer.screenshot(first, opt.screenshot);
+      std::cout << "wrote " << opt.screenshot << " (frame " << first << ", " << opt.width << " x " << opt.height << ")\n";
+      return kExitOk;
+    }
+    const double fps = viewer.loop(first);
+    if (opt.benchmark > 0) std::cout << "viewer: " << fps << " frames/s over " << opt.benchmark << " s\n";
+    return kExitOk;
+  } catch (const WindowError& e) {
+    std::cerr << "view: " << e.what() << "\n";
+    return kExitDevice;
+  } catch (const InputError& e) {
+    std::cerr << e.what() << "\n";
+    return kExitBadInput;
+  } catch (const std::exception& e) {
+    std::cerr << "view: " << e.what() << "\n";
+    return kExitDevice;
+  }
+}
+
+}  // namespace sph::viewer
