@@ -14,63 +14,19 @@ namespace sph::rigid {
 // ---------------------------------------------------------------------------------------------
 
 struct ContactSolver::Shape {
-  explicit Shape(const TriMesh& mesh) : index(mesh) {}
-  SurfaceIndex index;                                   // closest points on the triangles
+  explicit Shape(const TriMesh& mesh) : surface(mesh) {}
+  ClosedSurface surface;                                // closest points and pseudo-normals (core/mesh_distance.h)
   std::vector<Eigen::Vector3d> vertices;                // the contact points (unit: m)
   double radius = 0;                                    // bounding sphere about the centre of mass (unit: m)
-  std::vector<Eigen::Vector3d> face_normal;             // per triangle, unit, outward
-  std::vector<std::array<Eigen::Vector3d, 3>> edge_normal;  // per triangle edge (ab, bc, ca): mean of both faces
-  std::vector<Eigen::Vector3d> vertex_normal;           // angle-weighted mean of the faces around
-
-  /// The pseudo-normal of the closest feature (Baerentzen & Aanaes 2005): the sign of its dot
-  /// product with (p - closest point) tells outside (> 0) from inside, exactly, on a closed mesh.
-  Eigen::Vector3d pseudoNormal(const TriMesh& mesh, uint32_t t, TriangleFeature f) const {
-    switch (f) {
-      case TriangleFeature::Face: return face_normal[t];
-      case TriangleFeature::VertexA: return vertex_normal[mesh.triangles[t][0]];
-      case TriangleFeature::VertexB: return vertex_normal[mesh.triangles[t][1]];
-      case TriangleFeature::VertexC: return vertex_normal[mesh.triangles[t][2]];
-      case TriangleFeature::EdgeAB: return edge_normal[t][0];
-      case TriangleFeature::EdgeBC: return edge_normal[t][1];
-      case TriangleFeature::EdgeCA: return edge_normal[t][2];
-    }
-    return face_normal[t];
-  }
 };
 
 ContactSolver::ContactSolver(const std::vector<RigidBody>& bodies, double spacing)
     : slop_(1e-3 * spacing), margin_(0.25 * spacing) {
   for (const RigidBody& body : bodies) {
-    const TriMesh& m = body.mesh;
-    auto shape = std::make_unique<Shape>(m);
-    Shape& s = *shape;
-    for (const auto& p : m.positions) {
-      s.vertices.push_back(p.cast<double>());
-      s.radius = std::max(s.radius, s.vertices.back().norm());
-    }
-    // Face normals; the angle at each corner weights the vertex normals; each edge sums the
-    // normals of its two faces (keyed by its vertex pair, either direction).
-    s.vertex_normal.assign(m.positions.size(), Eigen::Vector3d::Zero());
-    std::map<std::pair<uint32_t, uint32_t>, Eigen::Vector3d> edge_sum;
-    auto key = [](uint32_t i, uint32_t j) { return std::make_pair(std::min(i, j), std::max(i, j)); };
-    for (const auto& t : m.triangles) {
-      const Eigen::Vector3d a = s.vertices[t[0]], b = s.vertices[t[1]], c = s.vertices[t[2]];
-      const Eigen::Vector3d n = (b - a).cross(c - a).normalized();
-      s.face_normal.push_back(n);
-      for (int k = 0; k < 3; ++k) {
-        const Eigen::Vector3d& o = s.vertices[t[k]];
-        const Eigen::Vector3d u = (s.vertices[t[(k + 1) % 3]] - o).normalized();
-        const Eigen::Vector3d w = (s.vertices[t[(k + 2) % 3]] - o).normalized();
-        s.vertex_normal[t[k]] += std::acos(std::clamp(u.dot(w), -1.0, 1.0)) * n;
-        auto [it, fresh] = edge_sum.try_emplace(key(t[k], t[(k + 1) % 3]), Eigen::Vector3d::Zero());
-        it->second += n;
-      }
-    }
-    for (auto& n : s.vertex_normal) n.normalize();
-    for (const auto& t : m.triangles) {
-      std::array<Eigen::Vector3d, 3> e;
-      for (int k = 0; k < 3; ++k) e[k] = edge_sum.at(key(t[k], t[(k + 1) % 3])).normalized();
-      s.edge_normal.push_back(e);
+    auto shape = std::make_unique<Shape>(body.mesh);
+    for (const auto& p : body.mesh.positions) {
+      shape->vertices.push_back(p.cast<double>());
+      shape->radius = std::max(shape->radius, shape->vertices.back().norm());
     }
     shapes_.push_back(std::move(shape));
   }
@@ -183,7 +139,6 @@ int ContactSolver::solve(const std::vector<RigidBody>& bodies, std::vector<BodyS
     const BodyState& s_j = states[static_cast<std::size_t>(j)];
     const Eigen::Matrix3d& Ri = R[static_cast<std::size_t>(i)];
     const Eigen::Matrix3d& Rj = R[static_cast<std::size_t>(j)];
-    const TriMesh& mesh_j = bodies[static_cast<std::size_t>(j)].mesh;
     Contact c;
     c.a = i;
     c.b = j;
@@ -194,12 +149,12 @@ int ContactSolver::solve(const std::vector<RigidBody>& bodies, std::vector<BodyS
       const Eigen::Vector3d p = si.x + Ri * vertices[c.vertex];
       if ((p - s_j.x).squaredNorm() > (sj.radius + reach) * (sj.radius + reach)) continue;
       const Eigen::Vector3d pj = Rj.transpose() * (p - s_j.x);  // in j's frame
-      const SurfaceIndex::Nearest near = sj.index.nearest(pj, reach);
+      const SurfaceIndex::Nearest near = sj.surface.index().nearest(pj, reach);
       if (!std::isfinite(near.distance)) continue;
       // Normal and signed gap, in j's frame: inside a triangle, its normal; at an edge or a
       // vertex, along the offset from the closest point (the pseudo-normal when it vanishes).
       const Eigen::Vector3d offset = pj - near.point;
-      const Eigen::Vector3d pseudo = sj.pseudoNormal(mesh_j, near.triangle, near.feature);
+      const Eigen::Vector3d pseudo = sj.surface.pseudoNormal(near.triangle, near.feature);
       Eigen::Vector3d normal;
       if (near.feature == TriangleFeature::Face) {
         normal = pseudo;

@@ -1,5 +1,7 @@
 #include "core/mesh_distance.h"
 
+#include <map>
+
 #include <Eigen/Geometry>
 
 #include <algorithm>
@@ -159,5 +161,60 @@ double hausdorffOneSided(const TriMesh& from, const TriMesh& to) {
 }
 
 double hausdorff(const TriMesh& a, const TriMesh& b) { return std::max(hausdorffOneSided(a, b), hausdorffOneSided(b, a)); }
+
+// --- ClosedSurface ------------------------------------------------------------------------------
+
+ClosedSurface::ClosedSurface(const TriMesh& mesh) : mesh_(mesh), index_(mesh) {
+  // Face normals; the angle at each corner weights the vertex normals; each edge sums the
+  // normals of its two faces (keyed by its vertex pair, either direction).
+  auto vertex = [&](uint32_t i) { return mesh.positions[i].cast<double>(); };
+  vertex_normal_.assign(mesh.positions.size(), Eigen::Vector3d::Zero());
+  std::map<std::pair<uint32_t, uint32_t>, Eigen::Vector3d> edge_sum;
+  auto key = [](uint32_t i, uint32_t j) { return std::make_pair(std::min(i, j), std::max(i, j)); };
+  for (const auto& t : mesh.triangles) {
+    const Eigen::Vector3d a = vertex(t[0]), b = vertex(t[1]), c = vertex(t[2]);
+    const Eigen::Vector3d n = (b - a).cross(c - a).normalized();
+    face_normal_.push_back(n);
+    for (int k = 0; k < 3; ++k) {
+      const Eigen::Vector3d o = vertex(t[k]);
+      const Eigen::Vector3d u = (vertex(t[(k + 1) % 3]) - o).normalized();
+      const Eigen::Vector3d w = (vertex(t[(k + 2) % 3]) - o).normalized();
+      vertex_normal_[t[k]] += std::acos(std::clamp(u.dot(w), -1.0, 1.0)) * n;
+      auto [it, fresh] = edge_sum.try_emplace(key(t[k], t[(k + 1) % 3]), Eigen::Vector3d::Zero());
+      it->second += n;
+    }
+  }
+  for (auto& n : vertex_normal_) n.normalize();
+  for (const auto& t : mesh.triangles) {
+    std::array<Eigen::Vector3d, 3> e;
+    for (int k = 0; k < 3; ++k) e[k] = edge_sum.at(key(t[k], t[(k + 1) % 3])).normalized();
+    edge_normal_.push_back(e);
+  }
+}
+
+const Eigen::Vector3d& ClosedSurface::pseudoNormal(uint32_t t, TriangleFeature f) const {
+  switch (f) {
+    case TriangleFeature::Face: return face_normal_[t];
+    case TriangleFeature::VertexA: return vertex_normal_[mesh_.triangles[t][0]];
+    case TriangleFeature::VertexB: return vertex_normal_[mesh_.triangles[t][1]];
+    case TriangleFeature::VertexC: return vertex_normal_[mesh_.triangles[t][2]];
+    case TriangleFeature::EdgeAB: return edge_normal_[t][0];
+    case TriangleFeature::EdgeBC: return edge_normal_[t][1];
+    case TriangleFeature::EdgeCA: return edge_normal_[t][2];
+  }
+  return face_normal_[t];
+}
+
+bool ClosedSurface::inside(const Eigen::Vector3d& p, double& distance) const {
+  const SurfaceIndex::Nearest near = index_.nearest(p);
+  distance = near.distance;
+  if (!std::isfinite(near.distance)) return false;
+  return pseudoNormal(near.triangle, near.feature).dot(p - near.point) <= 0.0;
+}
+
+bool ClosedSurface::inside(const Eigen::Vector3d& p) const {
+  double distance = 0;
+  return inside(p, distance);
+}
 
 }  // namespace sph

@@ -6,6 +6,8 @@
 
 #include <Eigen/Core>
 
+#include <array>
+
 #include <cstdint>
 #include <limits>
 #include <memory>
@@ -45,6 +47,30 @@ class SurfaceIndex {
  private:
   struct Impl;
   std::unique_ptr<Impl> impl_;
+};
+
+/// A closed, outward-facing mesh for inside/outside queries: nearest surface points through a
+/// SurfaceIndex, and the angle-weighted pseudo-normal of each feature (Baerentzen & Aanaes 2005),
+/// whose sign against (p - closest point) tells outside (> 0) from inside, exactly on a closed
+/// mesh. Costs a grid query per point, where a winding number costs a pass over every triangle.
+class ClosedSurface {
+ public:
+  explicit ClosedSurface(const TriMesh& mesh);
+  const SurfaceIndex& index() const { return index_; }
+  /// The pseudo-normal of feature f of triangle t (unit vector, outward).
+  const Eigen::Vector3d& pseudoNormal(uint32_t t, TriangleFeature f) const;
+  /// Whether p lies inside the closed surface (points on it count as inside).
+  bool inside(const Eigen::Vector3d& p) const;
+  /// The same, with p's distance to the surface: every point closer to p than that distance is on
+  /// the same side (unit: m; +infinity for a mesh without triangles).
+  bool inside(const Eigen::Vector3d& p, double& distance) const;
+
+ private:
+  const TriMesh& mesh_;
+  SurfaceIndex index_;
+  std::vector<Eigen::Vector3d> face_normal_;                 // per triangle, unit, outward
+  std::vector<std::array<Eigen::Vector3d, 3>> edge_normal_;  // per triangle edge (ab, bc, ca): mean of both faces
+  std::vector<Eigen::Vector3d> vertex_normal_;               // angle-weighted mean of the faces around
 };
 
 /// One-sided Hausdorff distance from `from` to the surface of `to`: the largest distance from a

@@ -1,6 +1,7 @@
 #include "core/model.h"
 
 #include "core/errors.h"
+#include "core/mesh_distance.h"
 #include "kernels/shared/sph_kernel.h"
 
 #include <Eigen/Geometry>
@@ -8,6 +9,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <memory>
 #include <cmath>
 #include <cstdio>
 #include <sstream>
@@ -471,6 +473,12 @@ Compiled compile(const SceneSpec& spec, const ResourceLimits& limits) {
     std::vector<Eigen::Vector3f> world;
     struct Placed { Eigen::Vector3d x; Eigen::Quaterniond q; double reach; };
     std::vector<Placed> placed;
+    // Inside tests through each body's surface grid (a winding number per particle would pass over
+    // every triangle: minutes for a large, finely tessellated body).
+    std::vector<std::unique_ptr<ClosedSurface>> surfaces;
+    for (const auto& body : m.bodies) surfaces.push_back(std::make_unique<ClosedSurface>(body.mesh));
+    struct Known { bool valid = false, inside = false; Eigen::Vector3d point = Eigen::Vector3d::Zero(); double distance = 0; };
+    std::vector<Known> known(m.bodies.size());
     for (const rigid::RigidBody& body : m.bodies) {
       const rigid::BodyState s0 = rigid::initialState(body);
       double reach = 0.0;
@@ -499,7 +507,17 @@ Compiled compile(const SceneSpec& spec, const ResourceLimits& limits) {
           }
       for (std::size_t b = 0; b < m.bodies.size() && !clash; ++b) {
         const Eigen::Vector3d local = placed[b].q.inverse() * (x.cast<double>() - placed[b].x);
-        if (local.norm() <= placed[b].reach) clash = windingNumber(m.bodies[b].mesh, local) > 0.5;
+        if (local.norm() > placed[b].reach) continue;
+        // The last query's answer holds within its distance to the surface (consecutive lattice
+        // points are close): deep inside a large body most points need no query of their own.
+        Known& k = known[b];
+        if (k.valid && (local - k.point).norm() < k.distance) {
+          clash = k.inside;
+        } else {
+          k.inside = clash = surfaces[b]->inside(local, k.distance);
+          k.point = local;
+          k.valid = true;
+        }
       }
       if (clash) {
         ++removed;

@@ -3,6 +3,7 @@
 // bowl that holds water. Tolerances are derived next to each check.
 #include "cli/runner.h"
 #include "core/errors.h"
+#include "core/mesh_distance.h"
 #include "core/model.h"
 #include "core/rigid.h"
 #include "io/bodies_writer.h"
@@ -691,6 +692,24 @@ TEST_CASE("Fluid placed inside or against a body is removed at compile time", "[
   const TriMesh ball = rigid::sphereMesh(0.05, 0.005);
   CHECK(windingNumber(ball, Eigen::Vector3d(0.01, -0.02, 0.03)) == Approx(1.0).margin(1e-9));
   CHECK(windingNumber(ball, Eigen::Vector3d(0.06, 0.0, 0.0)) == Approx(0.0).margin(1e-9));
+  // The fast inside test (surface grid and pseudo-normals) that compile() uses agrees with the
+  // winding number on points around a sphere, a box and a capsule, on either side of the surface.
+  {
+    std::mt19937 rng(7);
+    std::uniform_real_distribution<double> u(-0.08, 0.08);
+    for (const TriMesh& mesh : {ball, rigid::boxMesh(Eigen::Vector3d(0.1, 0.06, 0.04)), rigid::capsuleMesh(0.03, 0.06, 0.005)}) {
+      const ClosedSurface surface(mesh);
+      int disagree = 0, inside = 0;
+      for (int k = 0; k < 2000; ++k) {
+        const Eigen::Vector3d p(u(rng), u(rng), u(rng));
+        const bool w = windingNumber(mesh, p) > 0.5;
+        disagree += surface.inside(p) != w;
+        inside += w;
+      }
+      CHECK(disagree == 0);
+      CHECK(inside > 50);  // both sides sampled
+    }
+  }
   // A block of water through a sphere: no particle left inside it or within dx of its particles
   // (where the boundary contact force would act on the first step).
   SceneSpec s = io::loadSceneFromString(kDomain +

@@ -225,7 +225,8 @@ TEST_CASE("fuzz: 400 mutants of the scenes validate or are refused with a locati
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     if (seconds > slowest) slowest = seconds, slowest_what = scene.filename().string() + ": " + what;
     // A hang detector, not a speed test: one mutant compiles in well under a second.
-    if (seconds > 20.0) failures.push_back(scene.filename().string() + ": " + what + ": took " + std::to_string(seconds) + " s");
+    if (seconds > 20.0)
+      failures.push_back(scene.filename().string() + ": " + what + ": took " + std::to_string(seconds) + " s; the mutant:\n" + text);
     if (!o.problem.empty()) failures.push_back(scene.filename().string() + ": " + what + ": " + o.problem);
     valid += o.code == 0;
     refused += o.code == 2;
