@@ -341,7 +341,8 @@ Compiled compile(const SceneSpec& spec) {
     m.capacity = out.initial.size() + static_cast<std::size_t>(emitted);
     if (!m.emitters.empty()) m.notes.push_back("particle budget: " + std::to_string(m.capacity) + " (automatic)");
   }
-  if (m.capacity == 0 && m.bodies.empty()) fail(fl.loc, "the scene has no fluid and no rigid bodies: no blocks and no inflows");
+  if (m.capacity == 0 && m.bodies.empty() && spec.cloth.empty())
+    fail(fl.loc, "the scene has no fluid, no rigid bodies and no cloth: no blocks and no inflows");
   if (!issues.empty()) throw InputError(issues);
 
   // --- Speed of sound: 10x the largest expected speed keeps density errors near 1 % --------
@@ -437,6 +438,10 @@ Compiled compile(const SceneSpec& spec) {
     for (std::size_t c = 0; c < num_cells; ++c) m.boundary_cell_start[c + 1] = m.boundary_cell_start[c] + count[c];
   }
 
+  // --- Cloths: nodes, springs, colours (core/cloth.h) -----------------------------------
+  m.cloth = cloth::compileCloths(spec.cloth, issues);
+  if (!issues.empty()) throw InputError(issues);
+
   // --- Device constants ------------------------------------------------------------------
   SimParams& P = m.params;
   for (int a = 0; a < 3; ++a) {
@@ -479,6 +484,7 @@ Compiled compile(const SceneSpec& spec) {
   for (const auto& b : m.bodies) moving_bodies = moving_bodies || b.kind != rigid::BodyKind::Static;
   m.stages.set(Stage::RigidDynamics, moving_bodies);
   m.stages.set(Stage::RigidCoupling, moving_bodies && m.capacity > 0);
+  m.stages.set(Stage::Cloth, m.cloth.nodes() > 0);
   m.stages.set(Stage::Diagnostics, true);
 
   // Fixed build options: the kernel and viscosity model are compile-time constants on the device.

@@ -151,6 +151,7 @@ Simulation::Simulation(const Model& model, const HostParticles& initial, ClConte
   for (const rigid::RigidBody& body : model_.bodies) bodies_.push_back(rigid::initialState(body));
   if (on(Stage::RigidDynamics)) contacts_ = std::make_unique<rigid::ContactSolver>(model_.bodies, model_.dx);
   emitter_travel_.assign(model_.emitters.size(), model_.dx);  // the first layer leaves at the start time
+  if (on(Stage::Cloth)) cloth_ = std::make_unique<cloth::ClothSim>(model_.cloth, cl_, kernels_);
 }
 
 void Simulation::allocateNeighbourLists(uint32_t slots) {
@@ -195,6 +196,7 @@ void Simulation::step(double dt) {
     integrate();                                       // semi-implicit Euler, closed walls
   }
   if (on(Stage::RigidDynamics)) integrateBodies(dt);   // rigid bodies: momenta, poses (host)
+  if (on(Stage::Cloth)) stepCloth(dt);                 // cloth springs: XPBD or explicit, tearing
   time_ += dt;
   ++profile_.steps;
   profile_.particle_steps += n_;
@@ -445,6 +447,13 @@ void Simulation::integrateBodies(double dt) {
       rigid::followKeyframes(model_.bodies[b], bodies_[b], time_ + dt);
   }
   contacts_->correctPositions(model_.bodies, bodies_, dt);
+}
+
+// --- Cloth (core/cloth.h, kernels/cloth.cl) ----------------------------------------------------
+
+void Simulation::stepCloth(double dt) {
+  StageTimer timer(*this, Stage::Cloth);
+  cloth_->step(time_, dt, gravityAt(model_.spec.simulation, time_), nullptr);
 }
 
 FrameReport Simulation::runDiagnostics() {

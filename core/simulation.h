@@ -4,6 +4,7 @@
 #pragma once
 
 #include "core/cl_context.h"
+#include "core/cloth.h"
 #include "core/contact.h"
 #include "core/isosurface.h"
 #include "core/model.h"
@@ -95,6 +96,9 @@ class Simulation {
   void recordStepForces(bool on) { record_forces_ = on; }
   std::vector<StepForce> takeStepForces() { return std::exchange(step_forces_, {}); }
 
+  /// Cloths (null without a cloth section): node positions, energies, broken springs.
+  cloth::ClothSim* cloth() { return cloth_.get(); }
+
   /// Copies the fluid particles to the host.
   ParticleFrame readFrame();
   /// FNV-1a hash of positions, velocities, colours, phases and ids (bitwise determinism checks).
@@ -111,7 +115,7 @@ class Simulation {
 
   /// Device memory held by this simulation's buffers (unit: bytes).
   std::size_t deviceBytes() const {
-    return device_bytes_ + prefix_sum_.bytes() + (mesher_ ? mesher_->bytes() : 0);
+    return device_bytes_ + prefix_sum_.bytes() + (mesher_ ? mesher_->bytes() : 0) + (cloth_ ? cloth_->bytes() : 0);
   }
 
  private:
@@ -126,6 +130,7 @@ class Simulation {
   void placeBodyParticles();
   void sortBoundary();
   void gatherBodyForces();
+  void stepCloth(double dt);
   FrameReport runDiagnostics();
   cl::Buffer makeBuffer(std::size_t bytes);
 
@@ -184,6 +189,7 @@ class Simulation {
   double travel_since_build_ = 0.0;  // sum over steps of max speed * dt (unit: m)
   PrefixSum prefix_sum_;
   std::unique_ptr<SurfaceMesher> mesher_;  // isosurface stage, created on first use
+  std::unique_ptr<cloth::ClothSim> cloth_;  // cloth stage (core/cloth.h), only with a cloth section
   uint32_t diag_groups_ = 0;
 };
 

@@ -20,6 +20,7 @@ enum class Stage : int {
   RigidCoupling,    ///< moving bodies' particles follow their pose; fluid forces on them, summed per body
   Integrate,        ///< semi-implicit Euler, closed walls
   RigidDynamics,    ///< rigid bodies: momenta and poses on the host (Eigen); scripted bodies follow their motion
+  Cloth,            ///< cloth: springs (XPBD or explicit), anchors, tearing (kernels/cloth.cl)
   Diagnostics,      ///< NaN/inf, escapes, CFL violations (once per frame)
   Count
 };

@@ -1,0 +1,146 @@
+/* Cloth: mass-spring nets whose nodes are particles (stage: cloth; core/cloth.h has the design).
+ *
+ * Nodes: x (xyz, w = inverse mass, 0 = anchored), v, mass, air drag, anchor (velocity, w = stop
+ * time). Springs: the compressed rows row_start / spring / other (each spring in both ends' rows),
+ * prm[s] = (rest length L0, stiffness k, dashpot c, tear strain), broken[s].
+ * Every kernel gathers: a node reads its row and writes only itself (no atomics, deterministic). */
+
+#define CLOTH_NO_SLOT 0xffffffffu
+
+/* Anchored node: the distance its motion covers in [t, t + dt) (it stops at anchor.w). */
+inline float3 cloth_anchor_travel(const float4 a, const float t, const float dt) {
+  return a.xyz * clamp(a.w - t, 0.0f, dt);
+}
+inline float3 cloth_anchor_velocity(const float4 a, const float t) { return t < a.w ? a.xyz : (float3)(0.0f); }
+
+/* Explicit mass-spring (the paper's): F_i = m_i g + f_ext + sum_j [k (L - L0) + c (v_j - v_i).u] u,
+ * u = (x_j - x_i) / L; symplectic Euler (v first, then x with the new v), the drag implicit so it
+ * never limits the step. XPBD nodes are copied through. */
+__kernel void cloth_explicit_step(const uint n, const float dt, const float t, const float4 g,
+                                  __global const float4* x_in, __global const float4* v_in,
+                                  __global const float* mass, __global const float* drag,
+                                  __global const float4* anchor, __global const uint* is_xpbd,
+                                  __global const uint* row_start, __global const uint* spring,
+                                  __global const uint* other, __global const float4* prm,
+                                  __global const uint* broken, __global const float4* fext,
+                                  __global float4* x_out, __global float4* v_out) {
+  const uint i = get_global_id(0);
+  if (i >= n) return;
+  const float4 xi4 = x_in[i];
+  const float3 xi = xi4.xyz, vi = v_in[i].xyz;
+  if (is_xpbd[i]) {
+    x_out[i] = xi4;
+    v_out[i] = v_in[i];
+    return;
+  }
+  /* Anchored nodes follow their script. */
+  if (xi4.w == 0.0f) {
+    x_out[i] = (float4)(xi + cloth_anchor_travel(anchor[i], t, dt), 0.0f);
+    v_out[i] = (float4)(cloth_anchor_velocity(anchor[i], t + dt), 0.0f);
+    return;
+  }
+  /* Gravity, external (fluid) force, then the springs of row i in table order. */
+  float3 f = mass[i] * g.xyz + fext[i].xyz;
+  for (uint e = row_start[i]; e < row_start[i + 1]; ++e) {
+    const uint s = spring[e];
+    if (broken[s]) continue;
+    const uint j = other[e];
+    const float4 p = prm[s];
+    const float3 d = x_in[j].xyz - xi;
+    const float L = length(d);
+    if (L <= 0.0f) continue;
+    const float3 u = d / L;
+    f += (p.y * (L - p.x) + p.z * dot(v_in[j].xyz - vi, u)) * u;
+  }
+  /* Symplectic Euler. */
+  const float3 v = (vi + dt * xi4.w * f) / (1.0f + dt * drag[i]);
+  x_out[i] = (float4)(xi + dt * v, xi4.w);
+  v_out[i] = (float4)(v, 0.0f);
+}
+
+/* XPBD (Macklin, Mueller, Chentanez 2016), Algorithm 1 lines 1-4: predict x* = x + dt v with
+ * v += dt (g + f_ext / m) (drag implicit), keep x as prev, clear the multipliers of row i. */
+__kernel void cloth_xpbd_predict(const uint n, const float dt, const float t, const float4 g,
+                                 __global float4* x, __global const float4* v, __global const float* mass,
+                                 __global const float* drag, __global const float4* anchor,
+                                 __global const uint* is_xpbd, __global const uint* row_start,
+                                 __global const float4* fext, __global float4* prev, __global float* lambda) {
+  const uint i = get_global_id(0);
+  if (i >= n || !is_xpbd[i]) return;
+  const float4 x4 = x[i];
+  prev[i] = x4;
+  for (uint e = row_start[i]; e < row_start[i + 1]; ++e) lambda[e] = 0.0f;
+  if (x4.w == 0.0f) {
+    x[i] = (float4)(x4.xyz + cloth_anchor_travel(anchor[i], t, dt), 0.0f);
+    return;
+  }
+  const float3 vi = (v[i].xyz + dt * (g.xyz + x4.w * fext[i].xyz)) / (1.0f + dt * drag[i]);
+  x[i] = (float4)(x4.xyz + dt * vi, x4.w);
+}
+
+/* XPBD, one colour of one Gauss-Seidel sweep: node i applies the correction of its spring of
+ * colour c (if any). Distance constraint C = L - L0, gradient -u at a, +u at b (a < b);
+ * eq. 18 with damping (eq. 26): dlambda = (-C - at lambda - gamma dC) / ((1 + gamma)(w_a + w_b) + at)
+ * with at = 1 / (k dt^2) (compliance / dt^2), gamma = at bt / dt = c / (k dt), dC = u.((x_b - prev_b) - (x_a - prev_a)).
+ * Both ends compute the same dlambda from the same inputs in the same order (a, b), and each keeps
+ * its own copy of lambda in its row. Nodes without a spring of this colour are copied through. */
+__kernel void cloth_xpbd_colour(const uint n, const float dt, const uint it, const uint c,
+                                __global const float4* x_in, __global const float4* prev,
+                                __global const uint* is_xpbd, __global const uint* iters,
+                                __global const uint* slot, __global const uint* spring,
+                                __global const uint* other, __global const float4* prm,
+                                __global const uint* broken, __global float* lambda, __global float4* x_out) {
+  const uint i = get_global_id(0);
+  if (i >= n) return;
+  const float4 x4 = x_in[i];
+  const uint e = slot[c * n + i];
+  if (!is_xpbd[i] || it >= iters[i] || e == CLOTH_NO_SLOT || broken[spring[e]]) {
+    x_out[i] = x4;
+    return;
+  }
+  const uint s = spring[e];
+  const uint j = other[e];
+  const uint a = min(i, j), b = max(i, j);
+  const float4 xa = x_in[a], xb = x_in[b];
+  const float3 d = xb.xyz - xa.xyz;
+  const float L = length(d);
+  if (L <= 0.0f) {
+    x_out[i] = x4;
+    return;
+  }
+  const float3 u = d / L;
+  const float4 p = prm[s];
+  const float C = L - p.x;
+  const float at = 1.0f / (p.y * dt * dt);
+  const float gamma = p.z / (p.y * dt);
+  const float dC = dot(u, (xb.xyz - prev[b].xyz) - (xa.xyz - prev[a].xyz));
+  const float lam = lambda[e];
+  const float dlam = (-C - at * lam - gamma * dC) / ((1.0f + gamma) * (xa.w + xb.w) + at);
+  lambda[e] = lam + dlam;
+  const float side = (i == a) ? -1.0f : 1.0f;
+  x_out[i] = (float4)(x4.xyz + side * x4.w * dlam * u, x4.w);
+}
+
+/* XPBD, Algorithm 1 line 16: v = (x - prev) / dt; anchored nodes take their scripted velocity. */
+__kernel void cloth_xpbd_velocity(const uint n, const float dt, const float t, __global const float4* x,
+                                  __global const float4* prev, __global const float4* anchor,
+                                  __global const uint* is_xpbd, __global float4* v) {
+  const uint i = get_global_id(0);
+  if (i >= n || !is_xpbd[i]) return;
+  const float4 x4 = x[i];
+  if (x4.w == 0.0f)
+    v[i] = (float4)(cloth_anchor_velocity(anchor[i], t + dt), 0.0f);
+  else
+    v[i] = (float4)((x4.xyz - prev[i].xyz) / dt, 0.0f);
+}
+
+/* Tearing: spring s breaks for good when its strain (L - L0) / L0 exceeds its tear strain. One
+ * work-item per spring writes only its own flag. */
+__kernel void cloth_tear(const uint ns, __global const float4* x, __global const uint* ends,
+                         __global const float4* prm, __global uint* broken) {
+  const uint s = get_global_id(0);
+  if (s >= ns || broken[s]) return;
+  const float4 p = prm[s];
+  const float L = length(x[ends[2 * s + 1]].xyz - x[ends[2 * s]].xyz);
+  if (L - p.x > p.w * p.x) broken[s] = 1u;
+}
