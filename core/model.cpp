@@ -485,6 +485,7 @@ Compiled compile(const SceneSpec& spec) {
   m.stages.set(Stage::RigidDynamics, moving_bodies);
   m.stages.set(Stage::RigidCoupling, moving_bodies && m.capacity > 0);
   m.stages.set(Stage::Cloth, m.cloth.nodes() > 0);
+  m.stages.set(Stage::ClothCoupling, m.cloth.nodes() > 0 && m.capacity > 0);
   m.stages.set(Stage::Diagnostics, true);
 
   // Fixed build options: the kernel and viscosity model are compile-time constants on the device.

@@ -131,6 +131,8 @@ class Simulation {
   void sortBoundary();
   void gatherBodyForces();
   void stepCloth(double dt);
+  void placeClothParticles();
+  void gatherClothForces();
   FrameReport runDiagnostics();
   cl::Buffer makeBuffer(std::size_t bytes);
 
@@ -165,6 +167,9 @@ class Simulation {
   std::vector<std::size_t> moving_;       // indices into model_.bodies
   std::vector<double> moving_reach_;      // farthest particle from the centre of mass (unit: m)
   uint32_t n_static_ = 0, n_moving_ = 0;  // boundary particles: static, moving
+  // Cloth nodes coupled with the fluid: boundary particles after the moving bodies' (kernels/cloth.cl).
+  uint32_t n_cloth_ = 0;
+  cl::Buffer cloth_volume_, cloth_force_;  // per node: V_b / V0 (Akinci 2012), fluid force (unit: N)
   double body_speed_ = 0.0;               // fastest moving body particle this step (unit: m/s)
   bool record_forces_ = false;            // per-step force log on
   std::vector<StepForce> step_forces_;    // recorded since the last takeStepForces()

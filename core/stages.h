@@ -18,6 +18,7 @@ enum class Stage : int {
   Viscosity,        ///< artificial or laminar viscosity
   ColourDiffusion,  ///< colour mixing between particles
   RigidCoupling,    ///< moving bodies' particles follow their pose; fluid forces on them, summed per body
+  ClothCoupling,    ///< cloth nodes are boundary particles for the fluid; fluid forces on each node
   Integrate,        ///< semi-implicit Euler, closed walls
   RigidDynamics,    ///< rigid bodies: momenta and poses on the host (Eigen); scripted bodies follow their motion
   Cloth,            ///< cloth: springs (XPBD or explicit), anchors, tearing (kernels/cloth.cl)

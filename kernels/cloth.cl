@@ -144,3 +144,23 @@ __kernel void cloth_tear(const uint ns, __global const float4* x, __global const
   const float L = length(x[ends[2 * s + 1]].xyz - x[ends[2 * s]].xyz);
   if (L - p.x > p.w * p.x) broken[s] = 1u;
 }
+
+/* Coupling with the fluid (stage: cloth_coupling): node k is boundary particle offset + k, like a
+ * moving body's particle (rigid.cl): its position and volume ratio into bsrc and its sorted slot
+ * in bpos, its velocity into bvel (the fluid's no-slip and Adami wall pressure use it). Its speed
+ * joins the step's largest (integer atomic max of the float's bits: exact), which bounds how far
+ * the neighbour lists may drift. */
+__kernel void cloth_to_boundary(const uint n, const uint offset, __global const float4* x,
+                                __global const float4* v, __global const float* volume,
+                                __global const uint* slot, __global float4* bsrc, __global float4* bpos,
+                                __global float4* bvel, volatile __global uint* max_speed_bits) {
+  const uint k = get_global_id(0);
+  if (k >= n) return;
+  const float4 out = (float4)(x[k].xyz, volume[k]);
+  const uint s = slot[offset + k];
+  bsrc[offset + k] = out;
+  bpos[s] = out;
+  bvel[s] = (float4)(v[k].xyz, 0.0f);
+  const uint sb = as_uint(length(v[k].xyz));
+  if (sb > *max_speed_bits) atomic_max(max_speed_bits, sb);
+}
