@@ -279,6 +279,7 @@ void ClothSim::step(double t, double dt, const Eigen::Vector3d& g, const cl::Buf
   }
   // XPBD cloths: one step of dt, `iterations` coloured Gauss-Seidel sweeps.
   if (any_xpbd_) xpbdStep(t, float(dt), g4, fext);
+  last_dt_ = dt;
   if (m_.any_tear) tear();
 }
 
@@ -334,6 +335,15 @@ ClothReport ClothSim::report(std::size_t c, const Eigen::Vector3d& g) {
   std::vector<Eigen::Vector4f> x, v;
   read(x, v);
   const std::vector<uint32_t> broken = readBroken();
+  // XPBD: the spring force is the constraint force lambda / dt^2 of the last step (Macklin 2016,
+  // eq. 9 and 11), not k (L - L0): an unconverged solve leaves L - L0 larger than the force says.
+  const bool xpbd = m_.xpbd[c] && last_dt_ > 0;
+  std::vector<float> lambda;
+  if (xpbd) {
+    lambda.resize(m_.spring.size());
+    clCall("reading the cloth multipliers",
+           [&] { return cl_.queue().enqueueReadBuffer(lambda_, CL_TRUE, 0, lambda.size() * 4, lambda.data()); });
+  }
   ClothReport r;
   // Nodes: kinetic energy and gravity (free nodes; anchored ones are driven).
   for (uint32_t i = m_.first_node[c]; i < m_.first_node[c] + m_.num_nodes[c]; ++i) {
@@ -351,9 +361,16 @@ ClothReport ClothSim::report(std::size_t c, const Eigen::Vector3d& g) {
     const uint32_t a = m_.ends[2 * s], b = m_.ends[2 * s + 1];
     const Eigen::Vector3d d = (x[b].head<3>() - x[a].head<3>()).cast<double>();
     const double L = d.norm(), L0 = m_.prm[s].x(), k = m_.prm[s].y();
-    r.elastic += 0.5 * k * (L - L0) * (L - L0);
     if (L0 > 0) r.max_strain = std::max(r.max_strain, (L - L0) / L0);
-    const Eigen::Vector3d f = L > 0 ? Eigen::Vector3d(k * (L - L0) * d / L) : Eigen::Vector3d::Zero();  // on a, towards b
+    // Tension T (positive when stretched): explicit k (L - L0); XPBD -lambda / dt^2, lambda from
+    // a's row (both rows hold the same value).
+    double T = k * (L - L0);
+    if (xpbd) {
+      for (uint32_t e = m_.row_start[a]; e < m_.row_start[a + 1]; ++e)
+        if (m_.spring[e] == s) T = -static_cast<double>(lambda[e]) / (last_dt_ * last_dt_);
+    }
+    r.elastic += 0.5 * T * T / k;
+    const Eigen::Vector3d f = L > 0 ? Eigen::Vector3d(T * d / L) : Eigen::Vector3d::Zero();  // on a, towards b
     if (m_.x0[a].w() == 0.0f) r.anchor_force += f;
     if (m_.x0[b].w() == 0.0f) r.anchor_force -= f;
   }

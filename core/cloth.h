@@ -92,10 +92,10 @@ ClothModel compileCloths(const std::vector<ClothSpec>& specs, std::vector<InputI
 struct ClothReport {
   double kinetic = 0;         ///< (unit: J)
   double potential = 0;       ///< gravity, relative to z = 0 along -g (unit: J)
-  double elastic = 0;         ///< springs, 1/2 k (L - L0)^2 (unit: J)
+  double elastic = 0;         ///< springs, T^2 / 2k with T the tension: k (L - L0), XPBD lambda / dt^2 (unit: J)
   double max_strain = 0;      ///< largest (L - L0) / L0 over the unbroken springs (unit: 1)
   uint32_t broken = 0;        ///< broken springs
-  Eigen::Vector3d anchor_force = Eigen::Vector3d::Zero();  ///< force of the springs on the anchored nodes (unit: N)
+  Eigen::Vector3d anchor_force = Eigen::Vector3d::Zero();  ///< force of the springs on the anchored nodes, sum of T u (unit: N)
   double energy() const { return kinetic + potential + elastic; }
 };
 
@@ -132,6 +132,7 @@ class ClothSim {
   uint32_t n_ = 0, ns_ = 0, max_iterations_ = 0;
   int cur_ = 0;
   int last_substeps_ = 0;
+  double last_dt_ = 0.0;  // the last step's length (unit: s)
   bool any_explicit_ = false, any_xpbd_ = false;
   cl::Buffer x_[2], v_[2], prev_, mass_, drag_, anchor_, row_start_, spring_, other_, ends_, prm_, broken_, slot_,
       lambda_, zero_force_, is_xpbd_, iters_;
