@@ -267,9 +267,31 @@ ClothSim::ClothSim(const ClothModel& model, ClContext& cl, KernelSet& kernels) :
   lambda_ = upload(std::vector<float>(m_.spring.size(), 0.0f));
 }
 
-void ClothSim::step(double t, double dt, const Eigen::Vector3d& g, const cl::Buffer* external) {
+void ClothSim::uploadSpheres(const std::vector<SphereCollider>& spheres) {
+  const uint32_t ns = static_cast<uint32_t>(spheres.size());
+  if (sphere_capacity_ < ns) {
+    spheres_ = make(ns * 32);
+    impulse_ = make(static_cast<std::size_t>(ns) * n_ * 16);
+    shift_ = make(static_cast<std::size_t>(ns) * n_ * 16);
+    impulse_sum_ = make(ns * 16);
+    sphere_capacity_ = ns;
+  }
+  // Per sphere: (centre, radius), (velocity, friction).
+  std::vector<Eigen::Vector4f> data;
+  for (const SphereCollider& sp : spheres) {
+    data.emplace_back(float(sp.centre.x()), float(sp.centre.y()), float(sp.centre.z()), float(sp.radius));
+    data.emplace_back(float(sp.velocity.x()), float(sp.velocity.y()), float(sp.velocity.z()), float(sp.friction));
+  }
+  clCall("uploading the spheres", [&] { return cl_.queue().enqueueWriteBuffer(spheres_, CL_TRUE, 0, data.size() * 16, data.data()); });
+}
+
+std::vector<Eigen::Vector3d> ClothSim::step(double t, double dt, const Eigen::Vector3d& g, const cl::Buffer* external,
+                                            const std::vector<SphereCollider>& spheres) {
   const Eigen::Vector4f g4(float(g.x()), float(g.y()), float(g.z()), 0.0f);
   const cl::Buffer& fext = external ? *external : zero_force_;
+  const uint32_t ns = static_cast<uint32_t>(spheres.size());
+  std::vector<Eigen::Vector3d> J(ns, Eigen::Vector3d::Zero());
+  if (ns > 0) uploadSpheres(spheres);
   // Explicit cloths: as many substeps as the stability limit asks for.
   last_substeps_ = 0;
   if (any_explicit_) {
@@ -278,9 +300,23 @@ void ClothSim::step(double t, double dt, const Eigen::Vector3d& g, const cl::Buf
     for (int k = 0; k < last_substeps_; ++k) explicitSubstep(t + k * h, float(h), g4, fext);
   }
   // XPBD cloths: one step of dt, `iterations` coloured Gauss-Seidel sweeps.
-  if (any_xpbd_) xpbdStep(t, float(dt), g4, fext);
+  if (any_xpbd_) xpbdStep(t, float(dt), g4, fext, ns);
   last_dt_ = dt;
   if (m_.any_tear) tear();
+  if (ns == 0) return J;
+  // Balls: the XPBD nodes' projections (J = -sum m dx / dt, in node order), then the explicit
+  // nodes' velocity contact.
+  if (any_xpbd_) {
+    k_.call("cloth_sphere_shift_reduce", ns, 0, n_, ns, float(dt), mass_, shift_, impulse_sum_);
+    std::vector<Eigen::Vector4f> sums(ns);
+    clCall("reading the sphere impulses", [&] { return cl_.queue().enqueueReadBuffer(impulse_sum_, CL_TRUE, 0, ns * 16, sums.data()); });
+    for (uint32_t k = 0; k < ns; ++k) J[k] += sums[k].head<3>().cast<double>();
+  }
+  if (any_explicit_) {
+    const std::vector<Eigen::Vector3d> Je = collideSpheres(spheres);
+    for (uint32_t k = 0; k < ns; ++k) J[k] += Je[k];
+  }
+  return J;
 }
 
 void ClothSim::explicitSubstep(double t, float dt, const Eigen::Vector4f& g, const cl::Buffer& fext) {
@@ -292,21 +328,42 @@ void ClothSim::explicitSubstep(double t, float dt, const Eigen::Vector4f& g, con
   cur_ = nxt;
 }
 
-void ClothSim::xpbdStep(double t, float dt, const Eigen::Vector4f& g, const cl::Buffer& fext) {
+void ClothSim::xpbdStep(double t, float dt, const Eigen::Vector4f& g, const cl::Buffer& fext, uint32_t n_spheres) {
   const cl_float4 g4{{g.x(), g.y(), g.z(), 0.0f}};
   // Predict x* = x + dt v + dt^2 (g + f/m), remember x, clear the multipliers.
   k_.call("cloth_xpbd_predict", n_, 64, n_, dt, float(t), g4, x_[cur_], v_[cur_], mass_, drag_, anchor_, is_xpbd_,
           row_start_, fext, prev_, lambda_);
   // Coloured Gauss-Seidel: per colour one gather pass, ping-ponging the positions.
-  for (uint32_t it = 0; it < max_iterations_; ++it)
+  // Balls: the projections of this step add up per node and sphere (shift), from zero.
+  if (n_spheres > 0)
+    clCall("clearing the sphere shifts", [&] {
+      return cl_.queue().enqueueFillBuffer(shift_, cl_float4{}, 0, std::size_t(n_spheres) * n_ * 16);
+    });
+  for (uint32_t it = 0; it < max_iterations_; ++it) {
     for (uint32_t c = 0; c < m_.num_colours; ++c) {
       const int nxt = 1 - cur_;
       k_.call("cloth_xpbd_colour", n_, 64, n_, dt, it, c, x_[cur_], prev_, is_xpbd_, iters_,
               slot_ , spring_, other_, prm_, broken_, lambda_, x_[nxt]);
       cur_ = nxt;
     }
+    // Balls are obstacles inside the solve: each sweep ends with the nodes outside them.
+    if (n_spheres > 0) k_.call("cloth_sphere_project", n_, 64, n_, n_spheres, spheres_, is_xpbd_, x_[cur_], shift_);
+  }
   // Velocities from the positions (anchored nodes: their scripted velocity).
   k_.call("cloth_xpbd_velocity", n_, 64, n_, dt, float(t), x_[cur_], prev_, anchor_, is_xpbd_, v_[cur_]);
+}
+
+std::vector<Eigen::Vector3d> ClothSim::collideSpheres(const std::vector<SphereCollider>& spheres) {
+  const uint32_t ns = static_cast<uint32_t>(spheres.size());
+  std::vector<Eigen::Vector3d> out(ns, Eigen::Vector3d::Zero());
+  if (ns == 0 || n_ == 0) return out;
+  uploadSpheres(spheres);
+  k_.call("cloth_sphere_contact", n_, 64, n_, ns, spheres_, mass_, is_xpbd_, x_[cur_], v_[cur_], impulse_);
+  k_.call("cloth_sphere_reduce", ns, 0, n_, ns, impulse_, impulse_sum_);
+  std::vector<Eigen::Vector4f> sums(ns);
+  clCall("reading the sphere impulses", [&] { return cl_.queue().enqueueReadBuffer(impulse_sum_, CL_TRUE, 0, ns * 16, sums.data()); });
+  for (uint32_t k = 0; k < ns; ++k) out[k] = sums[k].head<3>().cast<double>();
+  return out;
 }
 
 void ClothSim::tear() {

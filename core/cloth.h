@@ -99,13 +99,29 @@ struct ClothReport {
   double energy() const { return kinetic + potential + elastic; }
 };
 
+/// A sphere that the cloth's nodes collide with (a ball: a rigid body of shape sphere).
+struct SphereCollider {
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();  ///< (unit: m)
+  double radius = 0;                                 ///< (unit: m)
+  Eigen::Vector3d velocity = Eigen::Vector3d::Zero();///< of its centre (unit: m/s)
+  double friction = 0.5;                             ///< Coulomb coefficient against the nodes (unit: 1)
+};
+
 /// The cloth state on the device and its time step. Owns its buffers.
 class ClothSim {
  public:
   ClothSim(const ClothModel& model, ClContext& cl, KernelSet& kernels);
   /// Advances every cloth by dt (unit: s) from time t (unit: s) under gravity g (unit: m/s^2).
   /// Explicit cloths take ceil(dt / limit) substeps. `external` (may be null): per-node force (unit: N).
-  void step(double t, double dt, const Eigen::Vector3d& g, const cl::Buffer* external);
+  /// Balls (`spheres`) are obstacles (particle coupling): XPBD cloths project their nodes out of
+  /// them after every sweep, inside the solve; explicit cloths after the step (collideSpheres).
+  /// Returns per sphere the impulse of the nodes on it over the step (unit: N s).
+  std::vector<Eigen::Vector3d> step(double t, double dt, const Eigen::Vector3d& g, const cl::Buffer* external,
+                                    const std::vector<SphereCollider>& spheres = {});
+  /// Contact with balls (particle coupling): every free node inside a sphere goes to its surface and
+  /// loses its velocity into the sphere relative to it (inelastic), with Coulomb friction. Returns per sphere
+  /// the impulse the nodes exert on it (unit: N s), summed over the nodes in order (deterministic).
+  std::vector<Eigen::Vector3d> collideSpheres(const std::vector<SphereCollider>& spheres);
   /// Substeps the explicit solver took in the last step().
   int lastSubsteps() const { return last_substeps_; }
   /// Positions (w = inverse mass) and velocities of all nodes.
@@ -122,7 +138,8 @@ class ClothSim {
   template <class T>
   cl::Buffer upload(const std::vector<T>& data);
   void explicitSubstep(double t, float dt, const Eigen::Vector4f& g, const cl::Buffer& fext);
-  void xpbdStep(double t, float dt, const Eigen::Vector4f& g, const cl::Buffer& fext);
+  void xpbdStep(double t, float dt, const Eigen::Vector4f& g, const cl::Buffer& fext, uint32_t n_spheres);
+  void uploadSpheres(const std::vector<SphereCollider>& spheres);
   void tear();
 
   const ClothModel& m_;
@@ -135,7 +152,8 @@ class ClothSim {
   double last_dt_ = 0.0;  // the last step's length (unit: s)
   bool any_explicit_ = false, any_xpbd_ = false;
   cl::Buffer x_[2], v_[2], prev_, mass_, drag_, anchor_, row_start_, spring_, other_, ends_, prm_, broken_, slot_,
-      lambda_, zero_force_, is_xpbd_, iters_;
+      lambda_, zero_force_, is_xpbd_, iters_, spheres_, impulse_, impulse_sum_, shift_;
+  std::size_t sphere_capacity_ = 0;
 };
 
 }  // namespace sph::cloth

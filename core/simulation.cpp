@@ -481,7 +481,19 @@ void Simulation::integrateBodies(double dt) {
 void Simulation::stepCloth(double dt) {
   StageTimer timer(*this, Stage::Cloth);
   // With fluid, the nodes carry the fluid's force of this step (gatherClothForces).
-  cloth_->step(time_, dt, gravityAt(model_.spec.simulation, time_), n_cloth_ > 0 ? &cloth_force_ : nullptr);
+  // Balls (rigid spheres) are obstacles for the nodes; the nodes' impulses change the balls' momenta.
+  std::vector<cloth::SphereCollider> spheres;
+  std::vector<std::size_t> which;
+  for (std::size_t b = 0; b < bodies_.size(); ++b) {
+    const rigid::RigidBody& body = model_.bodies[b];
+    if (body.spec.shape != BodyShape::Sphere) continue;
+    spheres.push_back({bodies_[b].x, body.spec.radius * body.spec.scale, bodies_[b].v, body.spec.friction});
+    which.push_back(b);
+  }
+  const std::vector<Eigen::Vector3d> J =
+      cloth_->step(time_, dt, gravityAt(model_.spec.simulation, time_), n_cloth_ > 0 ? &cloth_force_ : nullptr, spheres);
+  for (std::size_t k = 0; k < which.size(); ++k)
+    if (model_.bodies[which[k]].kind == rigid::BodyKind::Dynamic) bodies_[which[k]].v += J[k] / model_.bodies[which[k]].mass;
 }
 
 void Simulation::placeClothParticles() {

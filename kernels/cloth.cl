@@ -164,3 +164,91 @@ __kernel void cloth_to_boundary(const uint n, const uint offset, __global const 
   const uint sb = as_uint(length(v[k].xyz));
   if (sb > *max_speed_bits) atomic_max(max_speed_bits, sb);
 }
+
+/* Contact with balls (particle coupling, stage: cloth). sphere[2k] = (centre, radius), sphere[2k+1]
+ * = (velocity, friction coefficient). A free node inside sphere k goes to its surface along the
+ * normal n and loses its velocity into the sphere relative to it (perfectly inelastic: the cloth
+ * does not bounce balls off numerically) and, by Coulomb friction, tangential relative velocity up
+ * to mu times that (so the nodes do not slide round the ball and let it through). impulse[k n_nodes + i] is what node i gives sphere k,
+ * -m dv (unit: N s); the spheres are taken in order. */
+__kernel void cloth_sphere_contact(const uint n, const uint n_spheres, __global const float4* sphere,
+                                   __global const float* mass, __global const uint* is_xpbd, __global float4* x,
+                                   __global float4* v, __global float4* impulse) {
+  const uint i = get_global_id(0);
+  if (i >= n) return;
+  if (is_xpbd[i]) {
+    for (uint k = 0; k < n_spheres; ++k) impulse[k * n + i] = (float4)(0.0f);
+    return;
+  }
+  float4 xi = x[i];
+  float3 vi = v[i].xyz;
+  for (uint k = 0; k < n_spheres; ++k) {
+    float3 J = (float3)(0.0f);
+    const float4 s = sphere[2 * k];
+    const float3 d = xi.xyz - s.xyz;
+    const float dist = length(d);
+    if (xi.w > 0.0f && dist < s.w && dist > 0.0f) {
+      const float3 nrm = d / dist;
+      xi.xyz = s.xyz + s.w * nrm;
+      const float4 sv = sphere[2 * k + 1];
+      const float3 rel = vi - sv.xyz;
+      const float vn = dot(rel, nrm);
+      if (vn < 0.0f) {
+        /* Normal: inelastic. Tangential: Coulomb friction, |dv_t| <= mu |dv_n| (mu = sv.w). */
+        const float3 vt = rel - vn * nrm;
+        const float st = length(vt);
+        const float keep = st > 0.0f ? fmax(0.0f, 1.0f - sv.w * (-vn) / st) : 0.0f;
+        const float3 dv = -vn * nrm - (1.0f - keep) * vt;
+        vi += dv;
+        J = -mass[i] * dv;
+      }
+    }
+    impulse[k * n + i] = (float4)(J, 0.0f);
+  }
+  x[i] = xi;
+  v[i] = (float4)(vi, 0.0f);
+}
+
+/* Per sphere k: the impulses of all nodes, summed in node order (deterministic). */
+__kernel void cloth_sphere_reduce(const uint n, const uint n_spheres, __global const float4* impulse,
+                                  __global float4* out) {
+  const uint k = get_global_id(0);
+  if (k >= n_spheres) return;
+  float3 J = (float3)(0.0f);
+  for (uint i = 0; i < n; ++i) J += impulse[k * n + i].xyz;
+  out[k] = (float4)(J, 0.0f);
+}
+
+/* XPBD contact with balls, inside the solve (Mueller et al. 2007, PBD collision constraints): after
+ * each sweep a free node inside sphere k moves to its surface along the normal; the moves add up in
+ * shift[k n + i]. Over the step they are the node's momentum change from the ball, m shift / dt
+ * (v = (x - prev) / dt), so the ball receives -m shift / dt (cloth_sphere_shift_reduce). */
+__kernel void cloth_sphere_project(const uint n, const uint n_spheres, __global const float4* sphere,
+                                   __global const uint* is_xpbd, __global float4* x, __global float4* shift) {
+  const uint i = get_global_id(0);
+  if (i >= n || !is_xpbd[i]) return;
+  float4 xi = x[i];
+  if (xi.w == 0.0f) return;
+  for (uint k = 0; k < n_spheres; ++k) {
+    const float4 s = sphere[2 * k];
+    const float3 d = xi.xyz - s.xyz;
+    const float dist = length(d);
+    if (dist < s.w && dist > 0.0f) {
+      const float3 moved = (s.w - dist) * (d / dist);
+      xi.xyz += moved;
+      shift[k * n + i] += (float4)(moved, 0.0f);
+    }
+  }
+  x[i] = xi;
+}
+
+/* Per sphere k: J = -sum_i m_i shift_i / dt over the nodes in order (deterministic). */
+__kernel void cloth_sphere_shift_reduce(const uint n, const uint n_spheres, const float dt,
+                                        __global const float* mass, __global const float4* shift,
+                                        __global float4* out) {
+  const uint k = get_global_id(0);
+  if (k >= n_spheres) return;
+  float3 J = (float3)(0.0f);
+  for (uint i = 0; i < n; ++i) J -= mass[i] * shift[k * n + i].xyz;
+  out[k] = (float4)(J / dt, 0.0f);
+}
