@@ -6,6 +6,7 @@
 #include "core/errors.h"
 #include "core/model.h"
 #include "core/simulation.h"
+#include "io/cloth_writer.h"
 #include "io/scene_loader.h"
 #include "tests/run_binary.h"
 #include "tests/scene_issues.h"
@@ -270,6 +271,12 @@ TEST_CASE("Cloth: pulling two anchored edges apart past tear_strain breaks sprin
   INFO("broken " << r.broken << " of " << comp.model.cloth.springs());
   CHECK(r.broken > 0);
   CHECK(r.max_strain < 0.5 * 1.01);  // what is left is below the tear strain
+  // The exported mesh leaves out the triangles along broken springs (5 x 2 cells, 2 triangles each).
+  const TriMesh whole = io::clothMesh(comp.model.cloth, 0, s, comp.model.cloth.x0, {});
+  const TriMesh torn = io::clothMesh(comp.model.cloth, 0, s, positions(sim), sim.cloth()->readBroken());
+  CHECK(whole.numTriangles() == 20u);
+  CHECK(torn.numTriangles() < whole.numTriangles());
+  CHECK(torn.colours.size() == torn.positions.size());
 }
 
 TEST_CASE("Cloth: scenes without cloth enqueue no cloth kernel, and with cloth runs are bitwise equal", "[cloth]") {
