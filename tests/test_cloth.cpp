@@ -434,7 +434,7 @@ TEST_CASE("Cloth: a hammock holds a pool of water with no particle through (two-
   CHECK(std::abs(carried - held) <= 0.1 * held);
 }
 
-TEST_CASE("Cloth: a ball dropped on a cloth is caught and carried; a heavier one sags it deeper", "[cloth][rigid]") {
+TEST_CASE("Cloth: a ball dropped on a cloth is caught and carried, and a heavier one sags it deeper", "[cloth][rigid]") {
   // A 0.3 m square cloth (XPBD, 21 x 21 nodes, 0.5 kg/m^2, edges anchored) and a ball of radius
   // 4 cm dropped from 6 cm above it, density 300 then 600 kg/m^3 (80 g, 160 g); particle coupling:
   // the nodes are projected out of the ball after every Gauss-Seidel sweep and the ball receives
