@@ -6,6 +6,8 @@
 #include <Eigen/Geometry>
 
 #include <algorithm>
+#include <array>
+#include <map>
 #include <cmath>
 #include <sstream>
 #include <unordered_map>
@@ -324,6 +326,44 @@ Compiled compile(const SceneSpec& spec) {
       m.notes.push_back(std::to_string(moving) +
                         " moving rigid bod(ies): coupled to the fluid by pressure and contact (no viscous "
                         "coupling yet); contact with the closed walls, none between bodies yet");
+  }
+
+  // Fluid placed where a cloth is: particles closer than dx to a cloth node (where the contact
+  // repulsion would act at once) are removed, as for bodies.
+  if (!spec.cloth.empty() && out.initial.size() > 0) {
+    std::map<std::array<int64_t, 3>, std::vector<Eigen::Vector3d>> nodes;
+    auto key = [&](const Eigen::Vector3d& x) {
+      return std::array<int64_t, 3>{static_cast<int64_t>(std::floor(x.x() / m.dx)),
+                                    static_cast<int64_t>(std::floor(x.y() / m.dx)),
+                                    static_cast<int64_t>(std::floor(x.z() / m.dx))};
+    };
+    for (const ClothSpec& c : spec.cloth)
+      for (const Eigen::Vector3d& x : cloth::nodePositions(c)) nodes[key(x)].push_back(x);
+    HostParticles kept;
+    std::size_t removed = 0;
+    for (std::size_t i = 0; i < out.initial.size(); ++i) {
+      const Eigen::Vector3d x = out.initial.pos[i].head<3>().cast<double>();
+      const auto k = key(x);
+      bool clash = false;
+      for (int64_t dz = -1; dz <= 1 && !clash; ++dz)
+        for (int64_t dy = -1; dy <= 1 && !clash; ++dy)
+          for (int64_t dxx = -1; dxx <= 1 && !clash; ++dxx) {
+            const auto it = nodes.find({k[0] + dxx, k[1] + dy, k[2] + dz});
+            if (it == nodes.end()) continue;
+            for (const Eigen::Vector3d& y : it->second)
+              if ((y - x).squaredNorm() < m.dx * m.dx) { clash = true; break; }
+          }
+      if (clash) {
+        ++removed;
+        continue;
+      }
+      kept.push(out.initial.pos[i].head<3>(), out.initial.vel[i].head<3>(), out.initial.colour[i].head<3>(),
+                out.initial.phase[i], static_cast<uint32_t>(kept.size()));
+    }
+    if (removed > 0) {
+      m.notes.push_back(std::to_string(removed) + " fluid particles within dx of cloth nodes removed");
+      out.initial = std::move(kept);
+    }
   }
 
   // --- Particle budget: initial + what the nozzles emit over their active time ---------------

@@ -500,3 +500,31 @@ TEST_CASE("Cloth: a ball dropped on a cloth is caught and carried, and a heavier
   }
   CHECK(mean_z[1] < mean_z[0]);
 }
+
+TEST_CASE("Cloth: fluid placed across a cloth is cleared to a spacing from its nodes at compile time", "[cloth][fluid]") {
+  // A water block through a cloth plane: the particles closer than dx to a node would meet the
+  // boundary's contact repulsion at once (the first balls_on_cloth scene blew the cloth up), so
+  // compile() removes them and says so; the rest stay.
+  ClothSpec c;
+  c.name = "plane";
+  c.width = c.length = 0.2;
+  c.resolution_x = c.resolution_y = 26;
+  c.position = Eigen::Vector3d(0.5, 0.5, 0.105);
+  SceneSpec s = clothScene(c, 60, 2, 0.1);
+  s.fluid.particle_spacing = 0.01;
+  s.fluid.blocks.resize(1);
+  s.fluid.blocks[0].min = Eigen::Vector3d(0.4, 0.4, 0.0);
+  s.fluid.blocks[0].max = Eigen::Vector3d(0.6, 0.6, 0.2);
+  const Compiled comp = compile(s);
+  const double dx = 0.01;
+  double nearest = INFINITY;
+  for (std::size_t p = 0; p < comp.initial.size(); ++p)
+    for (const auto& x : comp.model.cloth.x0)
+      nearest = std::min(nearest, double((comp.initial.pos[p].head<3>() - x.head<3>()).norm()));
+  INFO("particles " << comp.initial.size() << " of 8000; nearest to a node " << nearest << " m");
+  CHECK(nearest >= dx * (1 - 1e-6));
+  CHECK(comp.initial.size() < 8000u);
+  CHECK(comp.initial.size() >= 8000u - 3 * 400u);  // at most the layers within dx of the plane
+  CHECK(std::any_of(comp.model.notes.begin(), comp.model.notes.end(),
+                    [](const std::string& n) { return n.find("cloth nodes removed") != std::string::npos; }));
+}
