@@ -1,13 +1,19 @@
 // The small commands: validate, schema, devices, and the benchmark.
 #pragma once
 
+#include <iostream>
 #include <string>
 #include <vector>
 
 namespace sph::app {
 
 /// Loads and compiles each scene; prints every problem; returns 0 if all are valid, 2 otherwise.
-int validateCommand(const std::vector<std::string>& files);
+/// `max_memory`: refuse scenes whose estimated memory exceeds it (unit: bytes; 0 = the machine's).
+int validateCommand(const std::vector<std::string>& files, double max_memory = 0, std::ostream& out = std::cout,
+                    std::ostream& err = std::cerr);
+/// "8G", "512M", "2GiB", "1e9" -> bytes (k, M, G, T: powers of 1000; Ki, Mi, Gi, Ti: of 1024; an
+/// optional trailing B). Returns a negative value when the text is not such a size.
+double parseBytes(const std::string& text);
 /// Prints the schema table.
 int schemaCommand();
 /// Prints every OpenCL device with its index; returns 3 if there is none.

@@ -27,13 +27,20 @@ int main(int argc, char** argv) {
   cmd_run->add_option("--set,-s", run.sets, "Override a scene key, e.g. --set fluid.particle_spacing=0.01")
       ->allow_extra_args(false);
   cmd_run->add_option("--disable", run.disable, "Switch off a stage (" + stageNameList() + ")")->allow_extra_args(false);
-  cmd_run->add_option("--duration", run.duration, "Simulated time in seconds (overrides simulation.duration)");
+  auto* opt_duration = cmd_run->add_option("--duration", run.duration,
+                                           "Simulated time in seconds (overrides simulation.duration; "
+                                           "rounded to whole frames)");
   cmd_run->add_flag("--quiet,-q", run.quiet, "No progress line and no summary");
+  const std::string max_memory_help =
+      "Refuse scenes estimated to need more memory than this, e.g. 8G, 512M, 2GiB (default: the machine's memory)";
+  std::string run_max_memory, validate_max_memory;
+  cmd_run->add_option("--max-memory", run_max_memory, max_memory_help);
 
   // validate
   std::vector<std::string> validate_files;
   auto* cmd_validate = app.add_subcommand("validate", "Check scene files and report every problem with file:line:col");
   cmd_validate->add_option("scenes", validate_files, "Scene files")->required();
+  cmd_validate->add_option("--max-memory", validate_max_memory, max_memory_help);
 
   // schema, devices
   auto* cmd_schema = app.add_subcommand("schema", "List every scene key: type, default, unit, allowed values, doc");
@@ -95,8 +102,24 @@ int main(int argc, char** argv) {
     return code == 0 ? 0 : kExitBadInput;
   }
 
-  if (*cmd_run) return app::runScene(run).exit_code;
-  if (*cmd_validate) return app::validateCommand(validate_files);
+  // --max-memory: a size with a unit; anything else is bad input.
+  auto maxMemory = [](const std::string& text, double& bytes) {
+    if (text.empty()) return true;
+    bytes = app::parseBytes(text);
+    if (bytes > 0) return true;
+    std::cerr << "--max-memory: '" << text << "' is not a size (e.g. 8G, 512M, 2GiB)\n";
+    return false;
+  };
+  if (*cmd_run) {
+    run.duration_given = opt_duration->count() > 0;
+    if (!maxMemory(run_max_memory, run.max_memory)) return kExitBadInput;
+    return app::runScene(run).exit_code;
+  }
+  if (*cmd_validate) {
+    double bytes = 0;
+    if (!maxMemory(validate_max_memory, bytes)) return kExitBadInput;
+    return app::validateCommand(validate_files, bytes);
+  }
   if (*cmd_schema) return app::schemaCommand();
   if (*cmd_devices) return app::devicesCommand();
   if (*cmd_bench) return app::benchCommand(bench);

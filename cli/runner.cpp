@@ -5,16 +5,19 @@
 #include "io/cloth_writer.h"
 #include "io/async_writer.h"
 #include "io/h5part_writer.h"
+#include "io/probes_writer.h"
 #include "io/obj_io.h"
 #include "io/surface_export.h"
 #include "io/vdb_writer.h"
 #include "io/run_json.h"
+#include "io/run_lock.h"
 #include "io/scene_loader.h"
 
 #include <unistd.h>
 
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
@@ -28,8 +31,50 @@ namespace sph::app {
 
 namespace {
 
-std::atomic<bool> g_interrupted{false};
-extern "C" void onSigint(int) { g_interrupted = true; }
+// The signal that asked the run to stop (SIGINT, SIGTERM or SIGHUP), 0 while none did. Each is
+// handled like Ctrl-C: the frame loop ends, the output is closed and run.json says "interrupted".
+std::atomic<int> g_stop_signal{0};
+extern "C" void onStopSignal(int sig) { g_stop_signal = sig; }
+
+/// Installs the stop handlers for the frame loop; restores the old ones at scope exit.
+class StopSignals {
+ public:
+  StopSignals() {
+    g_stop_signal = 0;
+    for (std::size_t i = 0; i < 3; ++i) old_[i] = std::signal(kSignals[i], onStopSignal);
+  }
+  ~StopSignals() {
+    for (std::size_t i = 0; i < 3; ++i) std::signal(kSignals[i], old_[i]);
+  }
+  StopSignals(const StopSignals&) = delete;
+  StopSignals& operator=(const StopSignals&) = delete;
+
+ private:
+  static constexpr int kSignals[3] = {SIGINT, SIGTERM, SIGHUP};
+  void (*old_[3])(int) = {};
+};
+
+/// Ignores SIGPIPE while in scope (a closed stdout/stderr pipe, e.g. `| head`: the write fails
+/// with EPIPE and the run goes on, instead of dying silently with run.json left "running").
+class IgnoreSigpipe {
+ public:
+  IgnoreSigpipe() : old_(std::signal(SIGPIPE, SIG_IGN)) {}
+  ~IgnoreSigpipe() { std::signal(SIGPIPE, old_); }
+  IgnoreSigpipe(const IgnoreSigpipe&) = delete;
+  IgnoreSigpipe& operator=(const IgnoreSigpipe&) = delete;
+
+ private:
+  void (*old_)(int);
+};
+
+const char* signalName(int sig) {
+  switch (sig) {
+    case SIGINT: return "SIGINT (Ctrl-C)";
+    case SIGTERM: return "SIGTERM";
+    case SIGHUP: return "SIGHUP";
+    default: return "a signal";
+  }
+}
 
 using Clock = std::chrono::steady_clock;
 double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
@@ -92,6 +137,7 @@ void writeSurfaceVdb(const fs::path& dir, int frame, const std::vector<PhaseSpec
 
 RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, const FrameReport&)>& on_frame) {
   RunResult res;
+  IgnoreSigpipe ignore_sigpipe;  // a closed stdout/stderr pipe must not kill the run
   const bool tty = !opt.quiet && isatty(fileno(stderr));
   auto log = [&](const std::string& line) {
     if (!opt.quiet) std::cerr << line << "\n";
@@ -102,8 +148,12 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
   std::unique_ptr<io::BodiesCsvWriter> bodies_csv;
   std::unique_ptr<io::ClothCsvWriter> cloth_csv;
   std::unique_ptr<io::StepForcesCsvWriter> forces_csv;
+  std::unique_ptr<io::ProbesCsvWriter> probes_csv;
   std::unique_ptr<io::AsyncWriter> writer;  // after h5: destroyed (joined) before it
   fs::path out_dir, h5_partial, h5_final;
+  bool h5_written = false;  // this run created h5_partial
+  io::RunLock lock;         // the output folder's lock, held from before anything in it is touched
+  io::RunWarnings warnings;
   io::RunInfo info;
   Clock::time_point t_start = Clock::now();
 
@@ -123,6 +173,7 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
     if (bodies_csv) bodies_csv->close();
     if (cloth_csv) cloth_csv->close();
     if (forces_csv) forces_csv->close();
+    if (probes_csv) probes_csv->close();
     if (!out_dir.empty() && opt.write_output) {
       info.status = status;
       info.message = message;
@@ -134,9 +185,11 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
       info.isosurface_seconds = res.iso_seconds;
       info.output_seconds = res.output_seconds;
       info.writer_seconds = res.writer_seconds;
-      // Only a complete run gets the final file name; anything else keeps ".partial".
+      info.warnings = warnings;
+      // Only a complete run gets the final file name; anything else keeps ".partial". Only the
+      // file this run wrote is renamed: never another run's .partial found in the folder.
       std::error_code ec;
-      if (status == "complete" && !h5_partial.empty() && fs::exists(h5_partial)) fs::rename(h5_partial, h5_final, ec);
+      if (status == "complete" && h5_written && fs::exists(h5_partial)) fs::rename(h5_partial, h5_final, ec);
       try {
         io::writeRunJson((out_dir / "run.json").string(), info);
       } catch (const std::exception& e) {
@@ -144,17 +197,45 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
         if (res.exit_code == kExitOk) res.exit_code = 1;
       }
     }
+    lock.release();
     return res;
   };
 
   try {
     // --- Scene: load, override, compile --------------------------------------------------
     SceneSpec spec = io::loadScene(opt.scene, opt.sets);
-    if (opt.duration >= 0.0) {
-      if (!(opt.duration > 0.0)) throw InputError("--duration", 0, 0, "must be > 0 (unit: s)");
+    // --duration: a finite time > 0 (-1, nan and inf are refused, never read as "the scene's").
+    if (opt.duration_given || opt.duration >= 0.0) {
+      if (!(opt.duration > 0.0) || !std::isfinite(opt.duration))
+        throw InputError("--duration", 0, 0, "must be > 0 and finite (unit: s), got " + std::to_string(opt.duration));
       spec.simulation.duration = opt.duration;
     }
-    Compiled compiled = compile(spec);
+    // A run simulates whole frames: round(duration x frame_rate) of them. Less than half a frame
+    // is refused (--duration here, the scene's key in compile()); a duration that is not a whole
+    // number of frames is said, never silently changed.
+    {
+      const double fps = spec.simulation.frame_rate;
+      const double exact = spec.simulation.duration * fps;
+      const bool given = opt.duration_given || opt.duration >= 0.0;
+      const std::string what = given ? "--duration" : "simulation.duration";
+      if (given && !(exact < 1e9))
+        throw InputError(what, 0, 0, "is " + std::to_string(exact) + " frames at " + std::to_string(fps) +
+                                         " fps: more than 1e9 frames");
+      if (given && std::lround(exact) < 1)
+        throw InputError(what, 0, 0, "is shorter than half a frame (" + std::to_string(spec.simulation.duration) +
+                                         " s; 1 / frame_rate = " + std::to_string(1.0 / fps) +
+                                         " s): a run simulates whole frames");
+      if (exact < 1e9 && std::abs(exact - std::round(exact)) > 1e-6 * std::max(1.0, exact)) {
+        std::ostringstream s;
+        s << what << " " << spec.simulation.duration << " s is not a whole number of frames at " << fps
+          << " fps: simulating " << std::lround(exact) << " frame(s) = " << std::lround(exact) / fps << " s";
+        log("note: " + s.str());
+        info.notes.push_back(s.str());
+      }
+    }
+    ResourceLimits limits;
+    limits.max_bytes = opt.max_memory;
+    Compiled compiled = compile(spec, limits);
     const Model& model = compiled.model;
     for (const std::string& note : model.notes) log("note: " + note);
 
@@ -166,6 +247,28 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
     iso_settings.vertex_colours = iso.vertex_colours;
     iso_settings.meshes = iso.obj;  // a VDB-only export needs the field, not the meshes
 
+    // --- Output folder: locked before the device starts (a busy folder is refused at once,
+    // having touched nothing but the lock) ---------------------------------------------------
+    // From here on a stop signal ends the run through finish() (run.json, lock released); before,
+    // nothing was touched and the default action (exit) is right.
+    StopSignals stop_signals;
+    fs::path dir;
+    if (opt.write_output) {
+      if (!opt.out.empty()) dir = opt.out;
+      else if (!spec.output.directory.empty()) dir = spec.output.directory;
+      else dir = fs::path("out") / fs::path(opt.scene).stem();
+      std::error_code ec;
+      fs::create_directories(dir, ec);
+      if (ec || !fs::is_directory(dir))
+        throw InputError(dir.string(), 0, 0, "cannot create the output folder: " + (ec ? ec.message() : "not a folder"));
+      // One run per folder: take the lock before anything in the folder is touched (a busy
+      // folder is refused here, exit 2, naming the run that holds it).
+      if (const std::string note = lock.acquire(dir.string()); !note.empty()) {
+        log("note: " + note);
+        info.notes.push_back(note);
+      }
+    }
+
     // --- Device and simulation -----------------------------------------------------------
     ClContext cl(opt.device);
     log("OpenCL " + cl.info().str());
@@ -174,6 +277,28 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
       auto st = stageFromName(name);
       if (!st) throw InputError("--disable", 0, 0, "unknown stage '" + name + "' (stages: " + stageNameList() + ")");
       if (!sim.disable(*st)) throw InputError("--disable", 0, 0, "stage '" + name + "' cannot be disabled");
+    }
+
+    // --- Output folder: nothing from an earlier run may look like this run's result (only once
+    // the device is up and the options are good: a run that fails before leaves the folder as it was)
+    if (opt.write_output) {
+      std::error_code ec;
+      out_dir = dir;  // from here on, failures are recorded in run.json
+      h5_final = out_dir / "particles.h5part";
+      h5_partial = out_dir / "particles.h5part.partial";
+      fs::remove(h5_final, ec);
+      fs::remove(out_dir / "run.json", ec);
+      fs::remove(out_dir / "bodies.csv", ec);
+      fs::remove(out_dir / "forces.csv", ec);
+      fs::remove(out_dir / "probes.csv", ec);
+      fs::remove(out_dir / "cloth.csv", ec);
+      for (const auto& entry : fs::directory_iterator(out_dir, ec)) {  // an earlier run's meshes
+        const std::string name = entry.path().filename().string();
+        const auto ext = entry.path().extension();
+        if ((name.rfind("fluid_", 0) == 0 && (ext == ".obj" || ext == ".vdb")) ||
+            (name.rfind("body_", 0) == 0 && ext == ".obj") || (name.rfind("cloth_", 0) == 0 && ext == ".obj"))
+          fs::remove(entry.path(), ec);
+      }
     }
     log("stages: " + sim.stages().str());
     {
@@ -185,52 +310,34 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
       log(s.str());
     }
 
-    // --- Output folder: nothing from an earlier run may look like this run's result -------
+    // --- Output: run.json says "running", the writers open ---------------------------------
     if (opt.write_output) {
-      fs::path dir;
-      if (!opt.out.empty()) dir = opt.out;
-      else if (!spec.output.directory.empty()) dir = spec.output.directory;
-      else dir = fs::path("out") / fs::path(opt.scene).stem();
-      std::error_code ec;
-      fs::create_directories(dir, ec);
-      if (ec || !fs::is_directory(dir))
-        throw InputError(dir.string(), 0, 0, "cannot create the output folder: " + (ec ? ec.message() : "not a folder"));
-      out_dir = dir;  // from here on, failures are recorded in run.json
-      h5_final = out_dir / "particles.h5part";
-      h5_partial = out_dir / "particles.h5part.partial";
-      fs::remove(h5_final, ec);
-      fs::remove(out_dir / "run.json", ec);
-      fs::remove(out_dir / "bodies.csv", ec);
-      fs::remove(out_dir / "forces.csv", ec);
-      fs::remove(out_dir / "cloth.csv", ec);
-      for (const auto& entry : fs::directory_iterator(out_dir, ec)) {  // an earlier run's meshes
-        const std::string name = entry.path().filename().string();
-        const auto ext = entry.path().extension();
-        if ((name.rfind("fluid_", 0) == 0 && (ext == ".obj" || ext == ".vdb")) ||
-            (name.rfind("body_", 0) == 0 && ext == ".obj") || (name.rfind("cloth_", 0) == 0 && ext == ".obj"))
-          fs::remove(entry.path(), ec);
-      }
       info.scene_file = spec.source_file;
       info.scene_json = io::sceneToJson(spec);
       info.device = cl.info().str();
       info.stages = sim.stages().str();
-      info.notes = model.notes;
+      info.notes.insert(info.notes.end(), model.notes.begin(), model.notes.end());
       info.status = "running";
       io::writeRunJson((out_dir / "run.json").string(), info);
-      if (spec.output.particles) h5 = std::make_unique<io::H5PartWriter>(h5_partial.string());
+      if (spec.output.particles) {
+        h5 = std::make_unique<io::H5PartWriter>(h5_partial.string());
+        h5_written = true;
+      }
       if (!model.bodies.empty()) bodies_csv = std::make_unique<io::BodiesCsvWriter>((out_dir / "bodies.csv").string());
       if (model.cloth.nodes() > 0) cloth_csv = std::make_unique<io::ClothCsvWriter>((out_dir / "cloth.csv").string());
       if (spec.output.step_forces && !model.bodies.empty()) {
         forces_csv = std::make_unique<io::StepForcesCsvWriter>((out_dir / "forces.csv").string());
         sim.recordStepForces(true);
       }
+      if (sim.stages().on(Stage::Probes)) {
+        probes_csv = std::make_unique<io::ProbesCsvWriter>((out_dir / "probes.csv").string(), spec.probes);
+        sim.recordProbeSamples(true);
+      }
       writer = std::make_unique<io::AsyncWriter>(3);
       res.out_dir = out_dir.string();
     }
 
     // --- Frames ---------------------------------------------------------------------------
-    g_interrupted = false;
-    auto old_handler = std::signal(SIGINT, onSigint);
     // Per output frame: read back what is exported (the device work happens here), then hand the
     // files to the writer thread, which formats and writes them while the simulation goes on.
     const bool write_obj = writer && iso.enabled && iso.obj;
@@ -264,6 +371,7 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
           io::writeObj((out_dir / io::clothObjName(cs.name, frame)).string(), io::clothMesh(model.cloth, c, cs, x, broken));
         }
       }
+      if (probes_csv) probes_csv->write(sim.takeProbeSamples());
       if (!writer || (!h5 && !write_obj && !write_vdb)) {
         res.output_seconds += since(t0);
         return;
@@ -309,15 +417,27 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
     double last_log = 0.0;
     const int frames = std::max(1, static_cast<int>(std::lround(spec.simulation.duration * spec.simulation.frame_rate)));
     for (int f = 0; f < frames; ++f) {
-      if (g_interrupted) break;
+      if (g_stop_signal) break;
       const FrameReport rep = sim.advanceFrame();
       for (const std::string& m : rep.messages) log((tty ? "\n" : "") + std::string("note: ") + m);
-      if (!rep.clean()) {
+      // Warnings: what a user must act on (NaN/inf, a time step above the CFL limit, particles
+      // moving more than h in a step) is printed the first time it happens, also under --quiet;
+      // everything (wall crossings too) is counted, summarised at the end and kept in run.json.
+      {
+        const io::RunWarnings before = warnings;
+        warnings.add(rep);
         std::ostringstream s;
-        s << "warning: frame " << rep.frame << " t=" << rep.time << " s: " << rep.nonfinite << " NaN/inf, "
-          << rep.wall_crossings << " wall crossings, " << rep.cfl_violations
-          << " CFL violations";
-        log((tty ? "\n" : "") + s.str());
+        const char* sep = "";
+        if (rep.nonfinite && !before.nonfinite) s << sep << rep.nonfinite << " particle(s) with NaN/inf", sep = "; ";
+        if (io::RunWarnings::stepOverLimit(rep) && !before.cfl_step_frames)
+          s << sep << "time step " << rep.dt << " s is " << rep.dt / rep.dt_limit << " x the CFL limit " << rep.dt_limit
+            << " s (time_step_control: warn; raise simulation.substeps or use subdivide)",
+              sep = "; ";
+        if (rep.cfl_violations && !before.cfl_violations)
+          s << sep << rep.cfl_violations << " particle(s) moved more than h in one step", sep = "; ";
+        if (*sep)
+          std::cerr << (tty ? "\n" : "") << "warning: frame " << rep.frame << " t=" << rep.time << " s: " << s.str()
+                    << " (later frames are counted in the summary and run.json)\n";
       }
       res.reports.push_back(rep);
       res.frames = f + 1;
@@ -341,7 +461,6 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
         if (!tty) last_log = wall;
       }
     }
-    std::signal(SIGINT, old_handler);
     if (tty) std::cerr << "\n";
     res.loop_seconds = since(t_start);
     res.wall_seconds = res.loop_seconds - res.output_seconds - res.iso_seconds;
@@ -351,9 +470,10 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
     res.state_hash = sim.stateHash();
     info.particle_steps_per_second = sim.profile().particle_steps / std::max(res.wall_seconds, 1e-9);
 
-    if (g_interrupted) {
-      log("interrupted at frame " + std::to_string(res.frames) + ": output kept as particles.h5part.partial");
-      return finish(130, "interrupted", "interrupted by the user");
+    if (const int sig = g_stop_signal; sig != 0) {
+      log(std::string("interrupted by ") + signalName(sig) + " at frame " + std::to_string(res.frames) +
+          (h5_written ? ": output kept as particles.h5part.partial" : ""));
+      return finish(128 + sig, "interrupted", std::string("interrupted by ") + signalName(sig));
     }
     // Summary: one line, then the per-stage profile.
     if (!opt.quiet) {
@@ -366,6 +486,7 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
                     humanRate(info.particle_steps_per_second).c_str());
       log(buf);
       log(profileLine(res.profile));
+      if (const std::string w = warnings.summary(); !w.empty()) log("warnings: " + w);
       if (spec.output.isosurface.enabled) {
         std::snprintf(buf, sizeof buf,
                       "isosurface: %.3f s per frame on the device (%.0f%% of the frame loop), last frame %zu vertices, "

@@ -15,7 +15,9 @@ struct RunOptions {
   std::string device;                 ///< "cpu", "gpu", an index, or "" (SPHAPTICS_DEVICE / default)
   std::vector<std::string> sets;      ///< "key.path=value" overrides
   std::vector<std::string> disable;   ///< stage names to switch off
-  double duration = -1.0;             ///< simulated seconds; < 0 = the scene's
+  double duration = -1.0;             ///< simulated seconds; < 0 = the scene's (unless duration_given)
+  bool duration_given = false;        ///< --duration was on the command line: `duration` must be finite and > 0
+  double max_memory = 0;              ///< refuse scenes estimated to need more (unit: bytes; 0 = the machine's memory)
   bool quiet = false;                 ///< no progress line, no summary
   bool write_output = true;           ///< false: simulate only (benchmarks)
 };

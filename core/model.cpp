@@ -5,10 +5,13 @@
 
 #include <Eigen/Geometry>
 
+#include <unistd.h>
+
 #include <algorithm>
 #include <array>
 #include <map>
 #include <cmath>
+#include <cstdio>
 #include <sstream>
 #include <unordered_map>
 
@@ -118,7 +121,151 @@ double bodyVolumeScale(double dx, double support, int kernel) {
   return lattice / body;
 }
 
-Compiled compile(const SceneSpec& spec) {
+// ---------------------------------------------------------------------------------------------
+// Resource estimate: particles, memory and steps from the keys alone, before anything is allocated
+// ---------------------------------------------------------------------------------------------
+
+namespace {
+
+// Bytes per item, host and device together (measured with Simulation::deviceBytes() on pocl and
+// rounded up; README "Bounded resources" gives the measurement).
+constexpr double kBytesPerFluidParticle = 3000;  ///< buffers, 4 neighbour lists, host copies (unit: bytes)
+constexpr double kBytesPerBoundaryParticle = 64;  ///< lattice point, volume, cell sort (unit: bytes)
+constexpr double kBytesPerBodyArea = 500;         ///< per dx^2 of body surface: particles + mesh (unit: bytes)
+constexpr double kBytesPerGridCell = 16;          ///< cell start tables, host and device (unit: bytes)
+/// Candidate points rigid::sampleSurface may test for one body (~20 s on one core). (unit: 1)
+constexpr double kMaxSurfaceCandidates = 4.0e8;
+
+/// Surface area of a body's shape, scaled (unit: m^2).
+double bodyArea(const RigidBodySpec& b) {
+  const double r = b.radius, s2 = b.scale * b.scale;
+  switch (b.shape) {
+    case BodyShape::Sphere: return 4.0 * M_PI * r * r * s2;
+    case BodyShape::Box: return 2.0 * (b.size.x() * b.size.y() + b.size.y() * b.size.z() + b.size.z() * b.size.x()) * s2;
+    case BodyShape::Cylinder: return (2.0 * M_PI * r * r + 2.0 * M_PI * r * b.height) * s2;
+    case BodyShape::Capsule: return (4.0 * M_PI * r * r + 2.0 * M_PI * r * b.height) * s2;
+    case BodyShape::Mesh: {
+      double a = 0.0;
+      const auto& m = b.mesh_data;
+      for (const auto& t : m.triangles)
+        a += 0.5 * ((m.positions[t[1]] - m.positions[t[0]]).cast<double>().cross((m.positions[t[2]] - m.positions[t[0]]).cast<double>())).norm();
+      return a * s2;
+    }
+  }
+  return 0.0;
+}
+
+/// A count that is finite and >= 0, or infinity (NaN and negative sizes estimate as unbounded).
+double sane(double v) { return std::isfinite(v) && v >= 0.0 ? v : (std::isnan(v) ? INFINITY : std::max(v, 0.0)); }
+
+}  // namespace
+
+std::string humanBytes(double bytes) {
+  char buf[48];
+  if (!std::isfinite(bytes)) return "unbounded";
+  if (bytes >= 1e12) std::snprintf(buf, sizeof buf, "%.3g TB", bytes / 1e12);
+  else if (bytes >= 1e9) std::snprintf(buf, sizeof buf, "%.3g GB", bytes / 1e9);
+  else if (bytes >= 1e6) std::snprintf(buf, sizeof buf, "%.3g MB", bytes / 1e6);
+  else std::snprintf(buf, sizeof buf, "%.3g kB", bytes / 1e3);
+  return buf;
+}
+
+double machineMemoryBytes() {
+  const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGE_SIZE);
+  return pages > 0 && page > 0 ? static_cast<double>(pages) * static_cast<double>(page) : 0.0;
+}
+
+std::string ResourceEstimate::str() const {
+  char buf[256];
+  std::snprintf(buf, sizeof buf,
+                "about %s (%.3g fluid particles, %.3g boundary particles, %.3g body surface particles, %.3g grid cells)",
+                humanBytes(bytes).c_str(), fluid_particles, boundary_particles, body_particles, grid_cells);
+  return buf;
+}
+
+ResourceEstimate estimateResources(const SceneSpec& spec, SourceLoc* worst) {
+  ResourceEstimate e;
+  const SimulationSpec& sim = spec.simulation;
+  const DomainSpec& dom = spec.domain;
+  const FluidSpec& fl = spec.fluid;
+  const double dx = fl.particle_spacing;
+  double worst_bytes = -1.0;
+  auto blame = [&](const SourceLoc& loc, double bytes) {
+    if (worst && bytes > worst_bytes) *worst = loc, worst_bytes = bytes;
+  };
+  blame(fl.loc, 0.0);
+
+  // Fluid: lattice points of the blocks, and what the nozzles emit over their active time.
+  double blocks = 0.0, layer_points = 0.0, emitted = 0.0;
+  for (const BlockSpec& b : fl.blocks) {
+    double n = 1.0;
+    for (int a = 0; a < 3; ++a) n *= std::max(1.0, std::floor(sane((b.max[a] - b.min[a]) / dx) + 1e-4));
+    blocks += n;
+    blame(b.loc, n * kBytesPerFluidParticle);
+  }
+  for (const InflowSpec& in : fl.inflows) {
+    const double hu = in.shape == NozzleShape::Circle ? in.radius : 0.5 * in.width;
+    const double hv = in.shape == NozzleShape::Circle ? in.radius : 0.5 * in.height;
+    const double layer = (2.0 * std::floor(sane(hu / dx)) + 1.0) * (2.0 * std::floor(sane(hv / dx)) + 1.0);
+    const double active = std::max(0.0, std::min(in.stop, sim.duration) - in.start);
+    const double n = layer * std::ceil(sane(active * in.speed / dx) + 1.0);
+    layer_points += layer;
+    emitted += n;
+    blame(in.loc, (fl.max_particles > 0 ? layer : n) * kBytesPerFluidParticle);
+  }
+  e.fluid_particles = fl.max_particles > 0 ? static_cast<double>(fl.max_particles) : blocks + emitted;
+  if (fl.max_particles > 0) blame(fl.loc, e.fluid_particles * kBytesPerFluidParticle);
+
+  // Boundary: the lattice shell of `layers` behind the walls (all six, an upper bound).
+  const Eigen::Vector3d extent = dom.max - dom.min;
+  const double L = dom.boundary_layers;
+  double outer = 1.0, inner = 1.0, cells = 1.0;
+  const double cell = 1.25 * sim.support_ratio * dx;  // support + skin
+  for (int a = 0; a < 3; ++a) {
+    const double n = std::ceil(sane(extent[a] / dx));
+    outer *= n + 2.0 * L;
+    inner *= n;
+    cells *= std::max(1.0, std::ceil(sane((extent[a] + 2.0 * (L + 1.0) * dx) / cell)));
+  }
+  e.boundary_particles = outer - inner;
+  e.grid_cells = cells;
+  blame(dom.loc, e.boundary_particles * kBytesPerBoundaryParticle + cells * kBytesPerGridCell);
+
+  // Bodies: surface particles at dx, and a surface mesh with edges of dx / 2.
+  for (const RigidBodySpec& b : spec.rigid_bodies) {
+    const double area = sane(bodyArea(b) / (dx * dx));
+    e.body_particles += area;
+    blame(b.loc, area * kBytesPerBodyArea);
+  }
+  e.bytes = (e.fluid_particles + layer_points) * kBytesPerFluidParticle +
+            e.boundary_particles * kBytesPerBoundaryParticle + e.body_particles * kBytesPerBodyArea +
+            e.grid_cells * kBytesPerGridCell;
+  if (std::isnan(e.bytes)) e.bytes = INFINITY;
+
+  // Steps per frame at the start: the CFL limit with the automatic (or given) speed of sound,
+  // and the viscous limit of the laminar model (as Simulation::advanceFrame() computes them).
+  if (e.fluid_particles > 0) {
+    const double g = sim.gravity.norm();
+    double vmax = 0.0;
+    for (const BlockSpec& b : fl.blocks)
+      vmax = std::max({vmax, std::sqrt(2.0 * g * std::max(0.0, b.max.z() - dom.min.z())), b.velocity.norm()});
+    for (const InflowSpec& in : fl.inflows)
+      vmax = std::max(vmax, std::sqrt(in.speed * in.speed + 2.0 * g * std::max(0.0, in.position.z() - dom.min.z())));
+    const double c0 = fl.speed_of_sound > 0.0 ? fl.speed_of_sound : std::max(10.0 * vmax, 1.0);
+    const double h = 0.5 * sim.support_ratio * dx;
+    double limit = sim.cfl * h / c0;
+    double nu = 0.0;
+    for (const PhaseSpec& p : fl.phases) nu = std::max(nu, p.viscosity);
+    if (fl.viscosity_model == ViscosityModel::Laminar && nu > 0.0) limit = std::min(limit, 0.125 * h * h / nu);
+    const double steps = (1.0 / sim.frame_rate) / limit;
+    e.steps_per_frame = std::isfinite(steps) ? std::max(steps, static_cast<double>(sim.substeps)) : INFINITY;
+  } else {
+    e.steps_per_frame = sim.substeps;
+  }
+  return e;
+}
+
+Compiled compile(const SceneSpec& spec, const ResourceLimits& limits) {
   Compiled out;
   Model& m = out.model;
   m.spec = spec;
@@ -131,6 +278,7 @@ Compiled compile(const SceneSpec& spec) {
   };
 
   // --- Lengths and times -------------------------------------------------------------------
+  m.max_steps_per_frame = limits.max_steps_per_frame;
   m.dx = fl.particle_spacing;
   m.support = sim.support_ratio * m.dx;
   m.h = 0.5 * m.support;
@@ -138,7 +286,8 @@ Compiled compile(const SceneSpec& spec) {
   m.skin = 0.25 * m.support;
   const double cell_size = m.support + m.skin;
   m.frame_dt = 1.0 / sim.frame_rate;
-  m.num_frames = std::max(1, static_cast<int>(std::lround(sim.duration * sim.frame_rate)));
+  const double exact_frames = sim.duration * sim.frame_rate;  // checked below: in [0.5, 1e9)
+  m.num_frames = std::isfinite(exact_frames) ? std::max(1, static_cast<int>(std::lround(std::min(exact_frames, 1e9)))) : 1;
   const Eigen::Vector3d extent = dom.max - dom.min;
   if (extent.minCoeff() < 2.0 * m.dx)
     fail(dom.loc, "domain is thinner than two particle spacings (" + fmt(extent.minCoeff()) + " m < 2 x " +
@@ -147,6 +296,33 @@ Compiled compile(const SceneSpec& spec) {
   if (fl.phases.size() > SPH_MAX_PHASES)
     fail(fl.loc, "at most " + std::to_string(SPH_MAX_PHASES) + " phases are supported, got " +
                      std::to_string(fl.phases.size()));
+  if (!issues.empty()) throw InputError(issues);
+
+  // --- Resources: refuse a scene that would not fit, before allocating anything ---------------
+  {
+    SourceLoc where;
+    const ResourceEstimate est = estimateResources(spec, &where);
+    const double machine = machineMemoryBytes();
+    const double budget = limits.max_bytes > 0 ? limits.max_bytes : machine;
+    if (budget > 0 && !(est.bytes <= budget))
+      throw InputError(where.file, where.line, where.col,
+                       "the scene needs " + est.str() + ", more than " +
+                           (limits.max_bytes > 0 ? "--max-memory " + humanBytes(budget)
+                                                 : "this machine's memory (" + humanBytes(budget) + ")") +
+                           ": use a larger fluid.particle_spacing or smaller sizes");
+    if (sim.time_step_control == TimeStepControl::Subdivide && !(est.steps_per_frame <= limits.max_steps_per_frame))
+      throw InputError(fl.loc.file.empty() ? sim.loc.file : fl.loc.file, fl.loc.file.empty() ? sim.loc.line : fl.loc.line,
+                       fl.loc.file.empty() ? sim.loc.col : fl.loc.col,
+                       "a frame would take about " + fmt(est.steps_per_frame) + " time steps (limit " +
+                           fmt(limits.max_steps_per_frame) +
+                           "): the CFL limit cfl h / (c0 + |v|) is tiny for the speeds this scene sets "
+                           "(inflow speed, block velocity, speed_of_sound) or the viscosity; lower them");
+  }
+  if (!(sim.duration * sim.frame_rate >= 0.5))
+    fail(sim.loc, "simulation.duration " + fmt(sim.duration) + " s is shorter than half a frame (1 / frame_rate = " +
+                      fmt(1.0 / sim.frame_rate) + " s): a run simulates whole frames");
+  if (!(sim.duration * sim.frame_rate < 1e9))
+    fail(sim.loc, "simulation.duration x frame_rate is " + fmt(sim.duration * sim.frame_rate) + " frames (limit 1e9)");
   if (!issues.empty()) throw InputError(issues);
 
   auto phaseIndex = [&](const std::string& name) -> int {
@@ -199,8 +375,10 @@ Compiled compile(const SceneSpec& spec) {
     const Eigen::Vector3d v = e.direction.cross(u);
     const double half_u = in.shape == NozzleShape::Circle ? in.radius : 0.5 * in.width;
     const double half_v = in.shape == NozzleShape::Circle ? in.radius : 0.5 * in.height;
-    const int nu = static_cast<int>(std::floor(half_u / m.dx));
-    const int nv = static_cast<int>(std::floor(half_v / m.dx));
+    // In double first: a nozzle far wider than dx would overflow an int (the resource check above
+    // has refused any that would not fit in memory).
+    const int nu = static_cast<int>(std::min(std::floor(half_u / m.dx), 1.0e9));
+    const int nv = static_cast<int>(std::min(std::floor(half_v / m.dx), 1.0e9));
     for (int j = -nv; j <= nv; ++j)
       for (int i = -nu; i <= nu; ++i) {
         const double a = i * m.dx, b = j * m.dx;
@@ -235,6 +413,24 @@ Compiled compile(const SceneSpec& spec) {
       continue;
     }
     TriMesh mesh = rigid::shapeMesh(bs, m.dx);
+    // Bounded work: rigid::sampleSurface offers each triangle a barycentric grid of candidates at
+    // dx / 5 along its longest edge, so a long, thin triangle (a 100 m cylinder's side) costs
+    // (longest / (dx / 5))^2 / 2 candidates, however small its area.
+    {
+      double candidates = 0.0;
+      for (const auto& t : mesh.triangles) {
+        const Eigen::Vector3d a = mesh.positions[t[0]].cast<double>(), b = mesh.positions[t[1]].cast<double>(),
+                              c = mesh.positions[t[2]].cast<double>();
+        const double n = std::ceil(std::max({(b - a).norm(), (c - b).norm(), (a - c).norm()}) / (0.2 * m.dx)) + 1.0;
+        candidates += 0.5 * n * (n + 1.0);
+      }
+      if (!(candidates <= kMaxSurfaceCandidates)) {
+        fail(bs.loc, "rigid body '" + bs.name + "': sampling its surface at the particle spacing would test about " +
+                         fmt(candidates) + " points (limit " + fmt(kMaxSurfaceCandidates) +
+                         "): the body is too large for the particle spacing");
+        continue;
+      }
+    }
     const rigid::MassProperties mp = rigid::massProperties(mesh);
     if (!(mp.volume > 0.0)) {
       fail(bs.loc, "rigid body '" + bs.name + "' encloses no volume (" + fmt(mp.volume) + " m^3)");
@@ -324,8 +520,8 @@ Compiled compile(const SceneSpec& spec) {
     for (const auto& b : m.bodies) moving += b.kind != rigid::BodyKind::Static;
     if (moving > 0 && (!fl.blocks.empty() || !fl.inflows.empty()))
       m.notes.push_back(std::to_string(moving) +
-                        " moving rigid bod(ies): coupled to the fluid by pressure and contact (no viscous "
-                        "coupling yet); contact with the closed walls, none between bodies yet");
+                        " moving rigid bod(ies): coupled to the fluid by pressure, viscosity and contact "
+                        "(Akinci et al. 2012); contact with the closed walls and between bodies");
   }
 
   // Fluid placed where a cloth is: particles closer than dx to a cloth node (where the contact
@@ -411,10 +607,12 @@ Compiled compile(const SceneSpec& spec) {
   const Eigen::Vector3d origin = dom.min - Eigen::Vector3d::Constant(margin);
   const Eigen::Vector3d span = extent + Eigen::Vector3d::Constant(2.0 * margin);
   Eigen::Vector3i dims;
-  for (int a = 0; a < 3; ++a) dims[a] = std::max(1, static_cast<int>(std::ceil(span[a] / cell_size)));
-  const double cells = static_cast<double>(dims.x()) * dims.y() * dims.z();
-  if (cells > 2.0e8)
+  // Cells counted in double before any int conversion (a domain to 9e18 m overflows an int).
+  double cells = 1.0;
+  for (int a = 0; a < 3; ++a) cells *= std::max(1.0, std::ceil(span[a] / cell_size));
+  if (!(cells <= 2.0e8))
     fail(dom.loc, "domain too large for the particle spacing: " + fmt(cells) + " grid cells (limit 2e8)");
+  for (int a = 0; a < 3; ++a) dims[a] = std::max(1, static_cast<int>(std::min(std::ceil(span[a] / cell_size), 2.0e8)));
   if (!issues.empty()) throw InputError(issues);
 
   // --- Boundary particles behind each closed wall (Akinci et al. 2012) ------------------------
@@ -527,6 +725,21 @@ Compiled compile(const SceneSpec& spec) {
   m.stages.set(Stage::Cloth, m.cloth.nodes() > 0);
   m.stages.set(Stage::ClothCoupling, m.cloth.nodes() > 0 && m.capacity > 0);
   m.stages.set(Stage::Diagnostics, true);
+  m.stages.set(Stage::Probes, spec.probes.any() && m.capacity > 0);
+
+  // --- Probes: every sample point inside the domain -----------------------------------------
+  auto inside = [&](const Eigen::Vector3d& x) {
+    return (x.array() >= dom.min.array()).all() && (x.array() <= dom.max.array()).all();
+  };
+  for (const PointProbeSpec& p : spec.probes.points)
+    if (!inside(p.position))
+      fail(p.loc, "probe '" + p.name + "' at [" + fmt(p.position.x()) + ", " + fmt(p.position.y()) + ", " +
+                      fmt(p.position.z()) + "] m is outside the domain");
+  for (const GaugeSpec& g : spec.probes.gauges)
+    if (!inside(g.position))
+      fail(g.loc, "gauge '" + g.name + "' foot at [" + fmt(g.position.x()) + ", " + fmt(g.position.y()) + ", " +
+                      fmt(g.position.z()) + "] m is outside the domain");
+  if (!issues.empty()) throw InputError(issues);
 
   // Fixed build options: the kernel and viscosity model are compile-time constants on the device.
   m.program_options = "-cl-std=CL1.2 -DSPH_KERNEL=" + std::to_string(P.kernel_type) +

@@ -65,6 +65,9 @@ struct Model {
 
   std::vector<Emitter> emitters;
   std::size_t capacity = 0;   ///< particle budget (device buffers are this large)
+  /// Time steps one frame may take under CFL subdivision (ResourceLimits; compile() refuses scenes
+  /// that need more at the start; a run that needs more later should stop with a reason). (unit: 1)
+  double max_steps_per_frame = 1.0e5;
 
   std::vector<std::string> notes;  ///< derived choices worth telling the user (c0, budget, ...)
 };
@@ -74,9 +77,36 @@ struct Compiled {
   HostParticles initial;
 };
 
-/// Validates what the schema cannot (sizes against the domain, budget) and derives the Model.
-/// Throws InputError (with the scene location) on bad input.
-Compiled compile(const SceneSpec& spec);
+/// Bounds on what a scene may ask for, checked by compile() before anything is allocated.
+struct ResourceLimits {
+  double max_bytes = 0;                ///< memory a scene may need; 0 = the machine's physical memory (unit: bytes)
+  double max_steps_per_frame = 1.0e5;  ///< time steps one frame may take under CFL subdivision (unit: 1)
+};
+
+/// What compile() expects a scene to need, from its keys alone (no allocation).
+struct ResourceEstimate {
+  double fluid_particles = 0;     ///< particle budget: blocks + nozzle emission, or max_particles (unit: 1)
+  double boundary_particles = 0;  ///< behind the closed walls (unit: 1)
+  double body_particles = 0;      ///< on the rigid bodies' surfaces (unit: 1)
+  double grid_cells = 0;          ///< neighbour grid (unit: 1)
+  double bytes = 0;               ///< host + device memory (unit: bytes)
+  double steps_per_frame = 0;     ///< at the start, from the CFL and viscous limits (unit: 1)
+  std::string str() const;        ///< "about 7.4 GB (1.2e8 fluid particles, ...)"
+};
+
+/// The machine's physical memory (unit: bytes); 0 when unknown.
+double machineMemoryBytes();
+
+/// "7.4 GB" (decimal units).
+std::string humanBytes(double bytes);
+
+/// Validates what the schema cannot (sizes against the domain, budget, resources against
+/// `limits`) and derives the Model. Throws InputError (with the scene location) on bad input.
+Compiled compile(const SceneSpec& spec, const ResourceLimits& limits = {});
+
+/// The estimate compile() checks against its limits; `worst` (optional) is set to the location
+/// of the key that asks for the most memory.
+ResourceEstimate estimateResources(const SceneSpec& spec, SourceLoc* worst = nullptr);
 
 /// Akinci et al. 2012 eq. 4: V_b = 1 / sum_k W(x_b - x_k) over the boundary particles k (self included).
 std::vector<float> akinciVolumes(const std::vector<Eigen::Vector3f>& points, float support, int kernel);

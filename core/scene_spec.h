@@ -227,6 +227,32 @@ struct ClothSpec {
   SourceLoc loc;
 };
 
+/// A point probe: the fluid's pressure, density and velocity at a fixed point, by Shepard-normalised
+/// kernel interpolation (core/probes.h).
+struct PointProbeSpec {
+  std::string name;                          ///< unique among probes and gauges; names its CSV columns
+  Eigen::Vector3d position{0.0, 0.0, 0.0};   ///< (unit: m), inside the domain
+  SourceLoc loc;
+};
+
+/// A water-height gauge: a vertical line from `position` up; it reads the height of the fluid
+/// column standing on its foot (core/probes.h).
+struct GaugeSpec {
+  std::string name;                          ///< unique among probes and gauges; names its CSV column
+  Eigen::Vector3d position{0.0, 0.0, 0.0};   ///< foot of the line (unit: m), inside the domain
+  double length = 0.0;                       ///< length of the line; 0 = up to the domain's top (unit: m)
+  SourceLoc loc;
+};
+
+/// Probes and gauges, sampled into probes.csv. A scene without the section runs no probe kernel.
+struct ProbesSpec {
+  double rate = 0.0;                         ///< samples per simulated second; 0 = every time step (unit: 1/s)
+  std::vector<PointProbeSpec> points;
+  std::vector<GaugeSpec> gauges;
+  SourceLoc loc;
+  bool any() const { return !points.empty() || !gauges.empty(); }
+};
+
 struct SceneSpec {
   std::string source_file;    ///< absolute path of the scene file ("" when built in code)
   SimulationSpec simulation;
@@ -234,6 +260,7 @@ struct SceneSpec {
   FluidSpec fluid;
   std::vector<RigidBodySpec> rigid_bodies;
   std::vector<ClothSpec> cloth;
+  ProbesSpec probes;
   OutputSpec output;
 };
 

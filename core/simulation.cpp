@@ -175,6 +175,22 @@ Simulation::Simulation(const Model& model, const HostParticles& initial, ClConte
   emitter_travel_.assign(model_.emitters.size(), model_.dx);  // the first layer leaves at the start time
   // Cloth nodes (stepped by stage cloth; with it disabled they hang still, still boundary for the fluid).
   if (model_.cloth.nodes() > 0) cloth_ = std::make_unique<cloth::ClothSim>(model_.cloth, cl_, kernels_);
+  if (on(Stage::Probes)) probes_ = std::make_unique<ProbeSampler>(model_, cl_);
+  prepareInitialState();
+}
+
+// The initial state as every later frame is seen: particles in cell order with valid neighbour
+// lists, moving bodies' particles placed and sorted, density and pressure computed. Done here,
+// always, so that frame 0 carries real fields and nothing an output does later (the isosurface
+// needs a grid) can change when or how the first grid is built.
+void Simulation::prepareInitialState() {
+  params_.n_fluid = static_cast<sph_uint>(n_);
+  if (n_ == 0) return;  // an inflow-only scene: the first emission builds the grid
+  if (on(Stage::RigidCoupling)) placeBodyParticles();
+  if (on(Stage::ClothCoupling)) placeClothParticles();
+  if (on(Stage::RigidCoupling) || on(Stage::ClothCoupling)) sortBoundary();
+  buildGrid();
+  computeDensity();
 }
 
 void Simulation::allocateNeighbourLists(uint32_t slots) {
@@ -212,6 +228,7 @@ void Simulation::step(double dt) {
       buildGrid();                                     // sort by cell, reorder, Verlet lists
     }
     computeDensity();                                  // number density, rho, p (S&P 2008, Akinci 2012)
+    if (on(Stage::Probes) && probes_->due(time_)) sampleProbes();  // gauges read the state at the step's start
     pressureForces();                                  // wall pressure (Adami 2012), -grad p / rho + g (+ viscosity, fused)
     if (on(Stage::Viscosity) && !on(Stage::Pressure))
       viscosityForces();                               // Monaghan or Morris, on its own
@@ -239,7 +256,16 @@ FrameReport Simulation::advanceFrame() {
   double dt = model_.frame_dt / steps;
   if (dt > limit * (1.0 + 1e-9)) {
     if (sim.time_step_control == TimeStepControl::Subdivide) {
-      steps = static_cast<int>(std::ceil(model_.frame_dt / limit));
+      // A speed that blew up mid-run would make the frame take unbounded steps: stop with the reason.
+      const double needed = std::ceil(model_.frame_dt / limit);
+      if (!(needed <= model_.max_steps_per_frame)) {
+        std::ostringstream s;
+        s << "numerical failure at frame " << frame_ << ", t = " << time_ << " s: the CFL limit " << limit
+          << " s (largest speed " << last_max_speed_ << " m/s) would need " << needed << " steps for this frame, more than "
+          << model_.max_steps_per_frame << " (stage: time-step control); the flow has blown up";
+        throw NumericalError(s.str());
+      }
+      steps = static_cast<int>(needed);
       dt = model_.frame_dt / steps;
       ++profile_.subdivided_frames;
     } else {
@@ -340,6 +366,7 @@ void Simulation::buildGrid() {
   // neighbour lists within H + skin
   kernels_.call("build_neighbour_lists", n_, kLocal, params_, pos_[cur_], cell_start_, bpos_, bcell_start_, nbr_, nbr_count_, bnbr_, bnbr_count_, overflow_);
   lists_valid_ = true;
+  grid_built_ = true;
   travel_since_build_ = 0.0;
   ++profile_.grid_builds;
 }
@@ -348,6 +375,22 @@ void Simulation::computeDensity() {
   StageTimer timer(*this, Stage::Density);
   ++stamp_;  // marks the boundary particles within H of fluid this step (for boundary_pressure)
   kernels_.call("compute_density", n_, kLocal, params_, pos_[cur_], phase_[cur_], bpos_, nbr_, nbr_count_, bnbr_, bnbr_count_, density_, pressure_, pterm_, snbr_, snbr_count_, sbnbr_, sbnbr_count_, stamp_, bmark_);
+}
+
+void Simulation::sampleProbes() {
+  StageTimer timer(*this, Stage::Probes);
+  // Each sample point gathers fluid and boundary particles within H plus the drift since the grid
+  // was built (capped, as for the isosurface: a NaN run must not hang here).
+  const float reach = static_cast<float>(model_.support + std::min(travel_since_build_, 4.0 * model_.support));
+  const uint32_t count = static_cast<uint32_t>(probes_->numPoints());
+  kernels_.call("probe_sample", count, kLocal, params_, count, reach, probes_->pointBuffer(), pos_[cur_], vel_[cur_],
+                phase_[cur_], density_, pressure_, cell_start_, bpos_, bcell_start_, probes_->sumBuffer());
+  std::vector<float> sums(8 * std::size_t(count));
+  clCall("reading the probe samples",
+         [&] { return cl_.queue().enqueueReadBuffer(probes_->sumBuffer(), CL_TRUE, 0, sums.size() * 4, sums.data()); });
+  latest_probe_ = probes_->reduce(time_, sums);
+  if (record_probes_) probe_samples_.push_back(*latest_probe_);
+  probes_->taken(time_);
 }
 
 void Simulation::pressureForces() {
@@ -571,10 +614,10 @@ FrameReport Simulation::runDiagnostics() {
 
 std::vector<TriMesh> Simulation::surfaceMeshes(const IsoSettings& settings) {
   if (!mesher_) mesher_ = std::make_unique<SurfaceMesher>(cl_, kernels_);
-  // Before the first step there is no grid yet: build it (the first step then finds it valid and
-  // produces the same state as without this call, as long as no inflow emits at t = 0).
   params_.n_fluid = static_cast<sph_uint>(n_);
-  if (!lists_valid_ && n_ > 0) buildGrid();
+  // The grid of the last step (or of prepareInitialState) stays consistent with the particle
+  // order; the field's gather allows for the drift since then. The mesher reads the state only.
+  SPH_ASSERT(n_ == 0 || grid_built_, "isosurface before any neighbour grid");
   ParticleView view;
   view.params = &params_;
   view.pos = &pos_[cur_];
@@ -640,6 +683,12 @@ uint64_t Simulation::stateHash() {
   for (const auto* v : {&f.x, &f.y, &f.z, &f.vx, &f.vy, &f.vz, &f.r, &f.g, &f.b}) mix(v->data(), n * 4);
   mix(f.phase.data(), n * 4);
   mix(f.id.data(), n * 8);
+  // Rigid bodies: pose and velocities (double precision, as integrated on the host).
+  for (const rigid::BodyState& b : bodies_) {
+    const double v[13] = {b.x.x(), b.x.y(), b.x.z(), b.q.w(), b.q.x(), b.q.y(), b.q.z(),
+                          b.v.x(), b.v.y(), b.v.z(), b.L.x(), b.L.y(), b.L.z()};
+    mix(v, sizeof v);
+  }
   return h;
 }
 

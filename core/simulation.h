@@ -10,12 +10,14 @@
 #include "core/model.h"
 #include "core/particle_frame.h"
 #include "core/prefix_sum.h"
+#include "core/probes.h"
 #include "core/stages.h"
 
 #include <array>
 #include <chrono>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -98,10 +100,16 @@ class Simulation {
 
   /// Cloths (null without a cloth section): node positions, energies, broken springs.
   cloth::ClothSim* cloth() { return cloth_.get(); }
+  /// Probes (scene section `probes`): with recordProbeSamples(true) every sample is kept until
+  /// takeProbeSamples() hands them over; latestProbeSample() is the newest (null before the first).
+  void recordProbeSamples(bool on) { record_probes_ = on; }
+  std::vector<ProbeSample> takeProbeSamples() { return std::exchange(probe_samples_, {}); }
+  const ProbeSample* latestProbeSample() const { return latest_probe_ ? &*latest_probe_ : nullptr; }
 
   /// Copies the fluid particles to the host.
   ParticleFrame readFrame();
-  /// FNV-1a hash of positions, velocities, colours, phases and ids (bitwise determinism checks).
+  /// FNV-1a hash of the particles' positions, velocities, colours, phases and ids and the rigid
+  /// bodies' poses, velocities and angular momenta (bitwise determinism checks). Reads only.
   uint64_t stateHash();
 
   /// Isosurface of the current state: one mesh per phase (index = phase), from the device
@@ -122,6 +130,7 @@ class Simulation {
   void emitInflow(double dt);
   void buildGrid();
   void computeDensity();
+  void sampleProbes();
   void pressureForces();
   void viscosityForces();
   void diffuseColour();
@@ -134,6 +143,7 @@ class Simulation {
   void placeClothParticles();
   void gatherClothForces();
   FrameReport runDiagnostics();
+  void prepareInitialState();
   cl::Buffer makeBuffer(std::size_t bytes);
 
   // A timed block: waits for the queue at its end so the profile is per stage.
@@ -191,10 +201,15 @@ class Simulation {
   uint32_t stamp_ = 0;
   // Verlet lists: rebuilt when particles were added or some particle may have moved skin / 2.
   bool lists_valid_ = false;
+  bool grid_built_ = false;  // the fluid is in cell order with cell_start_ (isosurface gathers through it)
   double travel_since_build_ = 0.0;  // sum over steps of max speed * dt (unit: m)
   PrefixSum prefix_sum_;
   std::unique_ptr<SurfaceMesher> mesher_;  // isosurface stage, created on first use
   std::unique_ptr<cloth::ClothSim> cloth_;  // cloth stage (core/cloth.h), only with a cloth section
+  std::unique_ptr<ProbeSampler> probes_;   // probes stage (scenes with a probes section)
+  bool record_probes_ = false;
+  std::vector<ProbeSample> probe_samples_; // taken since the last takeProbeSamples()
+  std::optional<ProbeSample> latest_probe_;
   uint32_t diag_groups_ = 0;
 };
 

@@ -14,6 +14,7 @@ enum class Stage : int {
   Inflow = 0,       ///< emit particles from nozzles (host, then upload)
   Grid,             ///< neighbour grid: count, scan, sort, reorder
   Density,          ///< number density, mass density, equation of state
+  Probes,           ///< pressure probes and height gauges sampled (scenes with a probes section)
   Pressure,         ///< pressure force (and gravity)
   Viscosity,        ///< artificial or laminar viscosity
   ColourDiffusion,  ///< colour mixing between particles

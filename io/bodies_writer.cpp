@@ -3,7 +3,9 @@
 #include "core/simulation.h"
 #include "io/obj_io.h"
 
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <stdexcept>
 
@@ -14,7 +16,7 @@ std::string bodiesCsvHeader() {
          "# com_*: centre of mass (world); q*: orientation quaternion body -> world (w, x, y, z);\n"
          "# v*: velocity of the centre of mass; w*: angular velocity (world frame).\n"
          "# fluid_f*, fluid_t*: the fluid's force and torque about the centre of mass in the frame's last step\n"
-         "# (pressure and contact with the fluid; no viscous coupling yet; 0 for static bodies);\n"
+         "# (the fluid's pressure, viscous and contact forces; 0 for static bodies);\n"
          "# contact_f*: the contact force in that step, from the closed walls and other bodies (on static and\n"
          "# kinematic bodies: the reaction of the dynamic ones they touch).\n"
          "time,body,com_x,com_y,com_z,qw,qx,qy,qz,vx,vy,vz,wx,wy,wz,"
@@ -22,7 +24,7 @@ std::string bodiesCsvHeader() {
 }
 
 BodiesCsvWriter::BodiesCsvWriter(const std::string& path) : path_(path), out_(path, std::ios::trunc) {
-  if (!out_) throw std::runtime_error("cannot write " + path);
+  if (!out_) throw std::runtime_error("cannot write " + path + ": " + std::strerror(errno));
   out_ << bodiesCsvHeader();
 }
 
@@ -47,8 +49,9 @@ void BodiesCsvWriter::writeFrame(double time, const std::vector<rigid::RigidBody
     vec(s.contact_force);
     out_ << "\n";
   }
+  errno = 0;  // so that a failed flush names its own reason
   out_.flush();
-  if (!out_) throw std::runtime_error("cannot write " + path_);
+  if (!out_) throw std::runtime_error("cannot write " + path_ + ": " + std::strerror(errno ? errno : EIO));
 }
 
 void BodiesCsvWriter::close() {
@@ -56,7 +59,7 @@ void BodiesCsvWriter::close() {
 }
 
 StepForcesCsvWriter::StepForcesCsvWriter(const std::string& path) : path_(path), out_(path, std::ios::trunc) {
-  if (!out_) throw std::runtime_error("cannot write " + path);
+  if (!out_) throw std::runtime_error("cannot write " + path + ": " + std::strerror(errno));
   out_ << "# sphaptics per-step fluid forces on the moving bodies (output.step_forces), one row per body per time step.\n"
           "# SI units: s, m/s, rad/s, N, N m. time: start of the step (the pose the force acts at); v*, w*: the body's\n"
           "# velocity and angular velocity (world); fluid_f*, fluid_t*: the fluid's force and torque about the centre of mass.\n"
@@ -78,8 +81,9 @@ void StepForcesCsvWriter::write(const std::vector<StepForce>& rows, const std::v
     vec(r.torque);
     out_ << "\n";
   }
+  errno = 0;  // so that a failed flush names its own reason
   out_.flush();
-  if (!out_) throw std::runtime_error("cannot write " + path_);
+  if (!out_) throw std::runtime_error("cannot write " + path_ + ": " + std::strerror(errno ? errno : EIO));
 }
 
 void StepForcesCsvWriter::close() {

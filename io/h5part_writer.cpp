@@ -44,6 +44,14 @@ std::string hdf5Reason() {
     return 0;
   };
   H5Ewalk2(H5E_DEFAULT, H5E_WALK_DOWNWARD, visit, &reason);
+  // The file drivers put the OS reason into a long description ("..., errno = 28, error message =
+  // 'No space left on device', buf = ..."): keep the first clause and the reason only.
+  const std::string tag = "error message = '";
+  if (const auto at = reason.find(tag); at != std::string::npos) {
+    const auto end = reason.find('\'', at + tag.size());
+    const std::string why = reason.substr(at + tag.size(), end == std::string::npos ? std::string::npos : end - at - tag.size());
+    reason = reason.substr(0, reason.find(':')) + ": " + why;
+  }
   return reason;
 }
 

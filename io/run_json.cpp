@@ -2,6 +2,7 @@
 
 #include "io/atomic_file.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -32,6 +33,39 @@ std::string jsonString(const std::string& s) {
   return o + "\"";
 }
 
+void RunWarnings::add(const FrameReport& rep) {
+  nonfinite += rep.nonfinite;
+  nonfinite_frames += rep.nonfinite > 0;
+  cfl_violations += rep.cfl_violations;
+  cfl_violation_frames += rep.cfl_violations > 0;
+  if (stepOverLimit(rep)) {
+    ++cfl_step_frames;
+    max_step_over_limit = std::max(max_step_over_limit, rep.dt / rep.dt_limit);
+  }
+  wall_crossings += rep.wall_crossings;
+  wall_crossing_frames += rep.wall_crossings > 0;
+  left_domain += rep.outside;
+}
+
+std::string RunWarnings::summary() const {
+  std::ostringstream s;
+  s.precision(3);
+  const char* sep = "";
+  if (nonfinite) s << sep << nonfinite << " NaN/inf particle(s) in " << nonfinite_frames << " frame(s)", sep = "; ";
+  if (cfl_step_frames)
+    s << sep << cfl_step_frames << " frame(s) stepped above the CFL limit (up to " << max_step_over_limit << " x)",
+        sep = "; ";
+  if (cfl_violations)
+    s << sep << cfl_violations << " particle move(s) longer than h in one step in " << cfl_violation_frames << " frame(s)",
+        sep = "; ";
+  if (wall_crossings)
+    s << sep << wall_crossings << " wall crossing(s) in " << wall_crossing_frames
+      << " frame(s) (particles put back inside)",
+        sep = "; ";
+  if (left_domain) s << sep << left_domain << " particle-frame(s) outside the domain through open walls", sep = "; ";
+  return s.str();
+}
+
 void writeRunJson(const std::string& path, const RunInfo& info) {
   std::ostringstream j;
   j.precision(9);
@@ -56,6 +90,12 @@ void writeRunJson(const std::string& path, const RunInfo& info) {
   j << "  \"output_seconds\": " << info.output_seconds << ",\n";
   j << "  \"writer_seconds\": " << info.writer_seconds << ",\n";
   j << "  \"cfl_subdivided_frames\": " << info.profile.subdivided_frames << ",\n";
+  const RunWarnings& w = info.warnings;
+  j << "  \"warnings\": {\"nonfinite\": " << w.nonfinite << ", \"nonfinite_frames\": " << w.nonfinite_frames
+    << ", \"cfl_violations\": " << w.cfl_violations << ", \"cfl_violation_frames\": " << w.cfl_violation_frames
+    << ", \"cfl_step_frames\": " << w.cfl_step_frames << ", \"max_step_over_cfl_limit\": " << w.max_step_over_limit
+    << ", \"wall_crossings\": " << w.wall_crossings << ", \"wall_crossing_frames\": " << w.wall_crossing_frames
+    << ", \"left_domain\": " << w.left_domain << "},\n";
   j << "  \"stage_seconds\": {";
   for (int i = 0; i < kNumStages; ++i)
     j << (i ? ", " : "") << jsonString(stageName(static_cast<Stage>(i))) << ": "

@@ -17,6 +17,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
@@ -298,6 +299,14 @@ bool applyOverride(YAML::Node& root, const Override& ov, std::vector<InputIssue>
 // ---------------------------------------------------------------------------------------------
 // The schema walk
 // ---------------------------------------------------------------------------------------------
+
+/// A name that is safe inside a file name: [A-Za-z0-9_.-]{1,64}, not starting with '.'.
+bool safeFileName(const std::string& name) {
+  if (name.empty() || name.size() > 64 || name[0] == '.') return false;
+  for (const char c : name)
+    if (!std::isalnum(static_cast<unsigned char>(c)) && c != '_' && c != '-' && c != '.') return false;
+  return true;
+}
 
 class Loader {
  public:
@@ -602,6 +611,14 @@ class Loader {
   void crossCheck(SceneSpec& spec) {
     FluidSpec& fluid = spec.fluid;
 
+    // Duration: a run simulates whole frames, round(duration x frame_rate) >= 1 of them.
+    if (given("simulation.duration") && usable("simulation.frame_rate") &&
+        !(spec.simulation.duration * spec.simulation.frame_rate >= 0.5))
+      issue("simulation.duration", markOf("simulation.duration"),
+            "'simulation.duration' " + numberText(spec.simulation.duration) +
+                " s is shorter than half a frame (1 / frame_rate = " + numberText(1.0 / spec.simulation.frame_rate) +
+                " s): a run simulates whole frames");
+
     // output.isosurface: writing the section asks for the surface, unless it says enabled: false.
     if (marks_.count("output.isosurface") && !marks_.count("output.isosurface.enabled"))
       spec.output.isosurface.enabled = true;
@@ -696,6 +713,29 @@ class Loader {
     }
 
     checkBodies(spec);
+    checkProbes(spec);
+  }
+
+  // Probes and gauges: names unique across both lists, and made of letters, digits, '_' and '-'
+  // (they become probes.csv column names).
+  void checkProbes(const SceneSpec& spec) {
+    std::vector<std::pair<std::string, std::string>> seen;  // name, its item path
+    auto check = [&](const std::string& item, const std::string& name) {
+      if (!usable(item) || !given(item + ".name")) return;
+      const std::string at = item + ".name";
+      const bool safe = !name.empty() && std::all_of(name.begin(), name.end(), [](char c) {
+        return std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-';
+      });
+      if (!safe)
+        issue(at, markOf(at), "'" + at + "' = '" + name + "': use letters, digits, '_' and '-' (it names CSV columns)");
+      for (const auto& [other, where] : seen)
+        if (other == name) issue(at, markOf(at), "duplicate probe name '" + name + "' (already the name of " + where + ")");
+      seen.emplace_back(name, item);
+    };
+    for (std::size_t i = 0; i < spec.probes.points.size(); ++i)
+      check(indexed("probes.points", i), spec.probes.points[i].name);
+    for (std::size_t i = 0; i < spec.probes.gauges.size(); ++i)
+      check(indexed("probes.gauges", i), spec.probes.gauges[i].name);
   }
 
   // Rigid bodies: unique names, exactly one of density and mass, a nonzero orientation axis, no
@@ -718,6 +758,18 @@ class Loader {
         }
       }
       names.push_back(body.name);
+      // The name becomes part of file names (body_<name>_0001.obj): letters, digits, '_', '-' and
+      // '.', not starting with '.', so that no name can reach outside the output folder.
+      if (given(item + ".name") && !body.name.empty() && !safeFileName(body.name))
+        issue(item + ".name", markOf(item + ".name"),
+              "rigid body name '" + body.name + "' is used in file names: use letters, digits, '_', '-' and '.' only "
+              "(at most 64, not starting with '.')");
+      // A dynamic body must start inside the domain: outside it, it falls forever and meets nothing.
+      if (body.dynamic && given(item + ".position") &&
+          !((body.position.array() >= spec.domain.min.array()).all() && (body.position.array() <= spec.domain.max.array()).all()))
+        issue(item + ".position", markOf(item + ".position"),
+              label + " is dynamic but starts outside the domain (" + vecText(body.position) + " is not within " +
+                  vecText(spec.domain.min) + " .. " + vecText(spec.domain.max) + ")");
 
       const bool has_density = marks_.count(item + ".density") > 0, has_mass = marks_.count(item + ".mass") > 0;
       if (has_density && has_mass)
@@ -807,6 +859,11 @@ class Loader {
     std::error_code ec;
     if (!fs::is_regular_file(path, ec)) {
       issue(mesh_key, mark, label + ": mesh file '" + body.mesh + "' not found (looked for " + path.string() + ")");
+      return;
+    }
+    if (const auto size = fs::file_size(path, ec); !ec && size > kMaxMeshBytes) {
+      issue(mesh_key, mark, label + ": mesh file '" + body.mesh + "' has " + std::to_string(size) +
+                                " bytes, more than the " + std::to_string(kMaxMeshBytes) + " a mesh may have");
       return;
     }
     body.mesh = path.string();
@@ -973,6 +1030,12 @@ SceneSpec loadScene(const std::string& path, const std::vector<std::string>& ove
   std::error_code ec;
   if (!fs::exists(path, ec)) throw InputError(path, 0, 0, "cannot open the scene file: no such file");
   if (fs::is_directory(path, ec)) throw InputError(path, 0, 0, "cannot read the scene file: it is a directory");
+  // Only a regular file of sane size is read (not /dev/zero, a FIFO or a 10 GB file).
+  if (!fs::is_regular_file(path, ec))
+    throw InputError(path, 0, 0, "cannot read the scene file: not a regular file (a device, FIFO or socket)");
+  if (const auto size = fs::file_size(path, ec); !ec && size > kMaxSceneBytes)
+    throw InputError(path, 0, 0, "cannot read the scene file: " + std::to_string(size) + " bytes, more than the " +
+                                     std::to_string(kMaxSceneBytes) + " a scene may have");
   errno = 0;
   std::ifstream in(path, std::ios::binary);
   if (!in)

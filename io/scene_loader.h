@@ -3,10 +3,16 @@
 
 #include "core/scene_spec.h"
 
+#include <cstdint>
 #include <string>
 #include <vector>
 
 namespace sph::io {
+
+/// The largest scene file read (unit: bytes): scenes are a few kB; anything near this is not one.
+inline constexpr std::uintmax_t kMaxSceneBytes = 16u << 20;
+/// The largest OBJ mesh file read for a rigid body (unit: bytes); tinyobjloader holds it whole.
+inline constexpr std::uintmax_t kMaxMeshBytes = 512u << 20;
 
 /// Loads and validates a scene file. `overrides` are "key.path=value" strings from `--set`
 /// (e.g. "fluid.particle_spacing=0.01", "fluid.phases[0].viscosity=1e-3") applied before validation.

@@ -193,6 +193,22 @@ struct InAnchors {
   static auto& item(S& s, std::size_t i) { return list(s, i).at(nestedItem(i)); }
 };
 
+struct InProbePoints {
+  using Item = PointProbeSpec;
+  template <class S>
+  static auto& list(S& s) { return s.probes.points; }
+  template <class S>
+  static auto& item(S& s, std::size_t i) { return s.probes.points.at(i); }
+};
+
+struct InGauges {
+  using Item = GaugeSpec;
+  template <class S>
+  static auto& list(S& s) { return s.probes.gauges; }
+  template <class S>
+  static auto& item(S& s, std::size_t i) { return s.probes.gauges.at(i); }
+};
+
 /// Fluent builder for one KeyDef (see buildTable()).
 class Key {
  public:
@@ -376,7 +392,7 @@ std::vector<KeyDef> buildTable() {
   add(list<InBodies>("rigid_bodies").defaultNote("[]")
           .doc("rigid bodies (static, kinematic or dynamic); pose: x_world = position + R(axis, angle) (scale x_body)"));
   add(field<InBodies>("rigid_bodies[].name", [](auto& b) -> auto& { return b.name; })
-          .required().doc("unique body name (output files body_<name>_NNNN.obj)"));
+          .required().doc("unique body name (output files body_<name>_NNNN.obj): letters, digits, '_', '-' and '.', at most 64, not starting with '.'"));
   add(field<InBodies>("rigid_bodies[].shape", [](auto& b) -> auto& { return b.shape; })
           .doc("mesh (uses mesh), sphere (radius), box (size), cylinder and capsule (radius, height; axis = body z)"));
   add(field<InBodies>("rigid_bodies[].mesh", [](auto& b) -> auto& { return b.mesh; })
@@ -390,7 +406,7 @@ std::vector<KeyDef> buildTable() {
           .unit("m").greaterThan(0).doc("cylinder length; capsule distance between its cap centres (along body z)"));
   add(field<InBodies>("rigid_bodies[].position", [](auto& b) -> auto& { return b.position; })
           .unit("m").defaultNote("(required; keyframes: the first key's)")
-          .doc("world position of the body origin (the primitive's centre, the mesh's origin); a keyframed body may leave it out"));
+          .doc("world position of the body origin (the primitive's centre, the mesh's origin); a keyframed body may leave it out; a dynamic body's must lie inside the domain"));
   add(field<InBodies>("rigid_bodies[].orientation_axis", [](auto& b) -> auto& { return b.orientation_axis; })
           .unit("1").doc("axis of the initial rotation, nonzero (normalised when compiled)"));
   add(field<InBodies>("rigid_bodies[].orientation_angle", [](auto& b) -> auto& { return b.orientation_angle; })
@@ -497,6 +513,25 @@ std::vector<KeyDef> buildTable() {
           .unit("m/s").doc("velocity of the anchored nodes until stop (0: fixed)"));
   add(field<InAnchors>("cloth[].anchors[].stop", [](auto& a) -> auto& { return a.stop; })
           .unit("s").atLeast(0).allowInfinity().doc("the anchored nodes stop moving at this time; .inf = never"));
+  // probes: the fluid sampled at points and along vertical gauges -----------------------------
+  add(section("probes", [](SceneSpec& s) { return &s.probes.loc; })
+          .doc("pressure probes and water-height gauges, sampled into probes.csv (like an experiment's gauges)"));
+  add(field<InScene>("probes.rate", [](auto& s) -> auto& { return s.probes.rate; })
+          .unit("1/s").atLeast(0).doc("samples per simulated second; 0 = every time step"));
+  add(list<InProbePoints>("probes.points").defaultNote("[]")
+          .doc("points where pressure, density and velocity are read (Shepard-normalised kernel interpolation)"));
+  add(field<InProbePoints>("probes.points[].name", [](auto& p) -> auto& { return p.name; })
+          .required().doc("unique name (letters, digits, _ and -): the CSV columns <name>_pressure, ..."));
+  add(field<InProbePoints>("probes.points[].position", [](auto& p) -> auto& { return p.position; })
+          .unit("m").required().doc("the point, inside the domain"));
+  add(list<InGauges>("probes.gauges").defaultNote("[]")
+          .doc("vertical lines that read the height of the fluid column standing on their foot"));
+  add(field<InGauges>("probes.gauges[].name", [](auto& g) -> auto& { return g.name; })
+          .required().doc("unique name (letters, digits, _ and -): the CSV column <name>_height"));
+  add(field<InGauges>("probes.gauges[].position", [](auto& g) -> auto& { return g.position; })
+          .unit("m").required().doc("foot of the line (e.g. on the floor), inside the domain"));
+  add(field<InGauges>("probes.gauges[].length", [](auto& g) -> auto& { return g.length; })
+          .unit("m").atLeast(0).doc("length of the line upwards; 0 = up to the domain's top"));
 
   // output ------------------------------------------------------------------------------------
   add(section("output", [](SceneSpec& s) { return &s.output.loc; }).doc("what to write, and where"));
@@ -565,6 +600,8 @@ std::string defaultText(const KeyDef& key) {
   defaults.rigid_bodies[0].motion.keyframes.resize(1);
   defaults.cloth.resize(1);
   defaults.cloth[0].anchors.resize(1);
+  defaults.probes.points.resize(1);
+  defaults.probes.gauges.resize(1);
   const Value value = key.get(defaults, 0);
   if (key.type == KeyType::String) return "\"" + std::get<std::string>(value) + "\"";
   return valueText(value);

@@ -18,31 +18,7 @@
  *   mc_emit_triangles cell -> its triangles, in cell order, as indices of the shared vertices
  */
 
-/* Neighbour-grid cells that can hold a particle within `reach` of x. Particles move after they are
- * sorted into cells (Verlet lists), so the host passes reach = H + the largest drift since. */
-inline void iso_cell_range(const SimParams* p, float3 x, float reach, int3* lo, int3* hi) {
-  const float3 o = (float3)(p->grid_origin[0], p->grid_origin[1], p->grid_origin[2]);
-  const int3 top = (int3)(p->grid_dims[0] - 1, p->grid_dims[1] - 1, p->grid_dims[2] - 1);
-  *lo = clamp(convert_int3_rtn((x - reach - o) / p->cell_size), (int3)(0), top);
-  *hi = clamp(convert_int3_rtn((x + reach - o) / p->cell_size), (int3)(0), top);
-}
-
-/* Every particle S in the cells within REACH of X, in grid order (one contiguous run per row of
- * cells, as in neighbours.h).
- *   ISO_FOR_PARTICLES_NEAR(p, cell_start, x, reach, s) { ... uses s ... } ISO_END_PARTICLES */
-#define ISO_FOR_PARTICLES_NEAR(P, CELL_START, X, REACH, S)                               \
-  {                                                                                      \
-    int3 lo_, hi_;                                                                       \
-    iso_cell_range(P, X, REACH, &lo_, &hi_);                                             \
-    for (int cz_ = lo_.z; cz_ <= hi_.z; ++cz_)                                           \
-      for (int cy_ = lo_.y; cy_ <= hi_.y; ++cy_) {                                       \
-        const uint row_ = (uint)((P)->grid_dims[0] * (cy_ + (P)->grid_dims[1] * cz_));   \
-        const uint end_ = CELL_START[row_ + (uint)hi_.x + 1u];                           \
-        for (uint S = CELL_START[row_ + (uint)lo_.x]; S < end_; ++S)
-
-#define ISO_END_PARTICLES \
-  }                       \
-  }
+/* Particles near a node: FOR_PARTICLES_NEAR (kernels/shared/near.h). */
 
 /* Node n -> (i, j, k). */
 inline int3 iso_node_ijk(const IsoParams* q, uint n) {
@@ -77,12 +53,12 @@ __kernel void iso_field(const SimParams p, const IsoParams q, __global const flo
   const float H = p.support, H2 = H * H;
   float acc[SPH_MAX_PHASES];
   for (uint f = 0; f < SPH_MAX_PHASES; ++f) acc[f] = 0.0f;
-  ISO_FOR_PARTICLES_NEAR(&p, cell_start, x, q.reach, s) {
+  FOR_PARTICLES_NEAR(&p, cell_start, x, q.reach, s) {
     const float3 d = x - pos[s].xyz;
     const float r2 = dot(d, d);
     if (r2 < H2) acc[min(phase[s], (uint)(SPH_MAX_PHASES - 1))] += sph_w(SPH_KERNEL, sqrt(r2), H);
   }
-  ISO_END_PARTICLES
+  END_PARTICLES_NEAR
   for (uint f = 0; f < q.num_fields; ++f) field[(size_t)f * q.num_nodes + n] = p.rest_volume * acc[f];
 }
 
@@ -173,7 +149,7 @@ __kernel void mc_emit_vertices(const SimParams p, const IsoParams q, __global co
       float4 c = (float4)(0.0f);
       float wsum = 0.0f;
       int3 lo, hi;
-      iso_cell_range(&p, x, q.reach, &lo, &hi);
+      sph_cell_range(&p, x, q.reach, &lo, &hi);
       for (int cz = lo.z; cz <= hi.z; ++cz)
         for (int cy = lo.y; cy <= hi.y; ++cy) {
           const uint row = (uint)(p.grid_dims[0] * (cy + p.grid_dims[1] * cz));

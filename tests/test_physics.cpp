@@ -5,6 +5,7 @@
 #include "cli/runner.h"
 #include "core/errors.h"
 #include "core/model.h"
+#include "core/probes.h"
 #include "io/scene_loader.h"
 
 #include <catch2/catch.hpp>
@@ -89,11 +90,30 @@ TEST_CASE("Hydrostatic tank: pressure follows rho0 g (H - z) after settling", "[
     int n = 0;
   };
   std::map<int, Layer> layers;
+  // The scene's probes (points at fixed heights, two gauges): their readings and, for each point,
+  // the water above it (particle count), summed over the same frames.
+  const std::vector<double> probe_z{0.02, 0.05, 0.08, 0.11, 0.14, 0.17};  // p02 .. p17 in hydrostatic.yaml
+  std::vector<double> probe_p(probe_z.size() + 1, 0.0), probe_above(probe_z.size() + 1, 0.0);
+  std::vector<double> gauge_h(2, 0.0);
+  int probe_frames = 0;
+  bool air_dry = true;
   app::RunResult r = app::runScene(o, [&](Simulation& sim, const FrameReport&) {
     if (sim.time() < 1.0 - 1e-9) return;
     last = sim.readFrame();
     std::vector<float> zs(last.z);
     std::sort(zs.begin(), zs.end());
+    const ProbeSample* ps = sim.latestProbeSample();
+    REQUIRE(ps != nullptr);
+    REQUIRE(ps->points.size() == probe_z.size() + 2);
+    for (std::size_t k = 0; k < probe_z.size() + 1; ++k) {  // the six centre probes, then 'wall' (z = 0.05)
+      const std::size_t at = k < probe_z.size() ? k : probe_z.size() + 1;
+      const double z = k < probe_z.size() ? probe_z[k] : 0.05;
+      probe_p[k] += ps->points[at].pressure;
+      probe_above[k] += static_cast<double>(zs.end() - std::upper_bound(zs.begin(), zs.end(), static_cast<float>(z)));
+    }
+    air_dry = air_dry && std::isnan(ps->points[probe_z.size()].pressure);
+    for (std::size_t g = 0; g < 2; ++g) gauge_h[g] += ps->heights[g];
+    ++probe_frames;
     for (std::size_t i = 0; i < last.size(); ++i) {
       if (std::abs(last.x[i] - 0.1) > 0.05 || std::abs(last.y[i] - 0.03) > 0.01) continue;
       auto& L = layers[static_cast<int>(std::floor(last.z[i] / 0.01))];
@@ -128,6 +148,30 @@ TEST_CASE("Hydrostatic tank: pressure follows rho0 g (H - z) after settling", "[
   }
   CHECK(compared >= 15);
   WARN("hydrostatic tank: " << compared << " layers from the floor up, worst pressure error " << 100 * worst << " %");
+
+  // Probes (issue 12): Shepard-interpolated pressure at fixed points, against the weight of the
+  // water above each (as for the layers), within the issue's 2 %, at every probe at least two
+  // smoothing lengths below the surface; the one on the side wall too. One above the water is dry.
+  REQUIRE(probe_frames > 0);
+  double worst_probe = 0;
+  for (std::size_t k = 0; k < probe_p.size(); ++k) {
+    const double p = probe_p[k] / probe_frames;
+    const double depth = probe_above[k] / probe_frames * dx * dx * dx / area;
+    if (depth < 2 * h) continue;
+    const double p_ref = rho0 * g * depth;
+    INFO("probe " << k << ": depth " << depth << " m, p = " << p << " Pa, closed form " << p_ref << " Pa");
+    CHECK(std::abs(p - p_ref) <= 0.02 * p_ref);
+    worst_probe = std::max(worst_probe, std::abs(p / p_ref - 1));
+    WARN("probe " << k << " depth " << depth << " m: " << 100 * (p / p_ref - 1) << " %");
+  }
+  CHECK(air_dry);
+  // Gauges (centre and corner): the column's height within one spacing of the water's depth.
+  for (std::size_t g = 0; g < 2; ++g) {
+    INFO("gauge " << g << ": height " << gauge_h[g] / probe_frames << " m, water depth " << H << " m");
+    CHECK(std::abs(gauge_h[g] / probe_frames - H) < dx);
+  }
+  WARN("hydrostatic probes: worst pressure error " << 100 * worst_probe << " %; gauges " << gauge_h[0] / probe_frames
+                                                   << " m and " << gauge_h[1] / probe_frames << " m for " << H << " m of water");
   // Residual motion: small against the problem's velocity scale, the gravity-wave speed sqrt(g H)
   // (what remains is weakly compressible SPH's acoustic noise; a sloshing or unstable tank moves
   // at a sizeable fraction of it).
@@ -147,7 +191,12 @@ TEST_CASE("Dam break: surge front against Martin & Moyce (1952)", "[physics]") {
   bool count_conserved = true, inside = true;
   double worst_bound = -1e9;
   app::RunOptions o = quietRun("dam_break_slab.yaml");
+  std::vector<double> taus, gauge_inner;  // the scene's height gauge 2.5 dx from the back wall
   app::RunResult r = app::runScene(o, [&](Simulation& sim, const FrameReport& rep) {
+    if (const ProbeSample* ps = sim.latestProbeSample()) {
+      taus.push_back(ps->time * std::sqrt(g / a));
+      gauge_inner.push_back(ps->heights.at(1) / (2 * a));
+    }
     const ParticleFrame f = sim.readFrame();
     if (n0 == 0) n0 = f.size();
     count_conserved = count_conserved && f.size() == n0;
@@ -169,6 +218,30 @@ TEST_CASE("Dam break: surge front against Martin & Moyce (1952)", "[physics]") {
   INFO("compared " << e.points << " points, mean relative error " << e.mean_rel << ", max " << e.max_rel);
   CHECK(e.points >= 8);
   CHECK(e.max_rel < 0.10);
+
+  // Height gauge (issue 12) 2.5 dx from the back wall, against Martin & Moyce's Table 6 (H = h / 2a
+  // against tau = t sqrt(g / a)), while the column collapses (tau <= 1.5). (The scene's gauge on
+  // the wall itself dips by up to 4 dx for a frame at times, where the first particle layer comes
+  // off the wall under the clamped pressure: it reads the fluid, but is no gauge for this test.)
+  // Tolerance: the gate's opening time (the reference's +0.175 in T, 0.124 in tau) times the
+  // table's slope (|dH/dtau| ~ 0.3), plus half a spacing of height resolution (dx / 2 over 2a):
+  // 0.037 + 0.0125 = 0.05. Later the simulated column stays higher than the experiment (up to
+  // 0.09 at tau = 2.2-2.45, measured), which README reports.
+  const app::Table mh = app::readCsvTable(dataPath("martin_moyce_1952_n2_2_height_table6.csv"));
+  const std::vector<double> mt = mh.column("tau"), mH = mh.column("H");
+  REQUIRE(taus.size() > 10);
+  int height_points = 0;
+  for (std::size_t k = 0; k < mt.size(); ++k) {
+    if (mt[k] > 1.5) continue;
+    std::size_t j = 1;
+    while (j + 1 < taus.size() && taus[j] < mt[k]) ++j;
+    const double w = (mt[k] - taus[j - 1]) / (taus[j] - taus[j - 1]);
+    const double Hs = gauge_inner[j - 1] + w * (gauge_inner[j] - gauge_inner[j - 1]);
+    INFO("tau = " << mt[k] << ": gauge H = " << Hs << ", Martin & Moyce " << mH[k]);
+    CHECK(std::abs(Hs - mH[k]) <= 0.05);
+    ++height_points;
+  }
+  CHECK(height_points >= 5);
 }
 
 TEST_CASE("Two phases: heavy stays under light, no mixing beyond two layers", "[physics]") {

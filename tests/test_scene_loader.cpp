@@ -212,6 +212,8 @@ TEST_CASE("the schema defaults are read from core/scene_spec.h", "[io]") {
   d.rigid_bodies.resize(1);
   d.cloth.resize(1);
   d.cloth[0].anchors.resize(1);
+  d.probes.points.resize(1);
+  d.probes.gauges.resize(1);
   for (const auto& key : sph::io::schemaTable()) {
     if (!key.isLeaf() || key.required || !key.default_note.empty()) continue;
     INFO(key.path);
@@ -502,7 +504,7 @@ TEST_CASE("bad --set keys and values are InputErrors against '--set'", "[io]") {
   REQUIRE_SET_ISSUE(section, "did you mean 'simulation.cfl'?");
 
   const auto nonsense = issuesOf(yaml, {"zzz=1"});
-  REQUIRE_SET_ISSUE(nonsense, "unknown key 'zzz'", "known keys at the top level: simulation, domain, fluid, rigid_bodies, cloth, output");
+  REQUIRE_SET_ISSUE(nonsense, "unknown key 'zzz'", "known keys at the top level: simulation, domain, fluid, rigid_bodies, cloth, probes, output");
 
   REQUIRE_SET_ISSUE(issuesOf(yaml, {"simulation.cfl"}), "expected key.path=value");
   REQUIRE_SET_ISSUE(issuesOf(yaml, {"simulation.gravity.x=1"}), "has no sub-keys");
@@ -561,7 +563,9 @@ TEST_CASE("the schema text lists every key with type, default, unit and range", 
       "cloth[].bend_stiffness", "cloth[].damping", "cloth[].air_damping", "cloth[].solver", "cloth[].iterations",
       "cloth[].tear_strain", "cloth[].colour", "cloth[].anchors", "cloth[].anchors[].type", "cloth[].anchors[].edge",
       "cloth[].anchors[].i", "cloth[].anchors[].j", "cloth[].anchors[].min", "cloth[].anchors[].max",
-      "cloth[].anchors[].velocity", "cloth[].anchors[].stop", "output", "output.directory", "output.particles",
+      "cloth[].anchors[].velocity", "cloth[].anchors[].stop", "probes", "probes.rate", "probes.points",
+      "probes.points[].name", "probes.points[].position", "probes.gauges", "probes.gauges[].name",
+      "probes.gauges[].position", "probes.gauges[].length", "output", "output.directory", "output.particles",
       "output.step_forces",
       "output.isosurface", "output.isosurface.enabled", "output.isosurface.spacing", "output.isosurface.iso",
       "output.isosurface.vertex_colours", "output.isosurface.obj", "output.isosurface.vdb", "output.isosurface.vdb_level_set"};
@@ -603,7 +607,10 @@ TEST_CASE("sceneToJson writes every key of the resolved scene", "[io]") {
   INFO(json);
   // Every key name of the table appears (list items because the scene has one of each but blocks).
   for (const auto& key : sph::io::schemaTable()) {
-    if (key.path.rfind("fluid.blocks[]", 0) == 0 || key.path.rfind("rigid_bodies[]", 0) == 0 || key.path.rfind("cloth[]", 0) == 0) continue;
+    if (key.path.rfind("fluid.blocks[]", 0) == 0 || key.path.rfind("rigid_bodies[]", 0) == 0 ||
+        key.path.rfind("probes.points[]", 0) == 0 || key.path.rfind("probes.gauges[]", 0) == 0 ||
+        key.path.rfind("cloth[]", 0) == 0)
+      continue;
     CHECK(json.find("\"" + key.name() + "\":") != std::string::npos);
   }
   CHECK(json.find("\"source_file\": ") != std::string::npos);
