@@ -86,6 +86,14 @@ ClothModel compileCloths(const std::vector<ClothSpec>& specs, std::vector<InputI
       continue;
     }
     const int nx = s.resolution_x, ny = s.resolution_y;
+    // Bounded resources: about 400 bytes of tables per node (host and device alike).
+    if (static_cast<double>(nx) * ny + static_cast<double>(m.x0.size()) > kMaxNodes) {
+      std::ostringstream msg;
+      msg << "cloth '" << s.name << "': " << nx << " x " << ny << " nodes (with the cloths before it) is more than the "
+          << kMaxNodes << " nodes supported";
+      fail(s.loc, msg.str());
+      continue;
+    }
     const uint32_t base = static_cast<uint32_t>(m.x0.size());
     const std::vector<Eigen::Vector3d> x = nodePositions(s);
     const uint32_t n = static_cast<uint32_t>(x.size());

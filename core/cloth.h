@@ -42,6 +42,7 @@ struct InputIssue;
 namespace sph::cloth {
 
 enum SpringKind : uint32_t { kStretch = 0, kShear = 1, kBend = 2 };
+constexpr double kMaxNodes = 1e6;  ///< nodes of all cloths of a scene, at most (about 400 MB of tables)
 constexpr uint32_t kNoSlot = 0xffffffffu;
 
 /// Rest positions of a cloth's nodes in the world frame; node (i, j) has index j * resolution_x + i.

@@ -328,6 +328,15 @@ TEST_CASE("Cloth: bad input is reported at its location", "[cloth][input]") {
   CHECK(hasIssue(issues, 5, {"resolution_y"}));
   issues = issuesOf(dir, head + "    tear_strain: 0\n");
   CHECK(hasIssue(issues, 5, {"tear_strain"}));
+  // A resolution that would not fit in memory: at compile time, at the cloth, before allocating.
+  const auto huge = dir.write("huge.yaml", head + "    resolution_x: 100000\n    resolution_y: 100000\n");
+  try {
+    (void)compile(io::loadScene(huge.string()));
+    FAIL("a 1e10-node cloth compiled");
+  } catch (const InputError& e) {
+    INFO(dump(e.issues()));
+    CHECK(hasIssue(e.issues(), 4, {"nodes supported"}));
+  }
   // An anchor outside the cloth: at compile time, at the anchor.
   const auto scene = dir.write("anchor.yaml", head +
                                                   "    resolution_x: 4\n"
