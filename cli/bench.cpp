@@ -9,17 +9,24 @@
 //  3. Isosurface: the same dam break (by default at 50k, the target size) with the surface off, on (meshed on the
 //     device and read back, nothing written) and on + OBJ export (written on the writer thread):
 //     frames/s of each, the isosurface time per frame and the share of the frame it costs.
+//  4. Cloth stability (issue 11): a 16 x 16 cloth hung by one edge, no fluid, stiffness from 10 N/m
+//     to 10^7 N/m (10^6 times stiffer) x steps of 1/240 s and of the whole frame (1/60 s), both
+//     solvers: steps taken (explicit: subdivided below its limit), largest strain, energy gain
+//     (none may grow: the cloth only loses energy to its dashpots), NaN, wall time.
 // The tables are printed and written as CSV; scripts/plot_bench.py draws error against seconds.
 #include "cli/analysis.h"
 #include "cli/commands.h"
 #include "cli/runner.h"
 #include "core/errors.h"
+#include "core/model.h"
+#include "core/simulation.h"
 #include "io/scene_loader.h"
 
 #include <sys/resource.h>
 
 #include <algorithm>
 #include <array>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -67,11 +74,92 @@ std::string fmtd(double v, int prec = 3) {
   return buf;
 }
 
+// 4. Cloth stability sweep: stiffness x step x solver on a cloth hung by one edge (no fluid).
+int clothSweep(const BenchOptions& opt) {
+  fs::create_directories(opt.out);
+  const fs::path csv = fs::path(opt.out) / "cloth_stability.csv";
+  std::ofstream out(csv);
+  out << "# sphaptics " << SPHAPTICS_VERSION << " cloth stability sweep: 16 x 16 nodes, 0.25 m square, 0.2 kg/m^2, "
+         "hung by its y_max edge, 1 s simulated at 60 frames/s, medians of " << opt.repeats << " runs\n";
+  out << "solver,stiffness_N_per_m,dt_s,steps,max_strain,energy_gain_rel,energy_drift_rel,nonfinite,wall_s\n";
+  std::printf("\n%-9s %-10s %-9s %-8s %-10s %-12s %-12s %-5s %-8s\n", "solver", "k N/m", "dt s", "steps", "max strain",
+              "energy gain", "energy drift", "NaN", "wall s");
+  ClContext cl(opt.device);
+  for (ClothSolver solver : {ClothSolver::Xpbd, ClothSolver::Explicit})
+    for (double k : {1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7})
+      for (int substeps : {4, 1}) {
+        SceneSpec s;
+        s.domain.max = Eigen::Vector3d(1, 1, 1);
+        s.fluid.phases.resize(1);
+        s.fluid.phases[0].name = "water";
+        s.simulation.frame_rate = 60;
+        s.simulation.substeps = substeps;
+        s.simulation.duration = 1.0;
+        ClothSpec c;
+        c.name = "sheet";
+        c.width = c.length = 0.25;
+        c.resolution_x = c.resolution_y = 16;
+        c.position = Eigen::Vector3d(0.5, 0.5, 0.7);
+        c.areal_density = 0.2;
+        c.stretch_stiffness = k;
+        c.shear_stiffness = 0.1 * k;
+        c.bend_stiffness = 0.01 * k;
+        c.damping = 0.0;
+        c.solver = solver;
+        ClothAnchorSpec edge;
+        edge.type = AnchorType::Edge;
+        edge.edge = ClothEdge::YMax;
+        c.anchors.push_back(edge);
+        s.cloth.push_back(c);
+        const Compiled comp = compile(s);
+        const Eigen::Vector3d g(0, 0, -9.81);
+        // Energy scale: the cloth's weight times its length (the drop of its centre when it hangs).
+        const double scale = c.areal_density * c.width * c.length * 9.81 * c.length;
+        std::vector<double> walls;
+        uint64_t steps = 0;
+        double max_strain = 0, gain = 0, drift = 0;
+        bool nonfinite = false;
+        for (int r = 0; r < opt.repeats; ++r) {
+          Simulation sim(comp.model, comp.initial, cl);
+          const double e0 = sim.cloth()->report(0, g).energy();
+          uint64_t sub = 0;
+          max_strain = 0;
+          gain = 0;
+          const auto t0 = std::chrono::steady_clock::now();
+          for (int f = 0; f < comp.model.num_frames; ++f) {
+            for (int k2 = 0; k2 < substeps; ++k2) {
+              sim.step(comp.model.frame_dt / substeps);
+              sub += static_cast<uint64_t>(std::max(1, sim.cloth()->lastSubsteps()));
+            }
+            const cloth::ClothReport rep = sim.cloth()->report(0, g);
+            if (!std::isfinite(rep.energy())) nonfinite = true;
+            max_strain = std::max(max_strain, rep.max_strain);
+            gain = std::max(gain, (rep.energy() - e0) / scale);
+            drift = (rep.energy() - e0) / scale;
+          }
+          walls.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+          steps = sub;
+        }
+        const char* name = solver == ClothSolver::Xpbd ? "xpbd" : "explicit";
+        const double dt = 1.0 / (60.0 * substeps);
+        out << name << "," << k << "," << dt << "," << steps << "," << max_strain << "," << gain << "," << drift << ","
+            << (nonfinite ? 1 : 0) << "," << median(walls) << "\n";
+        std::printf("%-9s %-10.0e %-9.5f %-8llu %-10.4f %-12.2e %-12.2e %-5s %-8.3f\n", name, k, dt,
+                    static_cast<unsigned long long>(steps), max_strain, gain, drift, nonfinite ? "yes" : "no",
+                    median(walls));
+        std::fflush(stdout);
+      }
+  std::cout << "wrote " << csv.string() << " (energy gain: largest E(t) - E(0) over the run; drift: E(1 s) - E(0); "
+               "both over m g L; steps: time steps, explicit: its substeps)\n";
+  return kExitOk;
+}
+
 }  // namespace
 
 int benchCommand(const BenchOptions& opt) {
   try {
     fs::create_directories(opt.out);
+    if (opt.cloth_only) return clothSweep(opt);
     const std::string scene = sourcePath("scenes/dam_break.yaml");
     const SceneSpec base = io::loadScene(scene);
     std::cout << "benchmark scene: " << scene << "\n";
@@ -255,6 +343,7 @@ int benchCommand(const BenchOptions& opt) {
                 << " (iso % and iso+obj %: (t_on - t_off) / t_on from the medians of separate runs, noisy on a shared "
                    "machine; cost %: (isosurface + hand-off + writer thread) / frame loop within each export run)\n";
     }
+    if (opt.cloth && !opt.accuracy_only && !opt.iso_only) return clothSweep(opt);
     return kExitOk;
   } catch (const InputError& e) {
     std::cerr << e.what() << "\n";

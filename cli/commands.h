@@ -31,6 +31,8 @@ struct BenchOptions {
   std::vector<long> iso_sizes{50000};  // particle counts for the isosurface table (its target size)
   bool iso = true;        // the isosurface table (off / on / on + export)
   bool iso_only = false;  // only the isosurface table
+  bool cloth = true;       // the cloth stability sweep (stiffness x step, both solvers)
+  bool cloth_only = false; // only the cloth sweep
 };
 
 /// Speed table (dam break at several sizes and substep counts) and accuracy-versus-time table

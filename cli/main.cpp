@@ -74,6 +74,8 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   cmd_bench->add_flag("--iso-only", bench.iso_only, "Only the isosurface table (off / on / on + OBJ export)");
   cmd_bench->add_flag("!--no-iso", bench.iso, "Skip the isosurface table");
+  cmd_bench->add_flag("--cloth-only", bench.cloth_only, "Only the cloth stability sweep (stiffness x step, xpbd and explicit)");
+  cmd_bench->add_flag("!--no-cloth", bench.cloth, "Skip the cloth stability sweep");
 
   // compare
   app::CompareOptions compare;

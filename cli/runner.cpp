@@ -4,6 +4,7 @@
 
 #include "core/errors.h"
 #include "io/bodies_writer.h"
+#include "io/cloth_writer.h"
 #include "io/async_writer.h"
 #include "io/h5part_writer.h"
 #include "io/probes_writer.h"
@@ -151,6 +152,7 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
   // Output state, so that a failure can mark the run as failed.
   std::unique_ptr<io::H5PartWriter> h5;
   std::unique_ptr<io::BodiesCsvWriter> bodies_csv;
+  std::unique_ptr<io::ClothCsvWriter> cloth_csv;
   std::unique_ptr<io::StepForcesCsvWriter> forces_csv;
   std::unique_ptr<io::ProbesCsvWriter> probes_csv;
   std::unique_ptr<std::ofstream> haptics_csv;
@@ -176,6 +178,7 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
     }
     if (h5) h5->close();
     if (bodies_csv) bodies_csv->close();
+    if (cloth_csv) cloth_csv->close();
     if (forces_csv) forces_csv->close();
     if (probes_csv) probes_csv->close();
     if (haptics_csv) haptics_csv->close();
@@ -297,11 +300,12 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
       fs::remove(out_dir / "forces.csv", ec);
       fs::remove(out_dir / "probes.csv", ec);
       fs::remove(out_dir / "haptics.csv", ec);
+      fs::remove(out_dir / "cloth.csv", ec);
       for (const auto& entry : fs::directory_iterator(out_dir, ec)) {  // an earlier run's meshes
         const std::string name = entry.path().filename().string();
         const auto ext = entry.path().extension();
         if ((name.rfind("fluid_", 0) == 0 && (ext == ".obj" || ext == ".vdb")) ||
-            (name.rfind("body_", 0) == 0 && ext == ".obj"))
+            (name.rfind("body_", 0) == 0 && ext == ".obj") || (name.rfind("cloth_", 0) == 0 && ext == ".obj"))
           fs::remove(entry.path(), ec);
       }
     }
@@ -354,6 +358,7 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
         h5_written = true;
       }
       if (!model.bodies.empty()) bodies_csv = std::make_unique<io::BodiesCsvWriter>((out_dir / "bodies.csv").string());
+      if (model.cloth.nodes() > 0) cloth_csv = std::make_unique<io::ClothCsvWriter>((out_dir / "cloth.csv").string());
       if (spec.output.step_forces && !model.bodies.empty()) {
         forces_csv = std::make_unique<io::StepForcesCsvWriter>((out_dir / "forces.csv").string());
         sim.recordStepForces(true);
@@ -395,6 +400,17 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
         io::writeBodyObjs(out_dir.string(), frame, model.bodies, sim.bodies());
       }
       if (forces_csv) forces_csv->write(sim.takeStepForces(), model.bodies);
+      if (cloth_csv) {  // cloths: a row and a mesh each (broken springs' triangles left out)
+        std::vector<Eigen::Vector4f> x, v;
+        sim.cloth()->read(x, v);
+        const std::vector<uint32_t> broken = sim.cloth()->readBroken();
+        const Eigen::Vector3d g = gravityAt(model.spec.simulation, sim.time());
+        for (std::size_t c = 0; c < model.spec.cloth.size(); ++c) {
+          const ClothSpec& cs = model.spec.cloth[c];
+          cloth_csv->writeRow(sim.time(), cs.name, sim.cloth()->report(c, g));
+          io::writeObj((out_dir / io::clothObjName(cs.name, frame)).string(), io::clothMesh(model.cloth, c, cs, x, broken));
+        }
+      }
       if (probes_csv) probes_csv->write(sim.takeProbeSamples());
       if (!writer || (!h5 && !write_obj && !write_vdb)) {
         res.output_seconds += since(t0);

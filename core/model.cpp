@@ -10,6 +10,8 @@
 
 #include <algorithm>
 #include <memory>
+#include <array>
+#include <map>
 #include <cmath>
 #include <cstdio>
 #include <sstream>
@@ -540,6 +542,44 @@ Compiled compile(const SceneSpec& spec, const ResourceLimits& limits) {
                         "(Akinci et al. 2012); contact with the closed walls and between bodies");
   }
 
+  // Fluid placed where a cloth is: particles closer than dx to a cloth node (where the contact
+  // repulsion would act at once) are removed, as for bodies.
+  if (!spec.cloth.empty() && out.initial.size() > 0) {
+    std::map<std::array<int64_t, 3>, std::vector<Eigen::Vector3d>> nodes;
+    auto key = [&](const Eigen::Vector3d& x) {
+      return std::array<int64_t, 3>{static_cast<int64_t>(std::floor(x.x() / m.dx)),
+                                    static_cast<int64_t>(std::floor(x.y() / m.dx)),
+                                    static_cast<int64_t>(std::floor(x.z() / m.dx))};
+    };
+    for (const ClothSpec& c : spec.cloth)
+      for (const Eigen::Vector3d& x : cloth::nodePositions(c)) nodes[key(x)].push_back(x);
+    HostParticles kept;
+    std::size_t removed = 0;
+    for (std::size_t i = 0; i < out.initial.size(); ++i) {
+      const Eigen::Vector3d x = out.initial.pos[i].head<3>().cast<double>();
+      const auto k = key(x);
+      bool clash = false;
+      for (int64_t dz = -1; dz <= 1 && !clash; ++dz)
+        for (int64_t dy = -1; dy <= 1 && !clash; ++dy)
+          for (int64_t dxx = -1; dxx <= 1 && !clash; ++dxx) {
+            const auto it = nodes.find({k[0] + dxx, k[1] + dy, k[2] + dz});
+            if (it == nodes.end()) continue;
+            for (const Eigen::Vector3d& y : it->second)
+              if ((y - x).squaredNorm() < m.dx * m.dx) { clash = true; break; }
+          }
+      if (clash) {
+        ++removed;
+        continue;
+      }
+      kept.push(out.initial.pos[i].head<3>(), out.initial.vel[i].head<3>(), out.initial.colour[i].head<3>(),
+                out.initial.phase[i], static_cast<uint32_t>(kept.size()));
+    }
+    if (removed > 0) {
+      m.notes.push_back(std::to_string(removed) + " fluid particles within dx of cloth nodes removed");
+      out.initial = std::move(kept);
+    }
+  }
+
   // --- Particle budget: initial + what the nozzles emit over their active time ---------------
   double emitted = 0.0;
   for (const Emitter& e : m.emitters) {
@@ -555,7 +595,8 @@ Compiled compile(const SceneSpec& spec, const ResourceLimits& limits) {
     m.capacity = out.initial.size() + static_cast<std::size_t>(emitted);
     if (!m.emitters.empty()) m.notes.push_back("particle budget: " + std::to_string(m.capacity) + " (automatic)");
   }
-  if (m.capacity == 0 && m.bodies.empty()) fail(fl.loc, "the scene has no fluid and no rigid bodies: no blocks and no inflows");
+  if (m.capacity == 0 && m.bodies.empty() && spec.cloth.empty())
+    fail(fl.loc, "the scene has no fluid, no rigid bodies and no cloth: no blocks and no inflows");
   if (!issues.empty()) throw InputError(issues);
 
   // --- Speed of sound: 10x the largest expected speed keeps density errors near 1 % --------
@@ -653,6 +694,10 @@ Compiled compile(const SceneSpec& spec, const ResourceLimits& limits) {
     for (std::size_t c = 0; c < num_cells; ++c) m.boundary_cell_start[c + 1] = m.boundary_cell_start[c] + count[c];
   }
 
+  // --- Cloths: nodes, springs, colours (core/cloth.h) -----------------------------------
+  m.cloth = cloth::compileCloths(spec.cloth, issues);
+  if (!issues.empty()) throw InputError(issues);
+
   // --- Device constants ------------------------------------------------------------------
   SimParams& P = m.params;
   for (int a = 0; a < 3; ++a) {
@@ -696,6 +741,8 @@ Compiled compile(const SceneSpec& spec, const ResourceLimits& limits) {
   m.stages.set(Stage::RigidDynamics, moving_bodies);
   m.stages.set(Stage::RigidCoupling, moving_bodies && m.capacity > 0);
   m.stages.set(Stage::Haptics, m.spec.haptics.enabled && moving_bodies);  // a `haptics` section and a body to hold
+  m.stages.set(Stage::Cloth, m.cloth.nodes() > 0);
+  m.stages.set(Stage::ClothCoupling, m.cloth.nodes() > 0 && m.capacity > 0);
   m.stages.set(Stage::Diagnostics, true);
   m.stages.set(Stage::Probes, spec.probes.any() && m.capacity > 0);
 

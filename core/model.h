@@ -4,6 +4,7 @@
 // The initial particles come out of compile() as HostParticles, which the Simulation uploads.
 #pragma once
 
+#include "core/cloth.h"
 #include "core/rigid.h"
 #include "core/scene_spec.h"
 #include "core/stages.h"
@@ -58,6 +59,9 @@ struct Model {
 
   /// Rigid bodies (scene order). Static bodies' particles are also part of `boundary` above.
   std::vector<rigid::RigidBody> bodies;
+
+  /// Cloths (core/cloth.h): nodes, spring table, colours.
+  cloth::ClothModel cloth;
 
   std::vector<Emitter> emitters;
   std::size_t capacity = 0;   ///< particle budget (device buffers are this large)

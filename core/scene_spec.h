@@ -35,6 +35,9 @@ enum class NumericalPolicy { Warn, Abort };
 enum class NozzleShape { Rectangle, Circle };
 enum class BodyShape { Mesh, Sphere, Box, Cylinder, Capsule };
 enum class MotionType { None, Constant, Keyframes };
+enum class ClothSolver { Xpbd, Explicit };
+enum class AnchorType { Corners, Edge, Node, Box };
+enum class ClothEdge { XMin, XMax, YMin, YMax };
 
 struct SimulationSpec {
   double duration = 2.0;                        ///< simulated time to run (unit: s)
@@ -183,6 +186,47 @@ struct OutputSpec {
   SourceLoc loc;
 };
 
+/// One set of anchored (pinned) cloth nodes. Anchored nodes have infinite mass: they follow their
+/// scripted motion (constant velocity) whatever the springs and the fluid do.
+struct ClothAnchorSpec {
+  AnchorType type = AnchorType::Corners;            ///< corners (all four), edge, node (i, j) or box (min, max)
+  ClothEdge edge = ClothEdge::YMax;                 ///< type edge: which edge of the rectangle (cloth frame)
+  int i = 0;                                        ///< type node: node index along the cloth x axis (0-based) (unit: 1)
+  int j = 0;                                        ///< type node: node index along the cloth y axis (0-based) (unit: 1)
+  Eigen::Vector3d min{0.0, 0.0, 0.0};               ///< type box: lower corner, world frame (unit: m)
+  Eigen::Vector3d max{0.0, 0.0, 0.0};               ///< type box: upper corner, world frame (unit: m)
+  Eigen::Vector3d velocity{0.0, 0.0, 0.0};          ///< velocity of the anchored nodes until `stop` (unit: m/s)
+  double stop = std::numeric_limits<double>::infinity();  ///< the anchors stop moving at this time (unit: s)
+  SourceLoc loc;
+};
+
+/// A rectangular cloth: a mass-spring net of resolution_x x resolution_y nodes on a regular grid
+/// in its own xy plane, centred on its origin; x_world = position + R(axis, angle) x_cloth.
+/// Springs (Provot 1995): stretch between grid neighbours, shear along cell diagonals, bend between
+/// nodes two apart. Every node carries the same mass, areal_density * width * length / nodes.
+struct ClothSpec {
+  std::string name;                                 ///< unique; names the output files
+  double width = 0.1;                               ///< extent along the cloth x axis (unit: m)
+  double length = 0.1;                              ///< extent along the cloth y axis (unit: m)
+  int resolution_x = 11;                            ///< nodes along x; 1 = a chain along y (unit: 1)
+  int resolution_y = 11;                            ///< nodes along y; 1 = a chain along x (unit: 1)
+  Eigen::Vector3d position{0.0, 0.0, 0.0};          ///< world position of the cloth centre (unit: m)
+  Eigen::Vector3d orientation_axis{0.0, 0.0, 1.0};  ///< rotation axis (normalised on compile)
+  double orientation_angle = 0.0;                   ///< rotation about the axis (unit: deg)
+  double areal_density = 0.2;                       ///< mass per area (unit: kg/m^2)
+  double stretch_stiffness = 1000.0;                ///< spring constant of each stretch spring (unit: N/m)
+  double shear_stiffness = 100.0;                   ///< spring constant of each shear spring; 0 = none (unit: N/m)
+  double bend_stiffness = 10.0;                     ///< spring constant of each bend spring; 0 = none (unit: N/m)
+  double damping = 0.0;                             ///< dashpot along every spring (unit: N s/m)
+  double air_damping = 0.0;                         ///< drag on every node's velocity, dv/dt = -air_damping v (unit: 1/s)
+  ClothSolver solver = ClothSolver::Xpbd;           ///< xpbd (default, unconditionally stable) or explicit
+  int iterations = 8;                               ///< xpbd: Gauss-Seidel sweeps per step (unit: 1)
+  double tear_strain = std::numeric_limits<double>::infinity();  ///< a spring breaks past this strain (unit: 1)
+  Eigen::Vector3d colour{0.8, 0.3, 0.3};            ///< linear RGB in [0,1]
+  std::vector<ClothAnchorSpec> anchors;             ///< pinned nodes
+  SourceLoc loc;
+};
+
 /// A point probe: the fluid's pressure, density and velocity at a fixed point, by Shepard-normalised
 /// kernel interpolation (core/probes.h).
 struct PointProbeSpec {
@@ -289,6 +333,7 @@ struct SceneSpec {
   DomainSpec domain;
   FluidSpec fluid;
   std::vector<RigidBodySpec> rigid_bodies;
+  std::vector<ClothSpec> cloth;
   ProbesSpec probes;
   OutputSpec output;
   HapticsSpec haptics;

@@ -84,7 +84,23 @@ Simulation::Simulation(const Model& model, const HostParticles& initial, ClConte
     moving_reach_.push_back(reach);
   }
   n_moving_ = static_cast<uint32_t>(local.size());
-  const std::size_t n_bnd = n_static_ + n_moving_;
+  // Cloth nodes (with fluid): boundary particles after the moving bodies', their volumes those of
+  // a sampled surface like a body's (Akinci 2012 eq. 4, scaled as bodyVolumeScale says).
+  std::vector<float> cloth_volume;
+  if (stages_.on(Stage::ClothCoupling)) {
+    const cloth::ClothModel& cm = model_.cloth;
+    n_cloth_ = static_cast<uint32_t>(cm.nodes());
+    const double scale = bodyVolumeScale(model_.dx, model_.support, model_.params.kernel_type) / (model_.dx * model_.dx * model_.dx);
+    for (std::size_t c = 0; c < cm.first_node.size(); ++c) {
+      std::vector<Eigen::Vector3f> pts;
+      for (uint32_t i = cm.first_node[c]; i < cm.first_node[c] + cm.num_nodes[c]; ++i) pts.push_back(cm.x0[i].head<3>());
+      for (float v : akinciVolumes(pts, static_cast<float>(model_.support), model_.params.kernel_type))
+        cloth_volume.push_back(static_cast<float>(v * scale));
+    }
+    cloth_volume_ = makeBuffer(n_cloth_ * 4);
+    cloth_force_ = makeBuffer(n_cloth_ * 16);
+  }
+  const std::size_t n_bnd = n_static_ + n_moving_ + n_cloth_;
   bpos_ = makeBuffer(n_bnd * 16);
   bvel_ = makeBuffer(n_bnd * 16);       // zero for static particles
   bpressure_ = makeBuffer(n_bnd * 4);   // Adami 2012 wall pressure (pressure.cl)
@@ -95,7 +111,7 @@ Simulation::Simulation(const Model& model, const HostParticles& initial, ClConte
   diag_groups_ = 64;
   diag_ = makeBuffer(diag_groups_ * 32);
 
-  if (n_moving_ > 0) {
+  if (n_moving_ + n_cloth_ > 0) {
     bsrc_ = makeBuffer(n_bnd * 16);
     blocal_ = makeBuffer(n_moving_ * 16);
     bbody_ = makeBuffer(n_moving_ * 4);
@@ -121,16 +137,22 @@ Simulation::Simulation(const Model& model, const HostParticles& initial, ClConte
     if (!model_.boundary.empty())
       q.enqueueWriteBuffer(bpos_, CL_TRUE, 0, model_.boundary.size() * 16, model_.boundary.data());
     q.enqueueWriteBuffer(bcell_start_, CL_TRUE, 0, (cells + 1) * 4, model_.boundary_cell_start.data());
-    if (n_moving_ > 0) {
+    if (n_moving_ + n_cloth_ > 0) {
       // Until the first sort the moving particles sit unsorted after the static ones, outside
       // every cell of bcell_start (invisible); their slots are their own indices.
       std::vector<uint32_t> identity(n_bnd);
       for (uint32_t k = 0; k < n_bnd; ++k) identity[k] = k;
       q.enqueueWriteBuffer(bslot_, CL_TRUE, 0, n_bnd * 4, identity.data());
       if (n_static_ > 0) q.enqueueCopyBuffer(bpos_, bsrc_, 0, 0, n_static_ * 16);
-      q.enqueueWriteBuffer(blocal_, CL_TRUE, 0, n_moving_ * 16, local.data());
-      q.enqueueWriteBuffer(bbody_, CL_TRUE, 0, n_moving_ * 4, body_of.data());
-      q.enqueueWriteBuffer(brange_, CL_TRUE, 0, range.size() * 4, range.data());
+      if (n_moving_ > 0) {
+        q.enqueueWriteBuffer(blocal_, CL_TRUE, 0, n_moving_ * 16, local.data());
+        q.enqueueWriteBuffer(bbody_, CL_TRUE, 0, n_moving_ * 4, body_of.data());
+        q.enqueueWriteBuffer(brange_, CL_TRUE, 0, range.size() * 4, range.data());
+      }
+      if (n_cloth_ > 0) {
+        q.enqueueWriteBuffer(cloth_volume_, CL_TRUE, 0, n_cloth_ * 4, cloth_volume.data());
+        q.enqueueFillBuffer(cloth_force_, zero4, 0, n_cloth_ * 16);
+      }
       q.finish();
     }
     const uint32_t zero = 0;
@@ -151,6 +173,8 @@ Simulation::Simulation(const Model& model, const HostParticles& initial, ClConte
   for (const rigid::RigidBody& body : model_.bodies) bodies_.push_back(rigid::initialState(body));
   if (on(Stage::RigidDynamics)) contacts_ = std::make_unique<rigid::ContactSolver>(model_.bodies, model_.dx);
   emitter_travel_.assign(model_.emitters.size(), model_.dx);  // the first layer leaves at the start time
+  // Cloth nodes (stepped by stage cloth; with it disabled they hang still, still boundary for the fluid).
+  if (model_.cloth.nodes() > 0) cloth_ = std::make_unique<cloth::ClothSim>(model_.cloth, cl_, kernels_);
   if (on(Stage::Probes)) probes_ = std::make_unique<ProbeSampler>(model_, cl_);
   prepareInitialState();
 }
@@ -162,10 +186,9 @@ Simulation::Simulation(const Model& model, const HostParticles& initial, ClConte
 void Simulation::prepareInitialState() {
   params_.n_fluid = static_cast<sph_uint>(n_);
   if (n_ == 0) return;  // an inflow-only scene: the first emission builds the grid
-  if (on(Stage::RigidCoupling)) {
-    placeBodyParticles();
-    sortBoundary();
-  }
+  if (on(Stage::RigidCoupling)) placeBodyParticles();
+  if (on(Stage::ClothCoupling)) placeClothParticles();
+  if (on(Stage::RigidCoupling) || on(Stage::ClothCoupling)) sortBoundary();
   buildGrid();
   computeDensity();
 }
@@ -199,8 +222,9 @@ void Simulation::step(double dt) {
   params_.n_fluid = static_cast<sph_uint>(n_);
   if (n_ > 0) {
     if (on(Stage::RigidCoupling)) placeBodyParticles(); // moving bodies' particles at their pose
+    if (on(Stage::ClothCoupling)) placeClothParticles(); // cloth nodes as boundary particles
     if (!lists_valid_ || travel_since_build_ > 0.5 * model_.skin) {
-      if (on(Stage::RigidCoupling)) sortBoundary();    // moved body particles change cells
+      if (on(Stage::RigidCoupling) || on(Stage::ClothCoupling)) sortBoundary();  // moved particles change cells
       buildGrid();                                     // sort by cell, reorder, Verlet lists
     }
     computeDensity();                                  // number density, rho, p (S&P 2008, Akinci 2012)
@@ -210,10 +234,12 @@ void Simulation::step(double dt) {
       viscosityForces();                               // Monaghan or Morris, on its own
     if (on(Stage::ColourDiffusion)) diffuseColour();   // colour mixing
     if (on(Stage::RigidCoupling)) gatherBodyForces();  // fluid -> bodies: 6 numbers per body to the host
+    if (on(Stage::ClothCoupling)) gatherClothForces(); // fluid -> cloth: one force per node, on the device
     integrate();                                       // semi-implicit Euler, closed walls
   }
   if (on(Stage::Haptics) && external_) applyExternalForces(dt);  // a grabbed body's coupling spring
   if (on(Stage::RigidDynamics)) integrateBodies(dt);   // rigid bodies: momenta, poses (host)
+  if (on(Stage::Cloth)) stepCloth(dt);                 // cloth springs: XPBD or explicit, tearing
   time_ += dt;
   ++profile_.steps;
   profile_.particle_steps += n_;
@@ -375,7 +401,7 @@ void Simulation::pressureForces() {
     return;
   }
   // Wall pressure extrapolated from the fluid (Adami et al. 2012), then the forces.
-  const uint32_t n_bnd = n_static_ + n_moving_;
+  const uint32_t n_bnd = n_static_ + n_moving_ + n_cloth_;
   if (n_bnd > 0)
     kernels_.call("boundary_pressure", n_bnd, kLocal, params_, n_bnd, stamp_, bpos_, bmark_, pos_[cur_], density_, pressure_, cell_start_, bpressure_);
   if (on(Stage::Viscosity)) {  // one neighbour loop for both (pressure.cl, pressure_viscosity_force)
@@ -438,10 +464,10 @@ void Simulation::placeBodyParticles() {
 }
 
 void Simulation::sortBoundary() {
-  StageTimer timer(*this, Stage::RigidCoupling);
+  StageTimer timer(*this, on(Stage::RigidCoupling) ? Stage::RigidCoupling : Stage::ClothCoupling);
   // The same counting sort as the fluid's (grid.cl), over all boundary particles.
   SimParams pb = params_;
-  pb.n_fluid = n_static_ + n_moving_;
+  pb.n_fluid = n_static_ + n_moving_ + n_cloth_;
   const uint32_t zero = 0;
   clCall("clearing the boundary cell counts",
          [&] { return cl_.queue().enqueueFillBuffer(bcount_, zero, 0, std::size_t(params_.num_cells) * 4); });
@@ -450,6 +476,8 @@ void Simulation::sortBoundary() {
   kernels_.call("grid_scatter", pb.n_fluid, kLocal, pb, bcell_, brank_, bcell_start_, bsorted_);
   kernels_.call("grid_order_cells", pb.n_fluid, kLocal, pb, bcell_, bcell_start_, bsorted_);
   kernels_.call("rigid_boundary_reorder", pb.n_fluid, kLocal, pb.n_fluid, bsorted_, bsrc_, bpos_, bslot_);
+  // The cloth nodes' velocities in the new order (bodies rewrite theirs at the next step).
+  if (on(Stage::ClothCoupling)) kernels_.call("cloth_to_boundary", n_cloth_, kLocal, n_cloth_, n_static_ + n_moving_, cloth_->positions(), cloth_->velocities(), cloth_volume_, bslot_, bsrc_, bpos_, bvel_, max_speed_);
 }
 
 void Simulation::gatherBodyForces() {
@@ -501,6 +529,42 @@ void Simulation::integrateBodies(double dt) {
       rigid::followKeyframes(model_.bodies[b], bodies_[b], time_ + dt);
   }
   contacts_->correctPositions(model_.bodies, bodies_, dt);
+}
+
+// --- Cloth (core/cloth.h, kernels/cloth.cl) ----------------------------------------------------
+
+void Simulation::stepCloth(double dt) {
+  StageTimer timer(*this, Stage::Cloth);
+  // With fluid, the nodes carry the fluid's force of this step (gatherClothForces).
+  // Balls (rigid spheres) are obstacles for the nodes; the nodes' impulses change the balls' momenta.
+  std::vector<cloth::SphereCollider> spheres;
+  std::vector<std::size_t> which;
+  for (std::size_t b = 0; b < bodies_.size(); ++b) {
+    const rigid::RigidBody& body = model_.bodies[b];
+    if (body.spec.shape != BodyShape::Sphere) continue;
+    spheres.push_back({bodies_[b].x, body.spec.radius * body.spec.scale, bodies_[b].v, body.spec.friction});
+    which.push_back(b);
+  }
+  const std::vector<Eigen::Vector3d> J =
+      cloth_->step(time_, dt, gravityAt(model_.spec.simulation, time_), n_cloth_ > 0 ? &cloth_force_ : nullptr, spheres);
+  for (std::size_t k = 0; k < which.size(); ++k)
+    if (model_.bodies[which[k]].kind == rigid::BodyKind::Dynamic) bodies_[which[k]].v += J[k] / model_.bodies[which[k]].mass;
+}
+
+void Simulation::placeClothParticles() {
+  StageTimer timer(*this, Stage::ClothCoupling);
+  // Node positions and velocities into the boundary buffers; their speed joins the step's largest
+  // (the Verlet-list skin, integrate()).
+  kernels_.call("cloth_to_boundary", n_cloth_, kLocal, n_cloth_, n_static_ + n_moving_, cloth_->positions(), cloth_->velocities(), cloth_volume_, bslot_, bsrc_, bpos_, bvel_, max_speed_);
+}
+
+void Simulation::gatherClothForces() {
+  StageTimer timer(*this, Stage::ClothCoupling);
+  // The rigid bodies' per-particle kernel (rigid.cl, rigid_fluid_forces) serves the nodes as well:
+  // each node gathers the reaction to the pressure, contact and viscous forces it exerts on its
+  // fluid neighbours (equal and opposite). No reduction: the cloth integrates per node.
+  const int viscous = on(Stage::Viscosity) ? 1 : 0;
+  kernels_.call("rigid_fluid_forces", n_cloth_, kLocal, params_, n_cloth_, n_static_ + n_moving_, bsrc_, bslot_, bvel_, bpressure_, pos_[cur_], vel_[cur_], phase_[cur_], density_, pterm_, cell_start_, viscous, cloth_force_);
 }
 
 FrameReport Simulation::runDiagnostics() {

@@ -4,6 +4,7 @@
 #pragma once
 
 #include "core/cl_context.h"
+#include "core/cloth.h"
 #include "core/contact.h"
 #include "core/external_force.h"
 #include "core/isosurface.h"
@@ -101,6 +102,8 @@ class Simulation {
   void recordStepForces(bool on) { record_forces_ = on; }
   std::vector<StepForce> takeStepForces() { return std::exchange(step_forces_, {}); }
 
+  /// Cloths (null without a cloth section): node positions, energies, broken springs.
+  cloth::ClothSim* cloth() { return cloth_.get(); }
   /// Probes (scene section `probes`): with recordProbeSamples(true) every sample is kept until
   /// takeProbeSamples() hands them over; latestProbeSample() is the newest (null before the first).
   void recordProbeSamples(bool on) { record_probes_ = on; }
@@ -124,7 +127,7 @@ class Simulation {
 
   /// Device memory held by this simulation's buffers (unit: bytes).
   std::size_t deviceBytes() const {
-    return device_bytes_ + prefix_sum_.bytes() + (mesher_ ? mesher_->bytes() : 0);
+    return device_bytes_ + prefix_sum_.bytes() + (mesher_ ? mesher_->bytes() : 0) + (cloth_ ? cloth_->bytes() : 0);
   }
 
  private:
@@ -141,6 +144,9 @@ class Simulation {
   void placeBodyParticles();
   void sortBoundary();
   void gatherBodyForces();
+  void stepCloth(double dt);
+  void placeClothParticles();
+  void gatherClothForces();
   FrameReport runDiagnostics();
   void prepareInitialState();
   cl::Buffer makeBuffer(std::size_t bytes);
@@ -176,6 +182,9 @@ class Simulation {
   std::vector<std::size_t> moving_;       // indices into model_.bodies
   std::vector<double> moving_reach_;      // farthest particle from the centre of mass (unit: m)
   uint32_t n_static_ = 0, n_moving_ = 0;  // boundary particles: static, moving
+  // Cloth nodes coupled with the fluid: boundary particles after the moving bodies' (kernels/cloth.cl).
+  uint32_t n_cloth_ = 0;
+  cl::Buffer cloth_volume_, cloth_force_;  // per node: V_b / V0 (Akinci 2012), fluid force (unit: N)
   double body_speed_ = 0.0;               // fastest moving body particle this step (unit: m/s)
   ExternalForceSource* external_ = nullptr; // haptics: the grabbed body's coupling (not owned)
   std::vector<BodyWrench> wrenches_;      // its output, one per body
@@ -203,6 +212,7 @@ class Simulation {
   double travel_since_build_ = 0.0;  // sum over steps of max speed * dt (unit: m)
   PrefixSum prefix_sum_;
   std::unique_ptr<SurfaceMesher> mesher_;  // isosurface stage, created on first use
+  std::unique_ptr<cloth::ClothSim> cloth_;  // cloth stage (core/cloth.h), only with a cloth section
   std::unique_ptr<ProbeSampler> probes_;   // probes stage (scenes with a probes section)
   bool record_probes_ = false;
   std::vector<ProbeSample> probe_samples_; // taken since the last takeProbeSamples()

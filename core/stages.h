@@ -20,8 +20,10 @@ enum class Stage : int {
   ColourDiffusion,  ///< colour mixing between particles
   RigidCoupling,    ///< moving bodies' particles follow their pose; fluid forces on them, summed per body
   Haptics,          ///< external forces on bodies (a grabbed body's coupling spring), core/external_force.h
+  ClothCoupling,    ///< cloth nodes are boundary particles for the fluid; fluid forces on each node
   Integrate,        ///< semi-implicit Euler, closed walls
   RigidDynamics,    ///< rigid bodies: momenta and poses on the host (Eigen); scripted bodies follow their motion
+  Cloth,            ///< cloth: springs (XPBD or explicit), anchors, tearing (kernels/cloth.cl)
   Diagnostics,      ///< NaN/inf, escapes, CFL violations (once per frame)
   Count
 };

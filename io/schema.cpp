@@ -197,6 +197,23 @@ struct InKeyframes {
   static auto& item(S& s, std::size_t i) { return list(s, i).at(nestedItem(i)); }
 };
 
+struct InCloths {
+  using Item = ClothSpec;
+  template <class S>
+  static auto& list(S& s) { return s.cloth; }
+  template <class S>
+  static auto& item(S& s, std::size_t i) { return s.cloth.at(i); }
+};
+
+/// Anchors of a cloth: a list inside the cloth list (index: nestedIndex).
+struct InAnchors {
+  using Item = ClothAnchorSpec;
+  template <class S>
+  static auto& list(S& s, std::size_t parent) { return s.cloth.at(nestedParent(parent)).anchors; }
+  template <class S>
+  static auto& item(S& s, std::size_t i) { return list(s, i).at(nestedItem(i)); }
+};
+
 struct InProbePoints {
   using Item = PointProbeSpec;
   template <class S>
@@ -459,6 +476,64 @@ std::vector<KeyDef> buildTable() {
           .unit("deg").defaultNote("(the body's orientation_angle)")
           .doc("orientation at this key: angle about orientation_axis; consecutive keys turn the short way (< 180 deg)"));
 
+  // cloth: anchored mass-spring nets (core/cloth.h) ------------------------------------------
+  add(list<InCloths>("cloth").defaultNote("[]")
+          .doc("cloths: rectangular mass-spring nets (stretch, shear, bend springs); x_world = position + R(axis, angle) x_cloth"));
+  add(field<InCloths>("cloth[].name", [](auto& c) -> auto& { return c.name; })
+          .required().doc("unique cloth name (output files cloth_<name>_NNNN.obj)"));
+  add(field<InCloths>("cloth[].width", [](auto& c) -> auto& { return c.width; })
+          .unit("m").greaterThan(0).doc("extent along the cloth x axis (a chain along y: the strip width, for its mass)"));
+  add(field<InCloths>("cloth[].length", [](auto& c) -> auto& { return c.length; })
+          .unit("m").greaterThan(0).doc("extent along the cloth y axis"));
+  add(field<InCloths>("cloth[].resolution_x", [](auto& c) -> auto& { return c.resolution_x; })
+          .unit("1").atLeast(1).doc("nodes along x (1 = a chain along y); node spacing width / (resolution_x - 1)"));
+  add(field<InCloths>("cloth[].resolution_y", [](auto& c) -> auto& { return c.resolution_y; })
+          .unit("1").atLeast(1).doc("nodes along y (1 = a chain along x); node spacing length / (resolution_y - 1)"));
+  add(field<InCloths>("cloth[].position", [](auto& c) -> auto& { return c.position; })
+          .unit("m").doc("world position of the cloth centre"));
+  add(field<InCloths>("cloth[].orientation_axis", [](auto& c) -> auto& { return c.orientation_axis; })
+          .unit("1").doc("axis of the rotation from the cloth frame (cloth in its xy plane), nonzero"));
+  add(field<InCloths>("cloth[].orientation_angle", [](auto& c) -> auto& { return c.orientation_angle; })
+          .unit("deg").doc("rotation about orientation_axis, right-handed"));
+  add(field<InCloths>("cloth[].areal_density", [](auto& c) -> auto& { return c.areal_density; })
+          .unit("kg/m^2").greaterThan(0).doc("mass per area; every node carries areal_density width length / nodes"));
+  add(field<InCloths>("cloth[].stretch_stiffness", [](auto& c) -> auto& { return c.stretch_stiffness; })
+          .unit("N/m").greaterThan(0).doc("spring constant of each stretch spring (grid neighbours)"));
+  add(field<InCloths>("cloth[].shear_stiffness", [](auto& c) -> auto& { return c.shear_stiffness; })
+          .unit("N/m").atLeast(0).doc("spring constant of each shear spring (cell diagonals); 0 = none"));
+  add(field<InCloths>("cloth[].bend_stiffness", [](auto& c) -> auto& { return c.bend_stiffness; })
+          .unit("N/m").atLeast(0).doc("spring constant of each bend spring (nodes two apart); 0 = none"));
+  add(field<InCloths>("cloth[].damping", [](auto& c) -> auto& { return c.damping; })
+          .unit("N s/m").atLeast(0).doc("dashpot along every spring (relative velocity along it)"));
+  add(field<InCloths>("cloth[].air_damping", [](auto& c) -> auto& { return c.air_damping; })
+          .unit("1/s").atLeast(0).doc("drag on every node: dv/dt = -air_damping v"));
+  add(field<InCloths>("cloth[].solver", [](auto& c) -> auto& { return c.solver; })
+          .doc("xpbd: XPBD distance constraints (Macklin 2016), graph-coloured Gauss-Seidel, stable at any stiffness; "
+               "explicit: mass-spring, symplectic Euler, steps subdivided below the 2 sqrt(m/k) limit"));
+  add(field<InCloths>("cloth[].iterations", [](auto& c) -> auto& { return c.iterations; })
+          .unit("1").atLeast(1).atMost(1000).doc("xpbd: Gauss-Seidel sweeps over all springs per time step"));
+  add(field<InCloths>("cloth[].tear_strain", [](auto& c) -> auto& { return c.tear_strain; })
+          .unit("1").greaterThan(0).allowInfinity().doc("a spring breaks for good when its strain (L - L0) / L0 exceeds this; .inf = never"));
+  add(field<InCloths>("cloth[].colour", [](auto& c) -> auto& { return c.colour; })
+          .unit("1").atLeast(0).atMost(1).doc("linear RGB colour, each component in [0, 1]"));
+  add(nestedList<InAnchors>("cloth[].anchors").defaultNote("[]")
+          .doc("pinned nodes (infinite mass), moving at a constant velocity"));
+  add(field<InAnchors>("cloth[].anchors[].type", [](auto& a) -> auto& { return a.type; })
+          .doc("corners (the four corners; the two ends of a chain), edge (one edge), node (i, j) or box (nodes inside min..max)"));
+  add(field<InAnchors>("cloth[].anchors[].edge", [](auto& a) -> auto& { return a.edge; })
+          .doc("type edge: the edge of the rectangle, in the cloth frame"));
+  add(field<InAnchors>("cloth[].anchors[].i", [](auto& a) -> auto& { return a.i; })
+          .unit("1").doc("type node: node index along the cloth x axis, 0 .. resolution_x - 1"));
+  add(field<InAnchors>("cloth[].anchors[].j", [](auto& a) -> auto& { return a.j; })
+          .unit("1").doc("type node: node index along the cloth y axis, 0 .. resolution_y - 1"));
+  add(field<InAnchors>("cloth[].anchors[].min", [](auto& a) -> auto& { return a.min; })
+          .unit("m").doc("type box: lower corner, world frame (the box must hold at least one node)"));
+  add(field<InAnchors>("cloth[].anchors[].max", [](auto& a) -> auto& { return a.max; })
+          .unit("m").doc("type box: upper corner, world frame"));
+  add(field<InAnchors>("cloth[].anchors[].velocity", [](auto& a) -> auto& { return a.velocity; })
+          .unit("m/s").doc("velocity of the anchored nodes until stop (0: fixed)"));
+  add(field<InAnchors>("cloth[].anchors[].stop", [](auto& a) -> auto& { return a.stop; })
+          .unit("s").atLeast(0).allowInfinity().doc("the anchored nodes stop moving at this time; .inf = never"));
   // probes: the fluid sampled at points and along vertical gauges -----------------------------
   add(section("probes", [](SceneSpec& s) { return &s.probes.loc; })
           .doc("pressure probes and water-height gauges, sampled into probes.csv (like an experiment's gauges)"));
@@ -613,6 +688,8 @@ std::string defaultText(const KeyDef& key) {
   defaults.fluid.inflows.resize(1);
   defaults.rigid_bodies.resize(1);
   defaults.rigid_bodies[0].motion.keyframes.resize(1);
+  defaults.cloth.resize(1);
+  defaults.cloth[0].anchors.resize(1);
   defaults.probes.points.resize(1);
   defaults.probes.gauges.resize(1);
   defaults.haptics.path.resize(1);

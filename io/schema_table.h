@@ -96,6 +96,25 @@ struct EnumNames<PathSegmentType> {
                                                                          {PathSegmentType::Circle, "circle"},
                                                                          {PathSegmentType::Sine, "sine"}};
 };
+template <>
+struct EnumNames<ClothSolver> {
+  static constexpr std::pair<ClothSolver, const char*> values[] = {{ClothSolver::Xpbd, "xpbd"},
+                                                                     {ClothSolver::Explicit, "explicit"}};
+};
+template <>
+struct EnumNames<AnchorType> {
+  static constexpr std::pair<AnchorType, const char*> values[] = {{AnchorType::Corners, "corners"},
+                                                                    {AnchorType::Edge, "edge"},
+                                                                    {AnchorType::Node, "node"},
+                                                                    {AnchorType::Box, "box"}};
+};
+template <>
+struct EnumNames<ClothEdge> {
+  static constexpr std::pair<ClothEdge, const char*> values[] = {{ClothEdge::XMin, "x_min"},
+                                                                   {ClothEdge::XMax, "x_max"},
+                                                                   {ClothEdge::YMin, "y_min"},
+                                                                   {ClothEdge::YMax, "y_max"}};
+};
 
 /// The YAML spelling of an enum value, e.g. enumName(KernelType::WendlandC2) == "wendland_c2".
 template <class E>

@@ -210,6 +210,8 @@ TEST_CASE("the schema defaults are read from core/scene_spec.h", "[io]") {
   d.fluid.blocks.resize(1);
   d.fluid.inflows.resize(1);
   d.rigid_bodies.resize(1);
+  d.cloth.resize(1);
+  d.cloth[0].anchors.resize(1);
   d.probes.points.resize(1);
   d.probes.gauges.resize(1);
   d.haptics.path.resize(1);
@@ -505,7 +507,7 @@ TEST_CASE("bad --set keys and values are InputErrors against '--set'", "[io]") {
   REQUIRE_SET_ISSUE(section, "did you mean 'simulation.cfl'?");
 
   const auto nonsense = issuesOf(yaml, {"zzz=1"});
-  REQUIRE_SET_ISSUE(nonsense, "unknown key 'zzz'", "known keys at the top level: simulation, domain, fluid, rigid_bodies, probes, output");
+  REQUIRE_SET_ISSUE(nonsense, "unknown key 'zzz'", "known keys at the top level: simulation, domain, fluid, rigid_bodies, cloth, probes, output");
 
   REQUIRE_SET_ISSUE(issuesOf(yaml, {"simulation.cfl"}), "expected key.path=value");
   REQUIRE_SET_ISSUE(issuesOf(yaml, {"simulation.gravity.x=1"}), "has no sub-keys");
@@ -558,7 +560,13 @@ TEST_CASE("the schema text lists every key with type, default, unit and range", 
       "rigid_bodies[].motion", "rigid_bodies[].motion.type", "rigid_bodies[].motion.velocity",
       "rigid_bodies[].motion.angular_velocity", "rigid_bodies[].motion.keyframes", "rigid_bodies[].motion.keyframes[].time",
       "rigid_bodies[].motion.keyframes[].position", "rigid_bodies[].motion.keyframes[].orientation_axis",
-      "rigid_bodies[].motion.keyframes[].orientation_angle", "probes", "probes.rate", "probes.points",
+      "rigid_bodies[].motion.keyframes[].orientation_angle", "cloth", "cloth[].name", "cloth[].width",
+      "cloth[].length", "cloth[].resolution_x", "cloth[].resolution_y", "cloth[].position", "cloth[].orientation_axis",
+      "cloth[].orientation_angle", "cloth[].areal_density", "cloth[].stretch_stiffness", "cloth[].shear_stiffness",
+      "cloth[].bend_stiffness", "cloth[].damping", "cloth[].air_damping", "cloth[].solver", "cloth[].iterations",
+      "cloth[].tear_strain", "cloth[].colour", "cloth[].anchors", "cloth[].anchors[].type", "cloth[].anchors[].edge",
+      "cloth[].anchors[].i", "cloth[].anchors[].j", "cloth[].anchors[].min", "cloth[].anchors[].max",
+      "cloth[].anchors[].velocity", "cloth[].anchors[].stop", "probes", "probes.rate", "probes.points",
       "probes.points[].name", "probes.points[].position", "probes.gauges", "probes.gauges[].name",
       "probes.gauges[].position", "probes.gauges[].length", "output", "output.directory", "output.particles",
       "output.step_forces",
@@ -607,7 +615,7 @@ TEST_CASE("sceneToJson writes every key of the resolved scene", "[io]") {
     if (key.path.rfind("fluid.blocks[]", 0) == 0 || key.path.rfind("rigid_bodies[]", 0) == 0 ||
         key.path.rfind("probes.points[]", 0) == 0 || key.path.rfind("probes.gauges[]", 0) == 0 ||
         key.path.rfind("haptics.path[]", 0) == 0 || key.path.rfind("haptics.waypoints[]", 0) == 0 ||
-        key.path.rfind("haptics.buttons[]", 0) == 0)
+        key.path.rfind("haptics.buttons[]", 0) == 0 || key.path.rfind("cloth[]", 0) == 0)
       continue;
     CHECK(json.find("\"" + key.name() + "\":") != std::string::npos);
   }

@@ -1,0 +1,445 @@
+#include "core/cloth.h"
+
+#include "core/errors.h"
+
+#include <Eigen/Geometry>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <sstream>
+
+namespace sph::cloth {
+
+namespace {
+
+// Grid spacing along one axis of a cloth: extent / (nodes - 1); a single node has none.
+double spacing(double extent, int nodes) { return nodes > 1 ? extent / (nodes - 1) : 0.0; }
+
+Eigen::Matrix3d rotation(const ClothSpec& c) {
+  const Eigen::Vector3d axis = c.orientation_axis.norm() > 0 ? c.orientation_axis.normalized() : Eigen::Vector3d::UnitZ();
+  return Eigen::AngleAxisd(c.orientation_angle * M_PI / 180.0, axis).toRotationMatrix();
+}
+
+}  // namespace
+
+std::vector<Eigen::Vector3d> nodePositions(const ClothSpec& c) {
+  const int nx = std::max(1, c.resolution_x), ny = std::max(1, c.resolution_y);
+  const double sx = spacing(c.width, nx), sy = spacing(c.length, ny);
+  const Eigen::Matrix3d R = rotation(c);
+  std::vector<Eigen::Vector3d> x;
+  x.reserve(static_cast<std::size_t>(nx) * static_cast<std::size_t>(ny));
+  // Row by row along y, centred on the cloth origin (a single node row sits on the axis).
+  for (int j = 0; j < ny; ++j)
+    for (int i = 0; i < nx; ++i) {
+      const Eigen::Vector3d local(nx > 1 ? -0.5 * c.width + i * sx : 0.0, ny > 1 ? -0.5 * c.length + j * sy : 0.0, 0.0);
+      x.push_back(c.position + R * local);
+    }
+  return x;
+}
+
+std::vector<uint32_t> anchoredNodes(const ClothSpec& c, const ClothAnchorSpec& a, const std::vector<Eigen::Vector3d>& x) {
+  const int nx = std::max(1, c.resolution_x), ny = std::max(1, c.resolution_y);
+  auto id = [nx](int i, int j) { return static_cast<uint32_t>(j * nx + i); };
+  std::vector<uint32_t> out;
+  switch (a.type) {
+    case AnchorType::Corners:
+      for (int j : {0, ny - 1})
+        for (int i : {0, nx - 1}) out.push_back(id(i, j));
+      break;
+    case AnchorType::Edge:
+      if (a.edge == ClothEdge::XMin || a.edge == ClothEdge::XMax)
+        for (int j = 0; j < ny; ++j) out.push_back(id(a.edge == ClothEdge::XMin ? 0 : nx - 1, j));
+      else
+        for (int i = 0; i < nx; ++i) out.push_back(id(i, a.edge == ClothEdge::YMin ? 0 : ny - 1));
+      break;
+    case AnchorType::Node:
+      if (a.i >= 0 && a.i < nx && a.j >= 0 && a.j < ny) out.push_back(id(a.i, a.j));
+      break;
+    case AnchorType::Box:
+      for (std::size_t k = 0; k < x.size(); ++k)
+        if ((x[k].array() >= a.min.array()).all() && (x[k].array() <= a.max.array()).all())
+          out.push_back(static_cast<uint32_t>(k));
+      break;
+  }
+  // Corners of a chain or a single node repeat: keep each node once.
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+  return out;
+}
+
+ClothModel compileCloths(const std::vector<ClothSpec>& specs, std::vector<InputIssue>& issues) {
+  ClothModel m;
+  auto fail = [&](const SourceLoc& loc, const std::string& msg) {
+    issues.push_back(InputIssue{loc.file, loc.line, loc.col, msg});
+  };
+  std::vector<std::array<uint32_t, 2>> ends;
+  m.explicit_dt_limit = std::numeric_limits<double>::infinity();
+
+  for (std::size_t c = 0; c < specs.size(); ++c) {
+    const ClothSpec& s = specs[c];
+    for (std::size_t d = 0; d < c; ++d)
+      if (specs[d].name == s.name) fail(s.loc, "duplicate cloth name '" + s.name + "'");
+    if (s.resolution_x < 1 || s.resolution_y < 1) {
+      fail(s.loc, "cloth '" + s.name + "': resolution must be at least 1 x 1 nodes");
+      continue;
+    }
+    const int nx = s.resolution_x, ny = s.resolution_y;
+    // Bounded resources: about 400 bytes of tables per node (host and device alike).
+    if (static_cast<double>(nx) * ny + static_cast<double>(m.x0.size()) > kMaxNodes) {
+      std::ostringstream msg;
+      msg << "cloth '" << s.name << "': " << nx << " x " << ny << " nodes (with the cloths before it) is more than the "
+          << kMaxNodes << " nodes supported";
+      fail(s.loc, msg.str());
+      continue;
+    }
+    const uint32_t base = static_cast<uint32_t>(m.x0.size());
+    const std::vector<Eigen::Vector3d> x = nodePositions(s);
+    const uint32_t n = static_cast<uint32_t>(x.size());
+    m.first_node.push_back(base);
+    m.num_nodes.push_back(n);
+    m.first_spring.push_back(static_cast<uint32_t>(ends.size()));
+    m.xpbd.push_back(s.solver == ClothSolver::Xpbd ? 1 : 0);
+    m.iterations.push_back(static_cast<uint32_t>(std::max(1, s.iterations)));
+
+    // Nodes: equal masses (areal density x area / nodes); anchored nodes get inverse mass 0.
+    const double node_mass = s.areal_density * s.width * s.length / n;
+    std::vector<Eigen::Vector4f> anchor(n, Eigen::Vector4f::Zero());
+    std::vector<bool> pinned(n, false);
+    for (const ClothAnchorSpec& a : s.anchors) {
+      const std::vector<uint32_t> nodes = anchoredNodes(s, a, x);
+      if (nodes.empty()) {
+        std::ostringstream msg;
+        msg << "cloth '" << s.name << "': this anchor pins no node of the cloth";
+        if (a.type == AnchorType::Node)
+          msg << " (node (" << a.i << ", " << a.j << ") is outside 0.." << nx - 1 << " x 0.." << ny - 1 << ")";
+        if (a.type == AnchorType::Box) msg << " (no node lies inside the box)";
+        fail(a.loc, msg.str());
+      }
+      for (uint32_t k : nodes) {
+        pinned[k] = true;
+        anchor[k] = Eigen::Vector4f(float(a.velocity.x()), float(a.velocity.y()), float(a.velocity.z()),
+                                    std::isinf(a.stop) ? std::numeric_limits<float>::max() : float(a.stop));
+      }
+    }
+    for (uint32_t k = 0; k < n; ++k) {
+      m.x0.emplace_back(float(x[k].x()), float(x[k].y()), float(x[k].z()), pinned[k] ? 0.0f : float(1.0 / node_mass));
+      m.mass.push_back(float(node_mass));
+      m.drag.push_back(float(s.air_damping));
+      m.anchor.push_back(anchor[k]);
+      m.cloth_of.push_back(static_cast<uint32_t>(c));
+    }
+
+    // Springs (Provot 1995): stretch (grid neighbours), shear (both cell diagonals), bend (two apart).
+    auto id = [&](int i, int j) { return base + static_cast<uint32_t>(j * nx + i); };
+    const double tear = std::isinf(s.tear_strain) ? std::numeric_limits<float>::max() : s.tear_strain;
+    auto add = [&](int i0, int j0, int i1, int j1, double k, SpringKind kind) {
+      if (k <= 0.0 || i1 < 0 || i1 >= nx || j1 < 0 || j1 >= ny) return;
+      const uint32_t a = id(i0, j0), b = id(i1, j1);
+      const double L0 = (x[a - base] - x[b - base]).norm();
+      ends.push_back({std::min(a, b), std::max(a, b)});
+      m.prm.emplace_back(float(L0), float(k), float(s.damping), float(tear));
+      m.kind.push_back(kind);
+    };
+    for (int j = 0; j < ny; ++j)
+      for (int i = 0; i < nx; ++i) {
+        add(i, j, i + 1, j, s.stretch_stiffness, kStretch);
+        add(i, j, i, j + 1, s.stretch_stiffness, kStretch);
+        add(i, j, i + 1, j + 1, s.shear_stiffness, kShear);
+        add(i + 1, j, i, j + 1, s.shear_stiffness, kShear);
+        add(i, j, i + 2, j, s.bend_stiffness, kBend);
+        add(i, j, i, j + 2, s.bend_stiffness, kBend);
+      }
+    m.num_springs.push_back(static_cast<uint32_t>(ends.size()) - m.first_spring.back());
+    m.any_tear = m.any_tear || !std::isinf(s.tear_strain);
+  }
+
+  // Compressed rows: count, prefix sum, fill in spring order (a fixed order).
+  const std::size_t N = m.x0.size(), S = ends.size();
+  m.row_start.assign(N + 1, 0);
+  for (const auto& e : ends) {
+    ++m.row_start[e[0] + 1];
+    ++m.row_start[e[1] + 1];
+  }
+  for (std::size_t i = 0; i < N; ++i) m.row_start[i + 1] += m.row_start[i];
+  m.spring.assign(2 * S, 0);
+  m.other.assign(2 * S, 0);
+  std::vector<uint32_t> fill(m.row_start.begin(), m.row_start.end() - 1);
+  for (uint32_t s = 0; s < S; ++s)
+    for (int side = 0; side < 2; ++side) {
+      const uint32_t i = ends[s][side], e = fill[i]++;
+      m.spring[e] = s;
+      m.other[e] = ends[s][1 - side];
+    }
+  m.ends.reserve(2 * S);
+  for (const auto& e : ends) {
+    m.ends.push_back(e[0]);
+    m.ends.push_back(e[1]);
+  }
+
+  // Greedy edge colouring in spring order: the smallest colour free at both ends.
+  std::vector<std::vector<bool>> used(N);
+  std::vector<uint32_t> colour(S, 0);
+  for (uint32_t s = 0; s < S; ++s) {
+    const uint32_t a = ends[s][0], b = ends[s][1];
+    uint32_t c = 0;
+    while ((c < used[a].size() && used[a][c]) || (c < used[b].size() && used[b][c])) ++c;
+    for (uint32_t i : {a, b}) {
+      if (used[i].size() <= c) used[i].resize(c + 1, false);
+      used[i][c] = true;
+    }
+    colour[s] = c;
+    m.num_colours = std::max(m.num_colours, c + 1);
+  }
+  m.slot.assign(static_cast<std::size_t>(m.num_colours) * N, kNoSlot);
+  for (uint32_t i = 0; i < N; ++i)
+    for (uint32_t e = m.row_start[i]; e < m.row_start[i + 1]; ++e) m.slot[colour[m.spring[e]] * N + i] = e;
+
+  // Explicit step limit. Gershgorin on M^-1/2 K M^-1/2 bounds omega_max^2 by the largest row sum
+  // sum_j k_ij / m_i + sum_{j free} k_ij / sqrt(m_i m_j) over free nodes i (exact for one mass on
+  // a spring to an anchor: k / m); the same bound on the dashpots gives the damping rate d_max.
+  for (std::size_t c = 0; c < specs.size() && c < m.xpbd.size(); ++c) {
+    if (m.xpbd[c]) continue;
+    double w2 = 0.0, d = 0.0;
+    for (uint32_t i = m.first_node[c]; i < m.first_node[c] + m.num_nodes[c]; ++i) {
+      if (m.x0[i].w() == 0.0f) continue;
+      double rk = 0.0, rc = 0.0;
+      for (uint32_t e = m.row_start[i]; e < m.row_start[i + 1]; ++e) {
+        const Eigen::Vector4f& p = m.prm[m.spring[e]];
+        const uint32_t j = m.other[e];
+        const double mi = m.mass[i], mj = m.mass[j];
+        const double f = 1.0 / mi + (m.x0[j].w() > 0.0f ? 1.0 / std::sqrt(mi * mj) : 0.0);
+        rk += p.y() * f;
+        rc += p.z() * f;
+      }
+      w2 = std::max(w2, rk);
+      d = std::max(d, rc + specs[c].air_damping);
+    }
+    if (w2 <= 0.0) continue;
+    const double w = std::sqrt(w2), xi = d / (2.0 * w);
+    // Belytschko et al. 2000, eq. 6.3.38 (central differences with damping), with a 10 % margin.
+    m.explicit_dt_limit = std::min(m.explicit_dt_limit, 0.9 * 2.0 / w * (std::sqrt(1.0 + xi * xi) - xi));
+  }
+  return m;
+}
+
+// --- Device state ------------------------------------------------------------------------------
+
+cl::Buffer ClothSim::make(std::size_t bytes) {
+  bytes = std::max<std::size_t>(bytes, 16);
+  bytes_ += bytes;
+  return clCall("allocating a cloth buffer", [&] { return cl::Buffer(cl_.context(), CL_MEM_READ_WRITE, bytes); });
+}
+
+template <class T>
+cl::Buffer ClothSim::upload(const std::vector<T>& data) {
+  cl::Buffer b = make(data.size() * sizeof(T));
+  if (!data.empty())
+    clCall("uploading the cloth", [&] { return cl_.queue().enqueueWriteBuffer(b, CL_TRUE, 0, data.size() * sizeof(T), data.data()); });
+  return b;
+}
+
+ClothSim::ClothSim(const ClothModel& model, ClContext& cl, KernelSet& kernels) : m_(model), cl_(cl), k_(kernels) {
+  n_ = static_cast<uint32_t>(m_.nodes());
+  ns_ = static_cast<uint32_t>(m_.springs());
+  for (uint8_t x : m_.xpbd) (x ? any_xpbd_ : any_explicit_) = true;
+  // Nodes at rest at their initial positions; anchored nodes carry their motion.
+  x_[0] = upload(m_.x0);
+  x_[1] = upload(m_.x0);
+  std::vector<Eigen::Vector4f> v0(n_, Eigen::Vector4f::Zero());
+  v_[0] = upload(v0);
+  v_[1] = upload(v0);
+  prev_ = upload(m_.x0);
+  zero_force_ = upload(v0);
+  mass_ = upload(m_.mass);
+  drag_ = upload(m_.drag);
+  anchor_ = upload(m_.anchor);
+  std::vector<uint32_t> is_xpbd(n_);
+  for (uint32_t i = 0; i < n_; ++i) is_xpbd[i] = m_.xpbd[m_.cloth_of[i]];
+  is_xpbd_ = upload(is_xpbd);
+  // XPBD sweeps per node (its cloth's iterations); the dispatch loop runs the largest count.
+  std::vector<uint32_t> iters(n_);
+  for (uint32_t i = 0; i < n_; ++i) iters[i] = m_.iterations[m_.cloth_of[i]];
+  for (std::size_t c = 0; c < m_.xpbd.size(); ++c)
+    if (m_.xpbd[c]) max_iterations_ = std::max(max_iterations_, m_.iterations[c]);
+  iters_ = upload(iters);
+  // The spring table, the colours and the per-entry Lagrange multipliers (XPBD).
+  row_start_ = upload(m_.row_start);
+  spring_ = upload(m_.spring);
+  other_ = upload(m_.other);
+  ends_ = upload(m_.ends);
+  prm_ = upload(m_.prm);
+  broken_ = upload(std::vector<uint32_t>(ns_, 0u));
+  slot_ = upload(m_.slot);
+  lambda_ = upload(std::vector<float>(m_.spring.size(), 0.0f));
+}
+
+void ClothSim::uploadSpheres(const std::vector<SphereCollider>& spheres) {
+  const uint32_t ns = static_cast<uint32_t>(spheres.size());
+  if (sphere_capacity_ < ns) {
+    spheres_ = make(ns * 32);
+    impulse_ = make(static_cast<std::size_t>(ns) * n_ * 16);
+    shift_ = make(static_cast<std::size_t>(ns) * n_ * 16);
+    impulse_sum_ = make(ns * 16);
+    sphere_capacity_ = ns;
+  }
+  // Per sphere: (centre, radius), (velocity, friction).
+  std::vector<Eigen::Vector4f> data;
+  for (const SphereCollider& sp : spheres) {
+    data.emplace_back(float(sp.centre.x()), float(sp.centre.y()), float(sp.centre.z()), float(sp.radius));
+    data.emplace_back(float(sp.velocity.x()), float(sp.velocity.y()), float(sp.velocity.z()), float(sp.friction));
+  }
+  clCall("uploading the spheres", [&] { return cl_.queue().enqueueWriteBuffer(spheres_, CL_TRUE, 0, data.size() * 16, data.data()); });
+}
+
+std::vector<Eigen::Vector3d> ClothSim::step(double t, double dt, const Eigen::Vector3d& g, const cl::Buffer* external,
+                                            const std::vector<SphereCollider>& spheres) {
+  const Eigen::Vector4f g4(float(g.x()), float(g.y()), float(g.z()), 0.0f);
+  const cl::Buffer& fext = external ? *external : zero_force_;
+  const uint32_t ns = static_cast<uint32_t>(spheres.size());
+  std::vector<Eigen::Vector3d> J(ns, Eigen::Vector3d::Zero());
+  if (ns > 0) uploadSpheres(spheres);
+  // Explicit cloths: as many substeps as the stability limit asks for.
+  last_substeps_ = 0;
+  if (any_explicit_) {
+    last_substeps_ = std::max(1, static_cast<int>(std::ceil(dt / m_.explicit_dt_limit * (1.0 - 1e-12))));
+    const double h = dt / last_substeps_;
+    for (int k = 0; k < last_substeps_; ++k) explicitSubstep(t + k * h, float(h), g4, fext);
+  }
+  // XPBD cloths: one step of dt, `iterations` coloured Gauss-Seidel sweeps.
+  if (any_xpbd_) xpbdStep(t, float(dt), g4, fext, ns);
+  last_dt_ = dt;
+  if (m_.any_tear) tear();
+  if (ns == 0) return J;
+  // Balls: the XPBD nodes' projections (J = -sum m dx / dt, in node order), then the explicit
+  // nodes' velocity contact.
+  if (any_xpbd_) {
+    k_.call("cloth_sphere_shift_reduce", ns, 0, n_, ns, float(dt), mass_, shift_, impulse_sum_);
+    std::vector<Eigen::Vector4f> sums(ns);
+    clCall("reading the sphere impulses", [&] { return cl_.queue().enqueueReadBuffer(impulse_sum_, CL_TRUE, 0, ns * 16, sums.data()); });
+    for (uint32_t k = 0; k < ns; ++k) J[k] += sums[k].head<3>().cast<double>();
+  }
+  if (any_explicit_) {
+    const std::vector<Eigen::Vector3d> Je = collideSpheres(spheres);
+    for (uint32_t k = 0; k < ns; ++k) J[k] += Je[k];
+  }
+  return J;
+}
+
+void ClothSim::explicitSubstep(double t, float dt, const Eigen::Vector4f& g, const cl::Buffer& fext) {
+  const int nxt = 1 - cur_;
+  const cl_float4 g4{{g.x(), g.y(), g.z(), 0.0f}};
+  k_.call("cloth_explicit_step", n_, 64, n_, dt, float(t), g4, x_[cur_], v_[cur_], mass_, drag_, anchor_, is_xpbd_,
+          row_start_, spring_, other_, prm_, broken_, fext, x_[nxt], v_[nxt]);
+  // XPBD nodes were copied through unchanged: both halves stay whole.
+  cur_ = nxt;
+}
+
+void ClothSim::xpbdStep(double t, float dt, const Eigen::Vector4f& g, const cl::Buffer& fext, uint32_t n_spheres) {
+  const cl_float4 g4{{g.x(), g.y(), g.z(), 0.0f}};
+  // Predict x* = x + dt v + dt^2 (g + f/m), remember x, clear the multipliers.
+  k_.call("cloth_xpbd_predict", n_, 64, n_, dt, float(t), g4, x_[cur_], v_[cur_], mass_, drag_, anchor_, is_xpbd_,
+          row_start_, fext, prev_, lambda_);
+  // Coloured Gauss-Seidel: per colour one gather pass, ping-ponging the positions.
+  // Balls: the projections of this step add up per node and sphere (shift), from zero.
+  if (n_spheres > 0)
+    clCall("clearing the sphere shifts", [&] {
+      return cl_.queue().enqueueFillBuffer(shift_, cl_float4{}, 0, std::size_t(n_spheres) * n_ * 16);
+    });
+  for (uint32_t it = 0; it < max_iterations_; ++it) {
+    for (uint32_t c = 0; c < m_.num_colours; ++c) {
+      const int nxt = 1 - cur_;
+      k_.call("cloth_xpbd_colour", n_, 64, n_, dt, it, c, x_[cur_], prev_, is_xpbd_, iters_,
+              slot_ , spring_, other_, prm_, broken_, lambda_, x_[nxt]);
+      cur_ = nxt;
+    }
+    // Balls are obstacles inside the solve: each sweep ends with the nodes outside them.
+    if (n_spheres > 0) k_.call("cloth_sphere_project", n_, 64, n_, n_spheres, spheres_, is_xpbd_, x_[cur_], shift_);
+  }
+  // Velocities from the positions (anchored nodes: their scripted velocity).
+  k_.call("cloth_xpbd_velocity", n_, 64, n_, dt, float(t), x_[cur_], prev_, anchor_, is_xpbd_, v_[cur_]);
+}
+
+std::vector<Eigen::Vector3d> ClothSim::collideSpheres(const std::vector<SphereCollider>& spheres) {
+  const uint32_t ns = static_cast<uint32_t>(spheres.size());
+  std::vector<Eigen::Vector3d> out(ns, Eigen::Vector3d::Zero());
+  if (ns == 0 || n_ == 0) return out;
+  uploadSpheres(spheres);
+  k_.call("cloth_sphere_contact", n_, 64, n_, ns, spheres_, mass_, is_xpbd_, x_[cur_], v_[cur_], impulse_);
+  k_.call("cloth_sphere_reduce", ns, 0, n_, ns, impulse_, impulse_sum_);
+  std::vector<Eigen::Vector4f> sums(ns);
+  clCall("reading the sphere impulses", [&] { return cl_.queue().enqueueReadBuffer(impulse_sum_, CL_TRUE, 0, ns * 16, sums.data()); });
+  for (uint32_t k = 0; k < ns; ++k) out[k] = sums[k].head<3>().cast<double>();
+  return out;
+}
+
+void ClothSim::tear() {
+  k_.call("cloth_tear", ns_, 64, ns_, x_[cur_], ends_, prm_, broken_);
+}
+
+void ClothSim::read(std::vector<Eigen::Vector4f>& x, std::vector<Eigen::Vector4f>& v) {
+  x.resize(n_);
+  v.resize(n_);
+  if (n_ == 0) return;
+  clCall("reading the cloth", [&] {
+    cl_.queue().enqueueReadBuffer(x_[cur_], CL_TRUE, 0, n_ * 16, x.data());
+    cl_.queue().enqueueReadBuffer(v_[cur_], CL_TRUE, 0, n_ * 16, v.data());
+    return 0;
+  });
+}
+
+std::vector<uint32_t> ClothSim::readBroken() {
+  std::vector<uint32_t> b(ns_, 0);
+  if (ns_ > 0)
+    clCall("reading broken springs", [&] { return cl_.queue().enqueueReadBuffer(broken_, CL_TRUE, 0, ns_ * 4, b.data()); });
+  return b;
+}
+
+ClothReport ClothSim::report(std::size_t c, const Eigen::Vector3d& g) {
+  std::vector<Eigen::Vector4f> x, v;
+  read(x, v);
+  const std::vector<uint32_t> broken = readBroken();
+  // XPBD: the spring force is the constraint force lambda / dt^2 of the last step (Macklin 2016,
+  // eq. 9 and 11), not k (L - L0): an unconverged solve leaves L - L0 larger than the force says.
+  const bool xpbd = m_.xpbd[c] && last_dt_ > 0;
+  std::vector<float> lambda;
+  if (xpbd) {
+    lambda.resize(m_.spring.size());
+    clCall("reading the cloth multipliers",
+           [&] { return cl_.queue().enqueueReadBuffer(lambda_, CL_TRUE, 0, lambda.size() * 4, lambda.data()); });
+  }
+  ClothReport r;
+  // Nodes: kinetic energy and gravity (free nodes; anchored ones are driven).
+  for (uint32_t i = m_.first_node[c]; i < m_.first_node[c] + m_.num_nodes[c]; ++i) {
+    if (m_.x0[i].w() == 0.0f) continue;
+    const double mi = m_.mass[i];
+    r.kinetic += 0.5 * mi * v[i].head<3>().cast<double>().squaredNorm();
+    r.potential -= mi * g.dot(x[i].head<3>().cast<double>());
+  }
+  // Springs in order: elastic energy, strain, and their pull on the anchored ends.
+  for (uint32_t s = m_.first_spring[c]; s < m_.first_spring[c] + m_.num_springs[c]; ++s) {
+    if (broken[s]) {
+      ++r.broken;
+      continue;
+    }
+    const uint32_t a = m_.ends[2 * s], b = m_.ends[2 * s + 1];
+    const Eigen::Vector3d d = (x[b].head<3>() - x[a].head<3>()).cast<double>();
+    const double L = d.norm(), L0 = m_.prm[s].x(), k = m_.prm[s].y();
+    if (L0 > 0) r.max_strain = std::max(r.max_strain, (L - L0) / L0);
+    // Tension T (positive when stretched): explicit k (L - L0); XPBD -lambda / dt^2, lambda from
+    // a's row (both rows hold the same value).
+    double T = k * (L - L0);
+    if (xpbd) {
+      for (uint32_t e = m_.row_start[a]; e < m_.row_start[a + 1]; ++e)
+        if (m_.spring[e] == s) T = -static_cast<double>(lambda[e]) / (last_dt_ * last_dt_);
+    }
+    r.elastic += 0.5 * T * T / k;
+    const Eigen::Vector3d f = L > 0 ? Eigen::Vector3d(T * d / L) : Eigen::Vector3d::Zero();  // on a, towards b
+    if (m_.x0[a].w() == 0.0f) r.anchor_force += f;
+    if (m_.x0[b].w() == 0.0f) r.anchor_force -= f;
+  }
+  return r;
+}
+
+}  // namespace sph::cloth

@@ -1,0 +1,160 @@
+// Cloth: anchored mass-spring nets whose nodes are particles (issue 11; the SPHaptics paper's cloth).
+//
+// Design. compile() turns each `cloth` item into nodes on a regular grid and springs between them
+// (Provot 1995: stretch between grid neighbours, shear along cell diagonals, bend between nodes two
+// apart). All nodes of all cloths live in one array; the springs of each node are one row of a
+// compressed table (the paper's lookup table), built once:
+//
+//   node i:      row_start[i] .. row_start[i+1]-1  ->  entry e: spring[e] (id), other[e] (the other end)
+//   spring s:    ends[s] = (a, b) with a < b; prm[s] = (rest length, k, dashpot c, tear strain); broken[s]
+//
+// Each spring appears twice, once in each end's row, so every kernel gathers: a node reads its
+// row and writes only itself (no float atomics: runs are bitwise deterministic on a device).
+//
+// Two solvers (cloth[].solver):
+//  - xpbd (default): XPBD distance constraints (Macklin, Mueller, Chentanez 2016, eq. 18 with the
+//    damping of eq. 26), stable at any stiffness and step. Parallel scheme: graph-coloured
+//    Gauss-Seidel. The springs are edge-coloured at compile time so that no two springs of a colour
+//    share a node; each colour is one gather pass in which a node applies the correction of its
+//    (at most one) spring of that colour. Both ends compute the same correction from the same
+//    inputs (ordered a < b), so the pass is exact Gauss-Seidel without atomics. Chosen over Jacobi
+//    because Jacobi needs an under-relaxation factor and converges far slower on long chains of
+//    stiff constraints (a hanging chain), while colouring costs only one dispatch per colour.
+//  - explicit: the paper's mass-spring forces, symplectic (semi-implicit) Euler. Its step limit,
+//    2 / omega_max with omega_max bounded by Gershgorin's theorem over the springs (single mass on a
+//    spring: 2 sqrt(m/k)), reduced for the dashpots (Belytschko, Liu, Moran 2000, eq. 6.3.38:
+//    dt <= 2/omega (sqrt(1 + xi^2) - xi)), is enforced by subdividing the step, never ignored.
+#pragma once
+
+#include "core/cl_context.h"
+#include "core/scene_spec.h"
+
+#include <Eigen/Core>
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace sph {
+struct InputIssue;
+}
+
+namespace sph::cloth {
+
+enum SpringKind : uint32_t { kStretch = 0, kShear = 1, kBend = 2 };
+constexpr double kMaxNodes = 1e6;  ///< nodes of all cloths of a scene, at most (about 400 MB of tables)
+constexpr uint32_t kNoSlot = 0xffffffffu;
+
+/// Rest positions of a cloth's nodes in the world frame; node (i, j) has index j * resolution_x + i.
+std::vector<Eigen::Vector3d> nodePositions(const ClothSpec& c);
+
+/// The nodes an anchor pins (indices into nodePositions); empty when it pins none.
+std::vector<uint32_t> anchoredNodes(const ClothSpec& c, const ClothAnchorSpec& a, const std::vector<Eigen::Vector3d>& x);
+
+/// Every cloth of a scene, compiled.
+struct ClothModel {
+  // Per cloth (scene order).
+  std::vector<uint32_t> first_node;   ///< index of the cloth's first node
+  std::vector<uint32_t> num_nodes;    ///< its node count
+  std::vector<uint32_t> first_spring; ///< index of its first spring (springs are grouped per cloth)
+  std::vector<uint32_t> num_springs;
+  // Per node (all cloths).
+  std::vector<Eigen::Vector4f> x0;       ///< initial position (unit: m); w = inverse mass (unit: 1/kg), 0 = anchored
+  std::vector<float> mass;               ///< node mass (also for anchored nodes) (unit: kg)
+  std::vector<float> drag;               ///< air damping (unit: 1/s)
+  std::vector<Eigen::Vector4f> anchor;   ///< anchored nodes: velocity (unit: m/s), w = stop time (unit: s)
+  std::vector<uint32_t> cloth_of;        ///< cloth index of each node
+  // Compressed spring rows (each spring in both ends' rows).
+  std::vector<uint32_t> row_start;       ///< (nodes + 1)
+  std::vector<uint32_t> spring;          ///< entry -> spring id
+  std::vector<uint32_t> other;           ///< entry -> the other end's node index
+  // Per spring.
+  std::vector<uint32_t> ends;            ///< (springs x 2): a < b
+  std::vector<Eigen::Vector4f> prm;      ///< rest length (unit: m), k (unit: N/m), dashpot (unit: N s/m), tear strain (unit: 1)
+  std::vector<uint32_t> kind;            ///< SpringKind
+  // XPBD: edge colouring (no two springs of a colour share a node) and, per colour, each node's
+  // entry of that colour: slot[c * nodes + i] = entry index or kNoSlot.
+  uint32_t num_colours = 0;
+  std::vector<uint32_t> slot;
+  std::vector<uint8_t> xpbd;             ///< per cloth: 1 = xpbd, 0 = explicit
+  std::vector<uint32_t> iterations;      ///< per cloth: XPBD Gauss-Seidel sweeps per step (unit: 1)
+  bool any_tear = false;                 ///< some spring can break
+  /// Explicit solver: the largest stable step over the explicit cloths (unit: s); inf when none.
+  double explicit_dt_limit = 0.0;
+  std::size_t nodes() const { return x0.size(); }
+  std::size_t springs() const { return prm.size(); }
+};
+
+/// Builds the nodes, springs and colours of every cloth; reports bad input (anchors that pin no
+/// node, duplicate names) into `issues` with the item's location.
+ClothModel compileCloths(const std::vector<ClothSpec>& specs, std::vector<InputIssue>& issues);
+
+/// What a cloth looks like at one moment (host copy, double precision sums).
+struct ClothReport {
+  double kinetic = 0;         ///< (unit: J)
+  double potential = 0;       ///< gravity, relative to z = 0 along -g (unit: J)
+  double elastic = 0;         ///< springs, T^2 / 2k with T the tension: k (L - L0), XPBD lambda / dt^2 (unit: J)
+  double max_strain = 0;      ///< largest (L - L0) / L0 over the unbroken springs (unit: 1)
+  uint32_t broken = 0;        ///< broken springs
+  Eigen::Vector3d anchor_force = Eigen::Vector3d::Zero();  ///< force of the springs on the anchored nodes, sum of T u (unit: N)
+  double energy() const { return kinetic + potential + elastic; }
+};
+
+/// A sphere that the cloth's nodes collide with (a ball: a rigid body of shape sphere).
+struct SphereCollider {
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();  ///< (unit: m)
+  double radius = 0;                                 ///< (unit: m)
+  Eigen::Vector3d velocity = Eigen::Vector3d::Zero();///< of its centre (unit: m/s)
+  double friction = 0.5;                             ///< Coulomb coefficient against the nodes (unit: 1)
+};
+
+/// The cloth state on the device and its time step. Owns its buffers.
+class ClothSim {
+ public:
+  ClothSim(const ClothModel& model, ClContext& cl, KernelSet& kernels);
+  /// Advances every cloth by dt (unit: s) from time t (unit: s) under gravity g (unit: m/s^2).
+  /// Explicit cloths take ceil(dt / limit) substeps. `external` (may be null): per-node force (unit: N).
+  /// Balls (`spheres`) are obstacles (particle coupling): XPBD cloths project their nodes out of
+  /// them after every sweep, inside the solve; explicit cloths after the step (collideSpheres).
+  /// Returns per sphere the impulse of the nodes on it over the step (unit: N s).
+  std::vector<Eigen::Vector3d> step(double t, double dt, const Eigen::Vector3d& g, const cl::Buffer* external,
+                                    const std::vector<SphereCollider>& spheres = {});
+  /// Contact with balls (particle coupling): every free node inside a sphere goes to its surface and
+  /// loses its velocity into the sphere relative to it (inelastic), with Coulomb friction. Returns per sphere
+  /// the impulse the nodes exert on it (unit: N s), summed over the nodes in order (deterministic).
+  std::vector<Eigen::Vector3d> collideSpheres(const std::vector<SphereCollider>& spheres);
+  /// Substeps the explicit solver took in the last step().
+  int lastSubsteps() const { return last_substeps_; }
+  /// Positions (w = inverse mass) and velocities of all nodes.
+  void read(std::vector<Eigen::Vector4f>& x, std::vector<Eigen::Vector4f>& v);
+  std::vector<uint32_t> readBroken();
+  /// Energies, strain and anchor force of cloth `c` now.
+  ClothReport report(std::size_t c, const Eigen::Vector3d& g);
+  const cl::Buffer& positions() const { return x_[cur_]; }
+  const cl::Buffer& velocities() const { return v_[cur_]; }
+  std::size_t bytes() const { return bytes_; }
+
+ private:
+  cl::Buffer make(std::size_t bytes);
+  template <class T>
+  cl::Buffer upload(const std::vector<T>& data);
+  void explicitSubstep(double t, float dt, const Eigen::Vector4f& g, const cl::Buffer& fext);
+  void xpbdStep(double t, float dt, const Eigen::Vector4f& g, const cl::Buffer& fext, uint32_t n_spheres);
+  void uploadSpheres(const std::vector<SphereCollider>& spheres);
+  void tear();
+
+  const ClothModel& m_;
+  ClContext& cl_;
+  KernelSet& k_;
+  std::size_t bytes_ = 0;
+  uint32_t n_ = 0, ns_ = 0, max_iterations_ = 0;
+  int cur_ = 0;
+  int last_substeps_ = 0;
+  double last_dt_ = 0.0;  // the last step's length (unit: s)
+  bool any_explicit_ = false, any_xpbd_ = false;
+  cl::Buffer x_[2], v_[2], prev_, mass_, drag_, anchor_, row_start_, spring_, other_, ends_, prm_, broken_, slot_,
+      lambda_, zero_force_, is_xpbd_, iters_, spheres_, impulse_, impulse_sum_, shift_;
+  std::size_t sphere_capacity_ = 0;
+};
+
+}  // namespace sph::cloth

@@ -1,0 +1,254 @@
+/* Cloth: mass-spring nets whose nodes are particles (stage: cloth; core/cloth.h has the design).
+ *
+ * Nodes: x (xyz, w = inverse mass, 0 = anchored), v, mass, air drag, anchor (velocity, w = stop
+ * time). Springs: the compressed rows row_start / spring / other (each spring in both ends' rows),
+ * prm[s] = (rest length L0, stiffness k, dashpot c, tear strain), broken[s].
+ * Every kernel gathers: a node reads its row and writes only itself (no atomics, deterministic). */
+
+#define CLOTH_NO_SLOT 0xffffffffu
+
+/* Anchored node: the distance its motion covers in [t, t + dt) (it stops at anchor.w). */
+inline float3 cloth_anchor_travel(const float4 a, const float t, const float dt) {
+  return a.xyz * clamp(a.w - t, 0.0f, dt);
+}
+inline float3 cloth_anchor_velocity(const float4 a, const float t) { return t < a.w ? a.xyz : (float3)(0.0f); }
+
+/* Explicit mass-spring (the paper's): F_i = m_i g + f_ext + sum_j [k (L - L0) + c (v_j - v_i).u] u,
+ * u = (x_j - x_i) / L; symplectic Euler (v first, then x with the new v), the drag implicit so it
+ * never limits the step. XPBD nodes are copied through. */
+__kernel void cloth_explicit_step(const uint n, const float dt, const float t, const float4 g,
+                                  __global const float4* x_in, __global const float4* v_in,
+                                  __global const float* mass, __global const float* drag,
+                                  __global const float4* anchor, __global const uint* is_xpbd,
+                                  __global const uint* row_start, __global const uint* spring,
+                                  __global const uint* other, __global const float4* prm,
+                                  __global const uint* broken, __global const float4* fext,
+                                  __global float4* x_out, __global float4* v_out) {
+  const uint i = get_global_id(0);
+  if (i >= n) return;
+  const float4 xi4 = x_in[i];
+  const float3 xi = xi4.xyz, vi = v_in[i].xyz;
+  if (is_xpbd[i]) {
+    x_out[i] = xi4;
+    v_out[i] = v_in[i];
+    return;
+  }
+  /* Anchored nodes follow their script. */
+  if (xi4.w == 0.0f) {
+    x_out[i] = (float4)(xi + cloth_anchor_travel(anchor[i], t, dt), 0.0f);
+    v_out[i] = (float4)(cloth_anchor_velocity(anchor[i], t + dt), 0.0f);
+    return;
+  }
+  /* Gravity, external (fluid) force, then the springs of row i in table order. */
+  float3 f = mass[i] * g.xyz + fext[i].xyz;
+  for (uint e = row_start[i]; e < row_start[i + 1]; ++e) {
+    const uint s = spring[e];
+    if (broken[s]) continue;
+    const uint j = other[e];
+    const float4 p = prm[s];
+    const float3 d = x_in[j].xyz - xi;
+    const float L = length(d);
+    if (L <= 0.0f) continue;
+    const float3 u = d / L;
+    f += (p.y * (L - p.x) + p.z * dot(v_in[j].xyz - vi, u)) * u;
+  }
+  /* Symplectic Euler. */
+  const float3 v = (vi + dt * xi4.w * f) / (1.0f + dt * drag[i]);
+  x_out[i] = (float4)(xi + dt * v, xi4.w);
+  v_out[i] = (float4)(v, 0.0f);
+}
+
+/* XPBD (Macklin, Mueller, Chentanez 2016), Algorithm 1 lines 1-4: predict x* = x + dt v with
+ * v += dt (g + f_ext / m) (drag implicit), keep x as prev, clear the multipliers of row i. */
+__kernel void cloth_xpbd_predict(const uint n, const float dt, const float t, const float4 g,
+                                 __global float4* x, __global const float4* v, __global const float* mass,
+                                 __global const float* drag, __global const float4* anchor,
+                                 __global const uint* is_xpbd, __global const uint* row_start,
+                                 __global const float4* fext, __global float4* prev, __global float* lambda) {
+  const uint i = get_global_id(0);
+  if (i >= n || !is_xpbd[i]) return;
+  const float4 x4 = x[i];
+  prev[i] = x4;
+  for (uint e = row_start[i]; e < row_start[i + 1]; ++e) lambda[e] = 0.0f;
+  if (x4.w == 0.0f) {
+    x[i] = (float4)(x4.xyz + cloth_anchor_travel(anchor[i], t, dt), 0.0f);
+    return;
+  }
+  const float3 vi = (v[i].xyz + dt * (g.xyz + x4.w * fext[i].xyz)) / (1.0f + dt * drag[i]);
+  x[i] = (float4)(x4.xyz + dt * vi, x4.w);
+}
+
+/* XPBD, one colour of one Gauss-Seidel sweep: node i applies the correction of its spring of
+ * colour c (if any). Distance constraint C = L - L0, gradient -u at a, +u at b (a < b);
+ * eq. 18 with damping (eq. 26): dlambda = (-C - at lambda - gamma dC) / ((1 + gamma)(w_a + w_b) + at)
+ * with at = 1 / (k dt^2) (compliance / dt^2), gamma = at bt / dt = c / (k dt), dC = u.((x_b - prev_b) - (x_a - prev_a)).
+ * Both ends compute the same dlambda from the same inputs in the same order (a, b), and each keeps
+ * its own copy of lambda in its row. Nodes without a spring of this colour are copied through. */
+__kernel void cloth_xpbd_colour(const uint n, const float dt, const uint it, const uint c,
+                                __global const float4* x_in, __global const float4* prev,
+                                __global const uint* is_xpbd, __global const uint* iters,
+                                __global const uint* slot, __global const uint* spring,
+                                __global const uint* other, __global const float4* prm,
+                                __global const uint* broken, __global float* lambda, __global float4* x_out) {
+  const uint i = get_global_id(0);
+  if (i >= n) return;
+  const float4 x4 = x_in[i];
+  const uint e = slot[c * n + i];
+  if (!is_xpbd[i] || it >= iters[i] || e == CLOTH_NO_SLOT || broken[spring[e]]) {
+    x_out[i] = x4;
+    return;
+  }
+  const uint s = spring[e];
+  const uint j = other[e];
+  const uint a = min(i, j), b = max(i, j);
+  const float4 xa = x_in[a], xb = x_in[b];
+  const float3 d = xb.xyz - xa.xyz;
+  const float L = length(d);
+  if (L <= 0.0f) {
+    x_out[i] = x4;
+    return;
+  }
+  const float3 u = d / L;
+  const float4 p = prm[s];
+  const float C = L - p.x;
+  const float at = 1.0f / (p.y * dt * dt);
+  const float gamma = p.z / (p.y * dt);
+  const float dC = dot(u, (xb.xyz - prev[b].xyz) - (xa.xyz - prev[a].xyz));
+  const float lam = lambda[e];
+  const float dlam = (-C - at * lam - gamma * dC) / ((1.0f + gamma) * (xa.w + xb.w) + at);
+  lambda[e] = lam + dlam;
+  const float side = (i == a) ? -1.0f : 1.0f;
+  x_out[i] = (float4)(x4.xyz + side * x4.w * dlam * u, x4.w);
+}
+
+/* XPBD, Algorithm 1 line 16: v = (x - prev) / dt; anchored nodes take their scripted velocity. */
+__kernel void cloth_xpbd_velocity(const uint n, const float dt, const float t, __global const float4* x,
+                                  __global const float4* prev, __global const float4* anchor,
+                                  __global const uint* is_xpbd, __global float4* v) {
+  const uint i = get_global_id(0);
+  if (i >= n || !is_xpbd[i]) return;
+  const float4 x4 = x[i];
+  if (x4.w == 0.0f)
+    v[i] = (float4)(cloth_anchor_velocity(anchor[i], t + dt), 0.0f);
+  else
+    v[i] = (float4)((x4.xyz - prev[i].xyz) / dt, 0.0f);
+}
+
+/* Tearing: spring s breaks for good when its strain (L - L0) / L0 exceeds its tear strain. One
+ * work-item per spring writes only its own flag. */
+__kernel void cloth_tear(const uint ns, __global const float4* x, __global const uint* ends,
+                         __global const float4* prm, __global uint* broken) {
+  const uint s = get_global_id(0);
+  if (s >= ns || broken[s]) return;
+  const float4 p = prm[s];
+  const float L = length(x[ends[2 * s + 1]].xyz - x[ends[2 * s]].xyz);
+  if (L - p.x > p.w * p.x) broken[s] = 1u;
+}
+
+/* Coupling with the fluid (stage: cloth_coupling): node k is boundary particle offset + k, like a
+ * moving body's particle (rigid.cl): its position and volume ratio into bsrc and its sorted slot
+ * in bpos, its velocity into bvel (the fluid's no-slip and Adami wall pressure use it). Its speed
+ * joins the step's largest (integer atomic max of the float's bits: exact), which bounds how far
+ * the neighbour lists may drift. */
+__kernel void cloth_to_boundary(const uint n, const uint offset, __global const float4* x,
+                                __global const float4* v, __global const float* volume,
+                                __global const uint* slot, __global float4* bsrc, __global float4* bpos,
+                                __global float4* bvel, volatile __global uint* max_speed_bits) {
+  const uint k = get_global_id(0);
+  if (k >= n) return;
+  const float4 out = (float4)(x[k].xyz, volume[k]);
+  const uint s = slot[offset + k];
+  bsrc[offset + k] = out;
+  bpos[s] = out;
+  bvel[s] = (float4)(v[k].xyz, 0.0f);
+  const uint sb = as_uint(length(v[k].xyz));
+  if (sb > *max_speed_bits) atomic_max(max_speed_bits, sb);
+}
+
+/* Contact with balls (particle coupling, stage: cloth). sphere[2k] = (centre, radius), sphere[2k+1]
+ * = (velocity, friction coefficient). A free node inside sphere k goes to its surface along the
+ * normal n and loses its velocity into the sphere relative to it (perfectly inelastic: the cloth
+ * does not bounce balls off numerically) and, by Coulomb friction, tangential relative velocity up
+ * to mu times that (so the nodes do not slide round the ball and let it through). impulse[k n_nodes + i] is what node i gives sphere k,
+ * -m dv (unit: N s); the spheres are taken in order. */
+__kernel void cloth_sphere_contact(const uint n, const uint n_spheres, __global const float4* sphere,
+                                   __global const float* mass, __global const uint* is_xpbd, __global float4* x,
+                                   __global float4* v, __global float4* impulse) {
+  const uint i = get_global_id(0);
+  if (i >= n) return;
+  if (is_xpbd[i]) {
+    for (uint k = 0; k < n_spheres; ++k) impulse[k * n + i] = (float4)(0.0f);
+    return;
+  }
+  float4 xi = x[i];
+  float3 vi = v[i].xyz;
+  for (uint k = 0; k < n_spheres; ++k) {
+    float3 J = (float3)(0.0f);
+    const float4 s = sphere[2 * k];
+    const float3 d = xi.xyz - s.xyz;
+    const float dist = length(d);
+    if (xi.w > 0.0f && dist < s.w && dist > 0.0f) {
+      const float3 nrm = d / dist;
+      xi.xyz = s.xyz + s.w * nrm;
+      const float4 sv = sphere[2 * k + 1];
+      const float3 rel = vi - sv.xyz;
+      const float vn = dot(rel, nrm);
+      if (vn < 0.0f) {
+        /* Normal: inelastic. Tangential: Coulomb friction, |dv_t| <= mu |dv_n| (mu = sv.w). */
+        const float3 vt = rel - vn * nrm;
+        const float st = length(vt);
+        const float keep = st > 0.0f ? fmax(0.0f, 1.0f - sv.w * (-vn) / st) : 0.0f;
+        const float3 dv = -vn * nrm - (1.0f - keep) * vt;
+        vi += dv;
+        J = -mass[i] * dv;
+      }
+    }
+    impulse[k * n + i] = (float4)(J, 0.0f);
+  }
+  x[i] = xi;
+  v[i] = (float4)(vi, 0.0f);
+}
+
+/* Per sphere k: the impulses of all nodes, summed in node order (deterministic). */
+__kernel void cloth_sphere_reduce(const uint n, const uint n_spheres, __global const float4* impulse,
+                                  __global float4* out) {
+  const uint k = get_global_id(0);
+  if (k >= n_spheres) return;
+  float3 J = (float3)(0.0f);
+  for (uint i = 0; i < n; ++i) J += impulse[k * n + i].xyz;
+  out[k] = (float4)(J, 0.0f);
+}
+
+/* XPBD contact with balls, inside the solve (Mueller et al. 2007, PBD collision constraints): after
+ * each sweep a free node inside sphere k moves to its surface along the normal; the moves add up in
+ * shift[k n + i]. Over the step they are the node's momentum change from the ball, m shift / dt
+ * (v = (x - prev) / dt), so the ball receives -m shift / dt (cloth_sphere_shift_reduce). */
+__kernel void cloth_sphere_project(const uint n, const uint n_spheres, __global const float4* sphere,
+                                   __global const uint* is_xpbd, __global float4* x, __global float4* shift) {
+  const uint i = get_global_id(0);
+  if (i >= n || !is_xpbd[i]) return;
+  float4 xi = x[i];
+  if (xi.w == 0.0f) return;
+  for (uint k = 0; k < n_spheres; ++k) {
+    const float4 s = sphere[2 * k];
+    const float3 d = xi.xyz - s.xyz;
+    const float dist = length(d);
+    if (dist < s.w && dist > 0.0f) {
+      const float3 moved = (s.w - dist) * (d / dist);
+      xi.xyz += moved;
+      shift[k * n + i] += (float4)(moved, 0.0f);
+    }
+  }
+  x[i] = xi;
+}
+
+/* Per sphere k: J = -sum_i m_i shift_i / dt over the nodes in order (deterministic). */
+__kernel void cloth_sphere_shift_reduce(const uint n, const uint n_spheres, const float dt,
+                                        __global const float* mass, __global const float4* shift,
+                                        __global float4* out) {
+  const uint k = get_global_id(0);
+  if (k >= n_spheres) return;
+  float3 J = (float3)(0.0f);
+  for (uint i = 0; i < n; ++i) J -= mass[i] * shift[k * n + i].xyz;
+  out[k] = (float4)(J / dt, 0.0f);
+}
