@@ -3,7 +3,7 @@
 namespace sph {
 
 static const std::array<const char*, kNumStages> kStageNames = {
-    "inflow", "grid", "density", "pressure", "viscosity", "colour_diffusion", "rigid_coupling", "integrate", "rigid_dynamics", "diagnostics"};
+    "inflow", "grid", "density", "pressure", "divergence_solve", "viscosity", "colour_diffusion", "density_solve", "rigid_coupling", "integrate", "rigid_dynamics", "diagnostics"};
 
 const char* stageName(Stage s) { return kStageNames[static_cast<std::size_t>(s)]; }
 

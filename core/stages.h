@@ -14,9 +14,11 @@ enum class Stage : int {
   Inflow = 0,       ///< emit particles from nozzles (host, then upload)
   Grid,             ///< neighbour grid: count, scan, sort, reorder
   Density,          ///< number density, mass density, equation of state
-  Pressure,         ///< pressure force (and gravity)
+  Pressure,         ///< pressure force (and gravity); solver wcsph only
+  DivergenceSolve,  ///< DFSPH: factors alpha, then the velocity made divergence-free (Bender & Koschier 2017, Alg. 2)
   Viscosity,        ///< artificial or laminar viscosity
   ColourDiffusion,  ///< colour mixing between particles
+  DensitySolve,     ///< DFSPH: v* = v + dt a, then the constant-density solve (Bender & Koschier 2017, Alg. 3)
   RigidCoupling,    ///< moving bodies' particles follow their pose; fluid forces on them, summed per body
   Integrate,        ///< semi-implicit Euler, closed walls
   RigidDynamics,    ///< rigid bodies: momenta and poses on the host (Eigen); scripted bodies follow their motion
