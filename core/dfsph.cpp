@@ -4,8 +4,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
-#include <cstdlib>
 #include <vector>
 
 namespace sph {
@@ -113,7 +111,6 @@ DfsphSolveResult DfsphSolver::solve(Kind kind, const SimParams& p, const DfsphFi
     ++r.iterations;
   }
   r.converged = r.error <= bound;
-  if (std::getenv("SPH_DFSPH_DEBUG")) std::fprintf(stderr, "DBG %s dt=%g n=%zu it=%d err=%g\n", div ? "div" : "dens", double(p.dt), n, r.iterations, r.error);
   return r;
 }
 

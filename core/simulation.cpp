@@ -5,8 +5,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
-#include <cstdio>
-#include <cstdlib>
 #include <sstream>
 
 namespace sph {
@@ -239,17 +237,6 @@ FrameReport Simulation::advanceFrame() {
       ++steps;
     }
     time_ = frame_end;
-    if (std::getenv("SPH_DFSPH_DEBUG")) {  // DEBUG (temporary)
-      ParticleFrame fr = readFrame();
-      std::size_t im = 0; double vm = 0, zmin = 1e9, pmax = 0; std::size_t ipm = 0;
-      for (std::size_t i = 0; i < fr.size(); ++i) {
-        const double v = std::sqrt(double(fr.vx[i]) * fr.vx[i] + double(fr.vy[i]) * fr.vy[i] + double(fr.vz[i]) * fr.vz[i]);
-        if (v > vm) vm = v, im = i;
-        zmin = std::min(zmin, double(fr.z[i]));
-        if (fr.pressure[i] > pmax) pmax = fr.pressure[i], ipm = i;
-      }
-      std::fprintf(stderr, "DBGF t=%.3f vmax %.3f at (%.4f %.4f %.4f) v=(%.3f %.3f %.3f) zmin %.4f pmax %.0f at (%.4f %.4f %.4f) rho %.1f\n", time_, vm, fr.x[im], fr.y[im], fr.z[im], fr.vx[im], fr.vy[im], fr.vz[im], zmin, pmax, fr.x[ipm], fr.y[ipm], fr.z[ipm], fr.density[ipm]);
-    }
     FrameReport rep;
     if (on(Stage::Diagnostics)) rep = runDiagnostics();
     rep.frame = frame_;

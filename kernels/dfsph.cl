@@ -29,6 +29,9 @@
  * Neighbours: this step's lists within H (snbr, sbnbr; density.cl). */
 
 /* Factor alpha_i = delta_i^2 / D_i (B&K 2017 eq. 9, for the pressure force above). */
+#ifndef DFSPH_WARM
+#define DFSPH_WARM 0.5f
+#endif
 #ifndef DFSPH_OMEGA
 #define DFSPH_OMEGA 0.5f
 #endif
@@ -95,7 +98,7 @@ inline float dfsph_density_rate(const SimParams* p, const uint i, __global const
  * everywhere, ratcheted up: increments are >= 0, so a pressure left at a particle that had since
  * expanded pushed on, step after step; the hydrostatic tank blew up at 0.6 s.) */
 inline float dfsph_warm(const bool compressing, const float previous) {
-  return compressing ? 0.5f * previous : 0.0f;
+  return compressing ? DFSPH_WARM * previous : 0.0f;
 }
 
 /* Source of the divergence solve (B&K 2017 Alg. 2, eq. 15): p_i = (D delta_i / Dt) alpha_i / dt.
