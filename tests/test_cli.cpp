@@ -201,7 +201,8 @@ TEST_CASE("cli: an unknown --disable stage lists the stages", "[cli]") {
   INFO("exit " << r.code << ", stderr:\n" << r.err);
   CHECK(r.code == 2);
   CHECK(contains(r.err, "--disable: unknown stage 'presure'"));
-  CHECK(contains(r.err, "inflow, grid, density, pressure, viscosity, colour_diffusion, rigid_coupling, integrate, rigid_dynamics, diagnostics"));
+  CHECK(contains(r.err, "inflow, grid, density, pressure, divergence_solve, viscosity, colour_diffusion, density_solve, rigid_coupling, "
+                               "integrate, rigid_dynamics, diagnostics"));
   requireNoCompleteOutput(tmp.path / "out");
 }
 

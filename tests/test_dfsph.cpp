@@ -5,6 +5,7 @@
 #include "cli/runner.h"
 #include "core/errors.h"
 #include "core/model.h"
+#include "core/rigid.h"
 #include "io/scene_loader.h"
 #include "tests/scene_issues.h"
 #include "tests/temp_dir.h"
@@ -230,4 +231,49 @@ TEST_CASE("DFSPH settings: bad values are reported at file:line:col", "[dfsph]")
   CHECK(testing::hasIssue(issues, 3, {"iisph"}));
   // and a good one loads
   CHECK(testing::issuesOf(dir, head + "    density_error: 0.001\n    max_iterations: 50\n").empty());
+}
+
+TEST_CASE("DFSPH coupling: a ball pushed into a free blob conserves the total momentum (Newton's third law)", "[dfsph]") {
+  // As the WCSPH test (test_rigid.cpp): gravity off, no wall within reach. The body receives the
+  // reaction to the pressure of both solves (dfsph_finish: p / delta^2 of all pressure that acted
+  // this step) and to the viscous force, so the total momentum may drift by rounding only: 1e-3 of
+  // the momentum exchanged, the WCSPH test's tolerance.
+  app::RunOptions o = quietRun("push_blob.yaml", {"fluid.solver=dfsph"});
+  Eigen::Vector3d p0 = Eigen::Vector3d::Constant(NAN);
+  double worst = 0, exchanged = 0;
+  const app::RunResult r = app::runScene(o, [&](Simulation& sim, const FrameReport&) {
+    const rigid::RigidBody& ball = sim.model().bodies[0];
+    const rigid::BodyState& s = sim.bodies()[0];
+    if (std::isnan(p0.x())) p0 = ball.mass * rigid::initialState(ball).v;
+    const ParticleFrame f = sim.readFrame();
+    const double m = sim.model().params.phase_mass[0];
+    Eigen::Vector3d fluid = Eigen::Vector3d::Zero();
+    for (std::size_t i = 0; i < f.size(); ++i) fluid += m * Eigen::Vector3d(f.vx[i], f.vy[i], f.vz[i]);
+    const Eigen::Vector3d p_ball = ball.mass * s.v;
+    worst = std::max(worst, (fluid + p_ball - p0).norm());
+    exchanged = std::max(exchanged, (p_ball - p0).norm());
+  });
+  REQUIRE(r.exit_code == 0);
+  INFO("initial momentum " << p0.transpose() << " kg m/s; exchanged " << exchanged << "; worst total drift " << worst);
+  CHECK(exchanged > 0.1 * p0.norm());
+  CHECK(worst < 1e-3 * exchanged);
+}
+
+TEST_CASE("DFSPH two phases of density ratio 10: heavy stays under light", "[dfsph]") {
+  // The WCSPH test's scene and criterion (test_physics.cpp): light (100 kg/m^3) on heavy
+  // (1000 kg/m^3); after settling every heavy particle lies below every light one, allowing two
+  // particle layers of interface roughness.
+  ParticleFrame last;
+  app::RunOptions o = quietRun("two_layers.yaml", {"fluid.solver=dfsph", "fluid.phases[1].rest_density=100"});
+  app::RunResult r = app::runScene(o, [&](Simulation& sim, const FrameReport&) { last = sim.readFrame(); });
+  REQUIRE(r.exit_code == 0);
+  const double dx = 0.01, interface_z = 0.08;
+  double heavy_top = -1, light_bottom = 1;
+  for (std::size_t i = 0; i < last.size(); ++i) {
+    if (last.phase[i] == 0) heavy_top = std::max(heavy_top, double(last.z[i]));
+    else light_bottom = std::min(light_bottom, double(last.z[i]));
+  }
+  INFO("highest heavy particle z = " << heavy_top << " m, lowest light particle z = " << light_bottom << " m");
+  CHECK(heavy_top < interface_z + 2 * dx);
+  CHECK(light_bottom > interface_z - 2 * dx);
 }
