@@ -32,6 +32,7 @@ DfsphSolver::DfsphSolver(ClContext& cl, KernelSet& kernels, std::size_t capacity
   pdens_ = makeBuffer(capacity * 4);
   scratch_a_ = makeBuffer(capacity * 4);
   scratch_b_ = makeBuffer(capacity * 4);
+  vel_before_ = makeBuffer(capacity * 16);
   // No pressure before the first step (and particles emitted later start from zero: slots past
   // the active count are never written).
   clCall("clearing the DFSPH pressures", [&] {
@@ -119,6 +120,9 @@ DfsphSolveResult DfsphSolver::divergenceSolve(const SimParams& p, const DfsphFie
 }
 
 DfsphSolveResult DfsphSolver::densitySolve(const SimParams& p, const DfsphFields& f) {
+  // Keep the velocities the viscous forces saw (for the rigid coupling), then v* = v + dt a.
+  clCall("keeping the velocities",
+         [&] { return cl_.queue().enqueueCopyBuffer(*f.vel, vel_before_, 0, 0, std::max<std::size_t>(p.n_fluid, 1) * 16); });
   kernels_.call("dfsph_predict", p.n_fluid, kLocal, p, *f.vel, *f.acc);
   return solve(Kind::Density, p, f);
 }

@@ -63,6 +63,9 @@ class DfsphSolver {
   DfsphSolveResult densitySolve(const SimParams& p, const DfsphFields& f);
   /// The pressure to export and p / delta^2 for the rigid coupling (kernels/dfsph.cl, dfsph_finish).
   void finish(const SimParams& p, const DfsphFields& f);
+  /// The velocities before this step's density solve: what the viscous forces saw, so that the
+  /// rigid coupling's viscous reaction matches them (n x float4) (unit: m/s).
+  const cl::Buffer& viscousVelocities() const { return vel_before_; }
 
  private:
   enum class Kind { Divergence, Density };
@@ -80,6 +83,7 @@ class DfsphSolver {
   static constexpr uint32_t kChunks = 64;  // chunks of the error reduction
   cl::Buffer alpha_, pinc_, err_, partial_;
   cl::Buffer pdiv_, pdens_;                // accumulated pressures (unit: Pa), kept for the warm start
+  cl::Buffer vel_before_;                  // velocities before the density solve (unit: m/s)
   cl::Buffer scratch_a_, scratch_b_;       // reorder targets (swapped with pdiv_, pdens_); a: the previous pressure in a warm start
 };
 

@@ -524,8 +524,11 @@ void Simulation::sortBoundary() {
 void Simulation::gatherBodyForces() {
   StageTimer timer(*this, Stage::RigidCoupling);
   const int viscous = on(Stage::Viscosity) ? 1 : 0;
-  const int mirror = dfsph_ ? 1 : 0;  // DFSPH: the wall mirrors the fluid's pressure, no contact term
-  kernels_.call("rigid_fluid_forces", n_moving_, kLocal, params_, n_moving_, n_static_, bsrc_, bslot_, bvel_, bpressure_, pos_[cur_], vel_[cur_], phase_[cur_], density_, pterm_, cell_start_, viscous, mirror, bforce_);
+  // DFSPH: the wall mirrors the fluid's pressure, no contact term, and the viscous reaction uses the
+  // velocities the fluid's viscous forces saw (before the density solve changed them).
+  const int mirror = dfsph_ ? 1 : 0;
+  const cl::Buffer& vel = dfsph_ ? dfsph_->viscousVelocities() : vel_[cur_];
+  kernels_.call("rigid_fluid_forces", n_moving_, kLocal, params_, n_moving_, n_static_, bsrc_, bslot_, bvel_, bpressure_, pos_[cur_], vel, phase_[cur_], density_, pterm_, cell_start_, viscous, mirror, bforce_);
   // The per-body reduction is timed on its own (profile.rigid_reduce_seconds).
   clCall("waiting for the body forces", [&] { return cl_.queue().finish(); });
   const auto t_reduce = std::chrono::steady_clock::now();
