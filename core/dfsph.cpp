@@ -56,12 +56,13 @@ void DfsphSolver::factors(const SimParams& p, const DfsphFields& f) {
 
 void DfsphSolver::source(Kind kind, const SimParams& p, const DfsphFields& f, bool warm) {
   const int w = warm ? 1 : 0;
+  const float omega = static_cast<float>(spec_.relaxation);
   if (kind == Kind::Divergence)
     kernels_.call("dfsph_divergence_source", p.n_fluid, kLocal, p, *f.pos, *f.vel, alpha_, *f.snbr, *f.snbr_count,
-                  *f.bpos, *f.bvel, *f.sbnbr, *f.sbnbr_count, min_neighbours_, w, scratch_a_, pinc_, err_);
+                  *f.bpos, *f.bvel, *f.sbnbr, *f.sbnbr_count, min_neighbours_, w, omega, scratch_a_, pinc_, err_);
   else
     kernels_.call("dfsph_density_source", p.n_fluid, kLocal, p, *f.pos, *f.vel, *f.phase, *f.density, alpha_,
-                  *f.snbr, *f.snbr_count, *f.bpos, *f.bvel, *f.sbnbr, *f.sbnbr_count, w, scratch_a_, pinc_, err_);
+                  *f.snbr, *f.snbr_count, *f.bpos, *f.bvel, *f.sbnbr, *f.sbnbr_count, w, omega, scratch_a_, pinc_, err_);
 }
 
 void DfsphSolver::apply(const SimParams& p, const DfsphFields& f, cl::Buffer& pacc) {

@@ -107,6 +107,7 @@ struct DfsphSpec {
   int divergence_max_iterations = 100;  ///< divergence solve: iterations at most (unit: 1)
   bool divergence_solve = true;      ///< make the velocity field divergence-free each step (B&K 2017 Alg. 2)
   bool warm_start = true;            ///< start each solve from the previous step's pressure
+  double relaxation = 0.5;           ///< Jacobi relaxation omega of both solves' pressure increments (unit: 1)
   double cfl = 0.4;                  ///< Courant number: dt <= cfl * dx / |v|max (unit: 1)
   double max_time_step = 0.005;      ///< largest step (unit: s)
   SourceLoc loc;

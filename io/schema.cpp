@@ -317,6 +317,9 @@ std::vector<KeyDef> buildTable() {
           .doc("make the velocity field divergence-free each step (Bender & Koschier 2017, Alg. 2)"));
   add(field<InScene>("fluid.dfsph.warm_start", [](auto& s) -> auto& { return s.fluid.dfsph.warm_start; })
           .doc("start each solve from the pressure of the previous step"));
+  add(field<InScene>("fluid.dfsph.relaxation", [](auto& s) -> auto& { return s.fluid.dfsph.relaxation; })
+          .unit("1").greaterThan(0).atMost(1)
+          .doc("Jacobi relaxation of the pressure increments: 1 = fewest iterations, 0.5 = calmest at rest"));
   add(field<InScene>("fluid.dfsph.cfl", [](auto& s) -> auto& { return s.fluid.dfsph.cfl; })
           .unit("1").greaterThan(0).atMost(1).doc("Courant number of the adaptive step: dt <= cfl * dx / |v|max"));
   add(field<InScene>("fluid.dfsph.max_time_step", [](auto& s) -> auto& { return s.fluid.dfsph.max_time_step; })

@@ -19,7 +19,10 @@
  * with delta*_i = delta_i + dt D delta_i / Dt the density predicted from the current velocities and
  *     D delta_i / Dt = sum_j (v_i - v_j) . gradW_ij + sum_b psi_b (v_i - v_b) . gradW_ib   (B&K eq. 2).
  * Jacobi style: one pass computes every particle's pressure from the velocities (source), the next
- * applies them (apply); each gathers from its neighbours and writes only its own particle. Only
+ * applies them (apply); each gathers from its neighbours and writes only its own particle. The
+ * increments are relaxed by omega (fluid.dfsph.relaxation): the diagonal alpha is exact, but the
+ * neighbours' pressures act on i too, and unrelaxed Jacobi overshoots (measured in the hydrostatic
+ * tank: omega 1 churns the fluid near the walls at 0.2-0.3 m/s, omega 0.5 at 0.1 m/s). Only
  * compressions are corrected: each increment is >= 0, as in the reference implementation (an
  * iteration that also let the increments go negative, down to zero accumulated pressure, diverged
  * in the hydrostatic tank within 20 steps: Jacobi then overshoots back and forth). The pressure
@@ -29,15 +32,6 @@
  * Neighbours: this step's lists within H (snbr, sbnbr; density.cl). */
 
 /* Factor alpha_i = delta_i^2 / D_i (B&K 2017 eq. 9, for the pressure force above). */
-#ifndef DFSPH_WARM
-#define DFSPH_WARM 0.5f
-#endif
-#ifndef DFSPH_OMEGA
-#define DFSPH_OMEGA 0.5f
-#endif
-#ifndef DFSPH_WALL
-#define DFSPH_WALL 2.0f
-#endif
 __kernel void dfsph_factor(const SimParams p, __global const float4* pos, __global const uint* phase,
                            __global const float* density, __global const uint* nbr, __global const uint* nbr_count,
                            __global const float4* bpos, __global const uint* bnbr,
@@ -65,7 +59,7 @@ __kernel void dfsph_factor(const SimParams p, __global const float4* pos, __glob
     const float3 d = xi - bb.xyz;
     gb += bb.w * sph_grad_factor(SPH_KERNEL, length(d), H) * d;
   }
-  const float D = dot(gf + DFSPH_WALL * gb, gf + gb) / mi + s2;
+  const float D = dot(gf + 2.0f * gb, gf + gb) / mi + s2;
   const float delta = density[i] / mi;
   /* a particle without neighbours takes no pressure */
   alpha[i] = D > 0.0f ? delta * delta / D : 0.0f;
@@ -98,7 +92,7 @@ inline float dfsph_density_rate(const SimParams* p, const uint i, __global const
  * everywhere, ratcheted up: increments are >= 0, so a pressure left at a particle that had since
  * expanded pushed on, step after step; the hydrostatic tank blew up at 0.6 s.) */
 inline float dfsph_warm(const bool compressing, const float previous) {
-  return compressing ? DFSPH_WARM * previous : 0.0f;
+  return compressing ? 0.5f * previous : 0.0f;
 }
 
 /* Source of the divergence solve (B&K 2017 Alg. 2, eq. 15): p_i = (D delta_i / Dt) alpha_i / dt.
@@ -110,7 +104,8 @@ __kernel void dfsph_divergence_source(const SimParams p, __global const float4* 
                                       __global const uint* nbr_count, __global const float4* bpos,
                                       __global const float4* bvel, __global const uint* bnbr,
                                       __global const uint* bnbr_count, const uint min_neighbours,
-                                      const int warm, __global const float* pprev, __global float* pinc,
+                                      const int warm, const float omega, __global const float* pprev,
+                                      __global float* pinc,
                                       __global float* err) {
   const uint i = get_global_id(0);
   if (i >= p.n_fluid) return;
@@ -118,7 +113,7 @@ __kernel void dfsph_divergence_source(const SimParams p, __global const float4* 
   const uint nf = nbr_count[i], nb = bnbr_count[i];
   float rate = dfsph_density_rate(&p, i, pos, vel, nbr + (size_t)i * K, nf, bpos, bvel, bnbr + (size_t)i * K, nb);
   if (nf + nb < min_neighbours) rate = 0.0f;
-  pinc[i] = warm ? dfsph_warm(rate > 0.0f, pprev[i]) : fmax(DFSPH_OMEGA * rate * alpha[i] / p.dt, 0.0f);
+  pinc[i] = warm ? dfsph_warm(rate > 0.0f, pprev[i]) : fmax(omega * rate * alpha[i] / p.dt, 0.0f);
   err[i] = fmax(rate, 0.0f) * p.rest_volume * p.dt;
 }
 
@@ -130,7 +125,8 @@ __kernel void dfsph_density_source(const SimParams p, __global const float4* pos
                                    __global const float* alpha, __global const uint* nbr,
                                    __global const uint* nbr_count, __global const float4* bpos,
                                    __global const float4* bvel, __global const uint* bnbr,
-                                   __global const uint* bnbr_count, const int warm, __global const float* pprev,
+                                   __global const uint* bnbr_count, const int warm, const float omega,
+                                   __global const float* pprev,
                                    __global float* pinc, __global float* err) {
   const uint i = get_global_id(0);
   if (i >= p.n_fluid) return;
@@ -139,7 +135,7 @@ __kernel void dfsph_density_source(const SimParams p, __global const float4* pos
                                         bnbr + (size_t)i * K, bnbr_count[i]);
   const float delta = density[i] / p.phase_mass[phase[i]];
   const float s = (delta + p.dt * rate) * p.rest_volume - 1.0f; /* relative density error */
-  pinc[i] = warm ? dfsph_warm(s > 0.0f, pprev[i]) : fmax(DFSPH_OMEGA * s / p.rest_volume * alpha[i] / (p.dt * p.dt), 0.0f);
+  pinc[i] = warm ? dfsph_warm(s > 0.0f, pprev[i]) : fmax(omega * s / p.rest_volume * alpha[i] / (p.dt * p.dt), 0.0f);
   err[i] = fmax(s, 0.0f);
 }
 
@@ -169,7 +165,7 @@ __kernel void dfsph_apply(const SimParams p, __global const float4* pos, __globa
   for (uint k = 0; k < nb; ++k) {
     const float4 bb = bpos[bnbr[(size_t)i * K + k]];
     const float3 d = xi - bb.xyz;
-    f -= bb.w * DFSPH_WALL * ti * sph_grad_factor(SPH_KERNEL, length(d), H) * d;
+    f -= bb.w * 2.0f * ti * sph_grad_factor(SPH_KERNEL, length(d), H) * d;
   }
   vel[i] += (float4)(p.dt / mi * f, 0.0f);
   pacc[i] += pinc[i];
