@@ -159,7 +159,7 @@ TEST_CASE("DFSPH dam break: surge front against Martin & Moyce (1952)", "[dfsph]
                            << 100 * e.mean_rel << " %, max " << 100 * e.max_rel << " %");
 }
 
-TEST_CASE("DFSPH: the same scene twice gives bitwise equal states; errors within their bounds", "[dfsph]") {
+TEST_CASE("DFSPH: the same scene twice gives bitwise equal states, and the errors stay within their bounds", "[dfsph]") {
   app::RunOptions o = quietRun("dam_break_slab.yaml", {"fluid.solver=dfsph"});
   o.duration = 0.05;
   const app::RunResult a = app::runScene(o);
