@@ -72,13 +72,25 @@ inline float dfsph_density_rate(const SimParams* p, const uint i, __global const
                                 __global const uint* bnbr, const uint nb) {
   const float H = p->support;
   const float3 xi = pos[i].xyz, vi = vel[i].xyz;
-  float rate = 0.0f;
-  for (uint k = 0; k < nf; ++k) {
+  /* fluid neighbours eight at a time (shared/pair_loops.h: pocl leaves such loops scalar), the
+   * lanes summed in a fixed order, then the rest one by one */
+  float8 acc = (float8)(0.0f);
+  uint k = 0;
+  for (; k + 8 <= nf; k += 8) {
+    const uint8 j = vload8(0, nbr + k);
+    SPH_LOAD8(x, pos, j);
+    SPH_LOAD8(v, vel, j);
+    const float8 dx = xi.x - SPH_LANES8(x, x), dy = xi.y - SPH_LANES8(x, y), dz = xi.z - SPH_LANES8(x, z);
+    const float8 F = sph_grad_factor8(sqrt(dx * dx + dy * dy + dz * dz), H);
+    acc += F * ((vi.x - SPH_LANES8(v, x)) * dx + (vi.y - SPH_LANES8(v, y)) * dy + (vi.z - SPH_LANES8(v, z)) * dz);
+  }
+  float rate = sph_hsum8(acc);
+  for (; k < nf; ++k) {
     const uint j = nbr[k];
     const float3 d = xi - pos[j].xyz;
     rate += sph_grad_factor(SPH_KERNEL, length(d), H) * dot(vi - vel[j].xyz, d);
   }
-  for (uint k = 0; k < nb; ++k) {
+  for (k = 0; k < nb; ++k) {
     const uint b = bnbr[k];
     const float4 bb = bpos[b];
     const float3 d = xi - bb.xyz;
@@ -155,14 +167,32 @@ __kernel void dfsph_apply(const SimParams p, __global const float4* pos, __globa
   const float ti = pinc[i] / (di * di); /* p_i / delta_i^2 */
   float3 f = (float3)(0.0f);           /* pressure force (unit: N) */
   const uint nf = nbr_count[i];
-  for (uint k = 0; k < nf; ++k) {
-    const uint j = nbr[(size_t)i * K + k];
+  __global const uint* list = nbr + (size_t)i * K;
+  /* fluid neighbours eight at a time (as dfsph_density_rate), then the rest one by one */
+  float8 fx = (float8)(0.0f), fy = fx, fz = fx;
+  uint k = 0;
+  for (; k + 8 <= nf; k += 8) {
+    const uint8 j = vload8(0, list + k);
+    SPH_LOAD8(x, pos, j);
+    const float8 dx = xi.x - SPH_LANES8(x, x), dy = xi.y - SPH_LANES8(x, y), dz = xi.z - SPH_LANES8(x, z);
+    const float8 F = sph_grad_factor8(sqrt(dx * dx + dy * dy + dz * dz), H);
+    const uint8 phj = (uint8)(phase[j.s0], phase[j.s1], phase[j.s2], phase[j.s3], phase[j.s4], phase[j.s5],
+                              phase[j.s6], phase[j.s7]);
+    const float8 dj = SPH_GATHER8(density, j) / SPH_GATHER8(p.phase_mass, phj);
+    const float8 c = (ti + SPH_GATHER8(pinc, j) / (dj * dj)) * F;
+    fx -= c * dx;
+    fy -= c * dy;
+    fz -= c * dz;
+  }
+  f = (float3)(sph_hsum8(fx), sph_hsum8(fy), sph_hsum8(fz));
+  for (; k < nf; ++k) {
+    const uint j = list[k];
     const float3 d = xi - pos[j].xyz;
     const float dj = density[j] / p.phase_mass[phase[j]];
     f -= (ti + pinc[j] / (dj * dj)) * sph_grad_factor(SPH_KERNEL, length(d), H) * d;
   }
   const uint nb = bnbr_count[i];
-  for (uint k = 0; k < nb; ++k) {
+  for (k = 0; k < nb; ++k) {
     const float4 bb = bpos[bnbr[(size_t)i * K + k]];
     const float3 d = xi - bb.xyz;
     f -= bb.w * 2.0f * ti * sph_grad_factor(SPH_KERNEL, length(d), H) * d;
