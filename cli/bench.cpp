@@ -231,13 +231,18 @@ int benchCommand(const BenchOptions& opt) {
       out << "# sphaptics " << SPHAPTICS_VERSION
           << " accuracy benchmark: dam-break front vs Martin & Moyce 1952 (Table 2), points with 1.5 <= Z <= 4, "
              "simulated T shifted by +0.175\n";
-      out << "particles,dx_m,cfl,steps,eos,mean_rel_error,max_rel_error,points,wall_s,particle_steps_per_s,"
-             "wall_crossings\n";
-      std::printf("\n%-9s %-8s %-5s %-7s %-7s %-10s %-10s %-8s %-9s\n", "particles", "dx [m]", "cfl", "steps", "eos",
-                  "mean err", "max err", "wall s", "crossings");
+      out << "solver,particles,dx_m,cfl,steps,eos,mean_rel_error,max_rel_error,points,wall_s,particle_steps_per_s,"
+             "wall_crossings,iterations_per_step\n";
+      std::printf("\n%-6s %-9s %-8s %-5s %-7s %-7s %-10s %-10s %-8s %-9s %-6s\n", "solver", "particles", "dx [m]", "cfl",
+                  "steps", "eos", "mean err", "max err", "wall s", "crossings", "it/step");
+      // WCSPH: both equations of state at Courant 0.4 and 0.2; DFSPH (no equation of state; its
+      // Courant number is fluid.dfsph.cfl): the iterations per step of its density solve.
+      for (const char* solver : {"wcsph", "dfsph"})
       for (double target : {4000.0, 12000.0, 30000.0}) {
         for (double cfl : {0.4, 0.2}) {
           for (const char* eos : {"linear", "tait"}) {
+            const bool dfsph = std::string(solver) == "dfsph";
+            if (dfsph && std::string(eos) == "tait") continue;
             RunOptions ro;
             ro.scene = scene;
             ro.device = opt.device;
@@ -246,7 +251,8 @@ int benchCommand(const BenchOptions& opt) {
             const double dx = spacingFor(base, target);
             // a full row of particles across the tank marks the front (analysis.h)
             const std::size_t row = static_cast<std::size_t>(std::max(1.0, std::floor((base.fluid.blocks.at(0).max.y() - base.fluid.blocks.at(0).min.y()) / dx + 1e-4)));
-            ro.sets = {"fluid.particle_spacing=" + fmtd(dx, 9), "simulation.cfl=" + fmtd(cfl, 2),
+            ro.sets = {"fluid.particle_spacing=" + fmtd(dx, 9), std::string("fluid.solver=") + solver,
+                       (dfsph ? "fluid.dfsph.cfl=" : "simulation.cfl=") + fmtd(cfl, 2),
                        std::string("fluid.equation_of_state=") + eos,
                        // count problems instead of stopping: the table reports them
                        "simulation.numerical_errors=warn", "output.isosurface.enabled=false"};
@@ -266,11 +272,14 @@ int benchCommand(const BenchOptions& opt) {
             const double pss = static_cast<double>(r.profile.particle_steps) / wall;
             uint64_t crossings = 0;
             for (const FrameReport& rep : r.reports) crossings += rep.wall_crossings;
-            out << r.particles << "," << dx << "," << cfl << "," << r.profile.steps << "," << eos << "," << e.mean_rel
-                << "," << e.max_rel << "," << e.points << "," << wall << "," << pss << "," << crossings << "\n";
-            std::printf("%-9zu %-8.4f %-5.2f %-7llu %-7s %-10.3f %-10.3f %-8.1f %-9llu\n", r.particles, dx, cfl,
-                        static_cast<unsigned long long>(r.profile.steps), eos, e.mean_rel, e.max_rel, wall,
-                        static_cast<unsigned long long>(crossings));
+            const double its = r.profile.steps ? double(r.profile.density_iterations) / double(r.profile.steps) : 0.0;
+            const char* eos_col = dfsph ? "-" : eos;
+            out << solver << "," << r.particles << "," << dx << "," << cfl << "," << r.profile.steps << "," << eos_col
+                << "," << e.mean_rel << "," << e.max_rel << "," << e.points << "," << wall << "," << pss << ","
+                << crossings << "," << its << "\n";
+            std::printf("%-6s %-9zu %-8.4f %-5.2f %-7llu %-7s %-10.3f %-10.3f %-8.1f %-9llu %-6.1f\n", solver, r.particles,
+                        dx, cfl, static_cast<unsigned long long>(r.profile.steps), eos_col, e.mean_rel, e.max_rel, wall,
+                        static_cast<unsigned long long>(crossings), its);
             std::fflush(stdout);
           }
         }

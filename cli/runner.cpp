@@ -114,6 +114,16 @@ std::string profileLine(const Profile& p) {
   s << "; neighbour lists built " << p.grid_builds << " times in " << p.steps << " steps";
   if (p.subdivided_frames) s << "; CFL subdivided " << p.subdivided_frames << " frame(s)";
   if (p.cfl_warned_frames) s << "; ran " << p.cfl_warned_frames << " frame(s) above the CFL limit";
+  if (p.density_iterations > 0 && p.steps > 0) {  // solver dfsph
+    char buf[256];
+    std::snprintf(buf, sizeof buf,
+                  "; DFSPH: %.2f density and %.2f divergence iterations per step, largest average density error "
+                  "%.3g %%, divergence %.3g %%, %llu step(s) above the bound",
+                  double(p.density_iterations) / double(p.steps), double(p.divergence_iterations) / double(p.steps),
+                  100.0 * p.max_density_error, 100.0 * p.max_divergence_error,
+                  static_cast<unsigned long long>(p.unconverged_steps));
+    s << buf;
+  }
   return s.str();
 }
 

@@ -732,7 +732,11 @@ Compiled compile(const SceneSpec& spec, const ResourceLimits& limits) {
   m.stages.set(Stage::Inflow, !m.emitters.empty());
   m.stages.set(Stage::Grid, true);
   m.stages.set(Stage::Density, true);
-  m.stages.set(Stage::Pressure, true);
+  // The pressure solver: WCSPH's pressure force, or DFSPH's two solves (core/dfsph.h).
+  const bool dfsph = fl.solver == FluidSolver::Dfsph;
+  m.stages.set(Stage::Pressure, !dfsph);
+  m.stages.set(Stage::DivergenceSolve, dfsph && fl.dfsph.divergence_solve);
+  m.stages.set(Stage::DensitySolve, dfsph);
   m.stages.set(Stage::Viscosity, laminar ? m.max_viscosity > 0.0 : fl.artificial_viscosity > 0.0);
   m.stages.set(Stage::ColourDiffusion, fl.colour_diffusion > 0.0);
   m.stages.set(Stage::Integrate, true);

@@ -38,6 +38,7 @@ enum class MotionType { None, Constant, Keyframes };
 enum class ClothSolver { Xpbd, Explicit };
 enum class AnchorType { Corners, Edge, Node, Box };
 enum class ClothEdge { XMin, XMax, YMin, YMax };
+enum class FluidSolver { Wcsph, Dfsph };
 
 struct SimulationSpec {
   double duration = 2.0;                        ///< simulated time to run (unit: s)
@@ -98,7 +99,26 @@ struct InflowSpec {
   SourceLoc loc;
 };
 
+/// Settings of the divergence-free SPH solver (Bender & Koschier 2017), used with solver dfsph.
+/// Defaults as the reference implementation (SPlisHSPlasH): density error 0.05 %, divergence 0.1 %.
+struct DfsphSpec {
+  double density_error = 5.0e-4;     ///< bound on the average density error (rho - rho0) / rho0 per step (unit: 1)
+  double divergence_error = 1.0e-3;  ///< bound on the average density change per step dt (D rho / Dt) / rho0 (unit: 1)
+  int min_iterations = 2;            ///< density solve: iterations at least (unit: 1)
+  int max_iterations = 100;          ///< density solve: iterations at most; a step that stops here is counted (unit: 1)
+  int divergence_min_iterations = 1; ///< divergence solve: iterations at least (unit: 1)
+  int divergence_max_iterations = 100;  ///< divergence solve: iterations at most (unit: 1)
+  bool divergence_solve = true;      ///< make the velocity field divergence-free each step (B&K 2017 Alg. 2)
+  bool warm_start = true;            ///< start each solve from the previous step's pressure
+  double relaxation = 0.5;           ///< Jacobi relaxation omega of both solves' pressure increments (unit: 1)
+  double cfl = 0.4;                  ///< Courant number: dt <= cfl * dx / |v|max (unit: 1)
+  double max_time_step = 0.005;      ///< largest step (unit: s)
+  SourceLoc loc;
+};
+
 struct FluidSpec {
+  FluidSolver solver = FluidSolver::Wcsph;  ///< pressure solver: weakly compressible or divergence-free SPH
+  DfsphSpec dfsph;                          ///< settings of the dfsph solver
   double particle_spacing = 0.02;                              ///< lattice spacing dx (unit: m)
   EquationOfState equation_of_state = EquationOfState::Linear; ///< p = k (rho - rho0), or Tait
   double speed_of_sound = 0.0;     ///< c0; 0 = automatic, 10 * sqrt(2 |g| H) over the fluid height (unit: m/s)

@@ -172,6 +172,9 @@ Simulation::Simulation(const Model& model, const HostParticles& initial, ClConte
   next_id_ = static_cast<uint32_t>(n_);
   for (const rigid::RigidBody& body : model_.bodies) bodies_.push_back(rigid::initialState(body));
   if (on(Stage::RigidDynamics)) contacts_ = std::make_unique<rigid::ContactSolver>(model_.bodies, model_.dx);
+  // DFSPH: the solver and its buffers exist only with solver dfsph (a wcsph scene enqueues none of its kernels).
+  if (model_.spec.fluid.solver == FluidSolver::Dfsph && cap > 0)
+    dfsph_ = std::make_unique<DfsphSolver>(cl_, kernels_, cap, model_.spec.fluid.dfsph, model_.dx, model_.support);
   emitter_travel_.assign(model_.emitters.size(), model_.dx);  // the first layer leaves at the start time
   // Cloth nodes (stepped by stage cloth; with it disabled they hang still, still boundary for the fluid).
   if (model_.cloth.nodes() > 0) cloth_ = std::make_unique<cloth::ClothSim>(model_.cloth, cl_, kernels_);
@@ -229,10 +232,12 @@ void Simulation::step(double dt) {
     }
     computeDensity();                                  // number density, rho, p (S&P 2008, Akinci 2012)
     if (on(Stage::Probes) && probes_->due(time_)) sampleProbes();  // gauges read the state at the step's start
-    pressureForces();                                  // wall pressure (Adami 2012), -grad p / rho + g (+ viscosity, fused)
+    if (on(Stage::DivergenceSolve)) divergenceSolve(); // DFSPH: factors, divergence-free velocities (B&K 2017 Alg. 2)
+    pressureForces();                                  // wall pressure (Adami 2012), -grad p / rho + g (+ viscosity, fused); dfsph: g
     if (on(Stage::Viscosity) && !on(Stage::Pressure))
       viscosityForces();                               // Monaghan or Morris, on its own
     if (on(Stage::ColourDiffusion)) diffuseColour();   // colour mixing
+    if (on(Stage::DensitySolve)) densitySolve();       // DFSPH: v* = v + dt a, constant density (B&K 2017 Alg. 3)
     if (on(Stage::RigidCoupling)) gatherBodyForces();  // fluid -> bodies: 6 numbers per body to the host
     if (on(Stage::ClothCoupling)) gatherClothForces(); // fluid -> cloth: one force per node, on the device
     integrate();                                       // semi-implicit Euler, closed walls
@@ -245,8 +250,77 @@ void Simulation::step(double dt) {
   profile_.particle_steps += n_;
 }
 
+double Simulation::dfsphStepLimit() const {
+  // CFL with the largest speed of the last step, plus what gravity adds over a longest step
+  // (B&K 2017 section 4.3), and the viscous limit (Morris et al. 1997) with a laminar model.
+  const DfsphSpec& d = model_.spec.fluid.dfsph;
+  const double g = model_.spec.simulation.gravity.norm();
+  const double v = step_max_speed_ + g * d.max_time_step;
+  double limit = d.max_time_step;
+  if (v > 0.0) limit = std::min(limit, d.cfl * model_.dx / v);
+  if (on(Stage::Viscosity) && model_.spec.fluid.viscosity_model == ViscosityModel::Laminar && model_.max_viscosity > 0)
+    limit = std::min(limit, 0.125 * model_.h * model_.h / model_.max_viscosity);
+  return limit;
+}
+
 FrameReport Simulation::advanceFrame() {
   const SimulationSpec& sim = model_.spec.simulation;
+  if (dfsph_) {
+    // DFSPH: adaptive steps, each within the CFL limit of the last step's speed; the frame ends
+    // exactly (the steps left in a frame are evened out, so no sliver of a step remains).
+    const double frame_end = (frame_ + 1) * model_.frame_dt;
+    const double limit0 = dfsphStepLimit();
+    dfsph_frame_ = FrameReport{};
+    int steps = 0;
+    double smallest = INFINITY;
+    while (frame_end - time_ > 1e-12 * model_.frame_dt) {
+      const double left = frame_end - time_;
+      const double k = std::ceil(left / dfsphStepLimit() - 1e-9);
+      const double dt = k <= 1.0 ? left : left / k;
+      if (!(steps < model_.max_steps_per_frame)) {  // a blown-up speed: stop with the reason, never loop
+        std::ostringstream s;
+        s << "numerical failure at frame " << frame_ << ", t = " << time_ << " s: the frame took more than "
+          << model_.max_steps_per_frame << " steps (step " << dt << " s, stage: time-step control); the flow has blown up";
+        throw NumericalError(s.str());
+      }
+      step(dt);
+      smallest = std::min(smallest, dt);
+      ++steps;
+    }
+    time_ = frame_end;
+    FrameReport rep;
+    if (on(Stage::Diagnostics)) rep = runDiagnostics();
+    rep.frame = frame_;
+    rep.time = time_;
+    rep.steps = steps;
+    rep.dt = steps > 0 ? smallest : 0.0;
+    rep.dt_limit = limit0;
+    rep.particles = n_;
+    rep.density_iterations = dfsph_frame_.density_iterations;
+    rep.divergence_iterations = dfsph_frame_.divergence_iterations;
+    rep.unconverged_steps = dfsph_frame_.unconverged_steps;
+    rep.density_error = dfsph_frame_.density_error;
+    rep.divergence_error = dfsph_frame_.divergence_error;
+    if (rep.unconverged_steps > 0) {
+      std::ostringstream s;
+      s << rep.unconverged_steps << " step(s) stopped at fluid.dfsph.max_iterations = "
+        << model_.spec.fluid.dfsph.max_iterations << " with the average density error above "
+        << model_.spec.fluid.dfsph.density_error << " (largest " << rep.density_error << ")";
+      pending_messages_.push_back(s.str());
+    }
+    rep.messages = std::move(pending_messages_);
+    pending_messages_.clear();
+    ++frame_;
+    if (sim.numerical_errors == NumericalPolicy::Abort && (rep.nonfinite > 0 || rep.cfl_violations > 0)) {
+      std::ostringstream s;
+      s << "numerical failure at frame " << rep.frame << ", t = " << rep.time << " s: ";
+      if (rep.nonfinite) s << rep.nonfinite << " particle(s) with NaN/inf (stage: density_solve); ";
+      if (rep.cfl_violations) s << rep.cfl_violations << " particle(s) moved more than h in one step (CFL, stage: integrate); ";
+      if (rep.first_bad_id >= 0) s << "first particle id " << rep.first_bad_id;
+      throw NumericalError(s.str());
+    }
+    return rep;
+  }
   // Time-step control: the scene's substeps, checked against the CFL and viscous limits
   // (Monaghan 1992: dt <= cfl h / (c0 + |v|max); Morris et al. 1997: dt <= 0.125 h^2 / nu).
   // A scene without fluid (rigid bodies alone) has no CFL limit: the scene's substeps stand.
@@ -364,6 +438,7 @@ void Simulation::buildGrid() {
   const int nxt = 1 - cur_;
   kernels_.call("grid_reorder", n_, kLocal, params_, sorted_, pos_[cur_], vel_[cur_], colour_[cur_], phase_[cur_], id_[cur_], pos_[nxt], vel_[nxt], colour_[nxt], phase_[nxt], id_[nxt]);
   cur_ = nxt;
+  if (dfsph_) dfsph_->reorder(n_, sorted_);  // the accumulated pressures follow their particles
   // neighbour lists within H + skin
   kernels_.call("build_neighbour_lists", n_, kLocal, params_, pos_[cur_], cell_start_, bpos_, bcell_start_, nbr_, nbr_count_, bnbr_, bnbr_count_, overflow_);
   lists_valid_ = true;
@@ -411,6 +486,50 @@ void Simulation::pressureForces() {
   kernels_.call("pressure_force", n_, kLocal, params_, pos_[cur_], phase_[cur_], density_, pterm_, snbr_, snbr_count_, bpos_, bpressure_, sbnbr_, sbnbr_count_, acc_);
 }
 
+// --- DFSPH (core/dfsph.h, kernels/dfsph.cl) -----------------------------------------------------
+
+DfsphFields Simulation::dfsphFields() {
+  DfsphFields f;
+  f.pos = &pos_[cur_];
+  f.vel = &vel_[cur_];
+  f.acc = &acc_;
+  f.phase = &phase_[cur_];
+  f.density = &density_;
+  f.snbr = &snbr_;
+  f.snbr_count = &snbr_count_;
+  f.bpos = &bpos_;
+  f.bvel = &bvel_;
+  f.sbnbr = &sbnbr_;
+  f.sbnbr_count = &sbnbr_count_;
+  f.pressure = &pressure_;
+  f.pterm = &pterm_;
+  return f;
+}
+
+void Simulation::divergenceSolve() {
+  StageTimer timer(*this, Stage::DivergenceSolve);
+  const DfsphFields f = dfsphFields();
+  dfsph_->factors(params_, f);
+  const DfsphSolveResult r = dfsph_->divergenceSolve(params_, f);
+  dfsph_frame_.divergence_iterations += r.iterations;
+  dfsph_frame_.divergence_error = std::max(dfsph_frame_.divergence_error, r.error);
+  profile_.divergence_iterations += static_cast<uint64_t>(r.iterations);
+  profile_.max_divergence_error = std::max(profile_.max_divergence_error, r.error);
+}
+
+void Simulation::densitySolve() {
+  StageTimer timer(*this, Stage::DensitySolve);
+  const DfsphFields f = dfsphFields();
+  if (!on(Stage::DivergenceSolve)) dfsph_->factors(params_, f);  // else computed this step already
+  const DfsphSolveResult r = dfsph_->densitySolve(params_, f);
+  dfsph_->finish(params_, f);
+  dfsph_frame_.density_iterations += r.iterations;
+  dfsph_frame_.density_error = std::max(dfsph_frame_.density_error, r.error);
+  if (!r.converged) ++dfsph_frame_.unconverged_steps, ++profile_.unconverged_steps;
+  profile_.density_iterations += static_cast<uint64_t>(r.iterations);
+  profile_.max_density_error = std::max(profile_.max_density_error, r.error);
+}
+
 void Simulation::viscosityForces() {
   StageTimer timer(*this, Stage::Viscosity);
   kernels_.call("viscosity_force", n_, kLocal, params_, pos_[cur_], vel_[cur_], phase_[cur_], density_, snbr_, snbr_count_, bpos_, bvel_, sbnbr_, sbnbr_count_, acc_);
@@ -440,6 +559,7 @@ void Simulation::integrate() {
   std::memcpy(&vmax, &bits, 4);
   // Moving boundary particles count too: fluid-body pairs close in at most twice the larger speed.
   const double fastest = std::max(static_cast<double>(vmax), body_speed_);
+  step_max_speed_ = std::isfinite(fastest) ? fastest : 0.0;
   travel_since_build_ += std::isfinite(vmax) ? fastest * params_.dt : INFINITY;
 }
 
@@ -483,7 +603,11 @@ void Simulation::sortBoundary() {
 void Simulation::gatherBodyForces() {
   StageTimer timer(*this, Stage::RigidCoupling);
   const int viscous = on(Stage::Viscosity) ? 1 : 0;
-  kernels_.call("rigid_fluid_forces", n_moving_, kLocal, params_, n_moving_, n_static_, bsrc_, bslot_, bvel_, bpressure_, pos_[cur_], vel_[cur_], phase_[cur_], density_, pterm_, cell_start_, viscous, bforce_);
+  // DFSPH: the wall mirrors the fluid's pressure, no contact term, and the viscous reaction uses the
+  // velocities the fluid's viscous forces saw (before the density solve changed them).
+  const int mirror = dfsph_ ? 1 : 0;
+  const cl::Buffer& vel = dfsph_ ? dfsph_->viscousVelocities() : vel_[cur_];
+  kernels_.call("rigid_fluid_forces", n_moving_, kLocal, params_, n_moving_, n_static_, bsrc_, bslot_, bvel_, bpressure_, pos_[cur_], vel, phase_[cur_], density_, pterm_, cell_start_, viscous, mirror, bforce_);
   // The per-body reduction is timed on its own (profile.rigid_reduce_seconds).
   clCall("waiting for the body forces", [&] { return cl_.queue().finish(); });
   const auto t_reduce = std::chrono::steady_clock::now();
@@ -563,8 +687,12 @@ void Simulation::gatherClothForces() {
   // The rigid bodies' per-particle kernel (rigid.cl, rigid_fluid_forces) serves the nodes as well:
   // each node gathers the reaction to the pressure, contact and viscous forces it exerts on its
   // fluid neighbours (equal and opposite). No reduction: the cloth integrates per node.
+  // With DFSPH the same choices as for bodies (gatherBodyForces): mirrored pressure, and the
+  // velocities the fluid's viscous forces saw.
   const int viscous = on(Stage::Viscosity) ? 1 : 0;
-  kernels_.call("rigid_fluid_forces", n_cloth_, kLocal, params_, n_cloth_, n_static_ + n_moving_, bsrc_, bslot_, bvel_, bpressure_, pos_[cur_], vel_[cur_], phase_[cur_], density_, pterm_, cell_start_, viscous, cloth_force_);
+  const int mirror = dfsph_ ? 1 : 0;
+  const cl::Buffer& vel = dfsph_ ? dfsph_->viscousVelocities() : vel_[cur_];
+  kernels_.call("rigid_fluid_forces", n_cloth_, kLocal, params_, n_cloth_, n_static_ + n_moving_, bsrc_, bslot_, bvel_, bpressure_, pos_[cur_], vel, phase_[cur_], density_, pterm_, cell_start_, viscous, mirror, cloth_force_);
 }
 
 FrameReport Simulation::runDiagnostics() {

@@ -7,6 +7,7 @@
 #include "core/cloth.h"
 #include "core/contact.h"
 #include "core/external_force.h"
+#include "core/dfsph.h"
 #include "core/isosurface.h"
 #include "core/model.h"
 #include "core/particle_frame.h"
@@ -36,6 +37,13 @@ struct Profile {
   /// Part of seconds[rigid_coupling]: the per-body reduction (kernel rigid_reduce and the read of
   /// the sums), timed from a queue finish after rigid_fluid_forces to the end of the read (unit: s).
   double rigid_reduce_seconds = 0;
+  // DFSPH (solver dfsph): iterations of both solves, steps that stopped at the most iterations, and
+  // the largest average errors reached at the end of a step.
+  uint64_t density_iterations = 0;     ///< density-solve iterations, all steps
+  uint64_t divergence_iterations = 0;  ///< divergence-solve iterations, all steps
+  uint64_t unconverged_steps = 0;      ///< steps whose density solve stopped above its bound
+  double max_density_error = 0;        ///< largest average density error at the end of a step (unit: 1)
+  double max_divergence_error = 0;     ///< largest average divergence error at the end of a step (unit: 1)
   double total() const;
 };
 
@@ -62,6 +70,12 @@ struct FrameReport {
   uint32_t wall_crossings = 0;   ///< particles put back after crossing a closed wall (a warning, never fatal)
   float max_speed = 0;           ///< (unit: m/s)
   int64_t first_bad_id = -1;     ///< id of a particle with a problem, -1 if none
+  // DFSPH (solver dfsph): this frame's solver iterations and the largest average errors reached
+  int density_iterations = 0;    ///< density-solve iterations, all steps of the frame
+  int divergence_iterations = 0; ///< divergence-solve iterations, all steps of the frame
+  int unconverged_steps = 0;     ///< steps whose density solve stopped at max_iterations above the bound (a warning)
+  double density_error = 0;      ///< largest average density error at a step's end (unit: 1)
+  double divergence_error = 0;   ///< largest average divergence error at a step's end (unit: 1)
   std::size_t particles = 0;     ///< fluid particles at frame end
   std::vector<std::string> messages;  ///< one-off notices (particle budget reached, ...)
   bool clean() const { return nonfinite == 0 && cfl_violations == 0 && wall_crossings == 0; }
@@ -127,7 +141,8 @@ class Simulation {
 
   /// Device memory held by this simulation's buffers (unit: bytes).
   std::size_t deviceBytes() const {
-    return device_bytes_ + prefix_sum_.bytes() + (mesher_ ? mesher_->bytes() : 0) + (cloth_ ? cloth_->bytes() : 0);
+    return device_bytes_ + prefix_sum_.bytes() + (mesher_ ? mesher_->bytes() : 0) + (cloth_ ? cloth_->bytes() : 0) +
+           (dfsph_ ? dfsph_->bytes() : 0);
   }
 
  private:
@@ -136,6 +151,10 @@ class Simulation {
   void computeDensity();
   void sampleProbes();
   void pressureForces();
+  void divergenceSolve();
+  void densitySolve();
+  DfsphFields dfsphFields();
+  double dfsphStepLimit() const;
   void viscosityForces();
   void diffuseColour();
   void integrate();
@@ -217,6 +236,10 @@ class Simulation {
   bool record_probes_ = false;
   std::vector<ProbeSample> probe_samples_; // taken since the last takeProbeSamples()
   std::optional<ProbeSample> latest_probe_;
+  // DFSPH (solver dfsph): the solver, the step's largest speed, this frame's solver statistics.
+  std::unique_ptr<DfsphSolver> dfsph_;
+  double step_max_speed_ = 0.0;  // fluid and bodies, from the last integrate (unit: m/s)
+  FrameReport dfsph_frame_;      // iteration and error fields only
   uint32_t diag_groups_ = 0;
 };
 

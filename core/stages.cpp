@@ -3,7 +3,7 @@
 namespace sph {
 
 static const std::array<const char*, kNumStages> kStageNames = {
-    "inflow", "grid", "density", "probes", "pressure", "viscosity", "colour_diffusion", "rigid_coupling", "haptics", "cloth_coupling", "integrate", "rigid_dynamics", "cloth", "diagnostics"};
+    "inflow", "grid", "density", "probes", "pressure", "divergence_solve", "viscosity", "colour_diffusion", "density_solve", "rigid_coupling", "haptics", "cloth_coupling", "integrate", "rigid_dynamics", "cloth", "diagnostics"};
 
 const char* stageName(Stage s) { return kStageNames[static_cast<std::size_t>(s)]; }
 

@@ -15,9 +15,11 @@ enum class Stage : int {
   Grid,             ///< neighbour grid: count, scan, sort, reorder
   Density,          ///< number density, mass density, equation of state
   Probes,           ///< pressure probes and height gauges sampled (scenes with a probes section)
-  Pressure,         ///< pressure force (and gravity)
+  Pressure,         ///< pressure force (and gravity); solver wcsph only
+  DivergenceSolve,  ///< DFSPH: factors alpha, then the velocity made divergence-free (Bender & Koschier 2017, Alg. 2)
   Viscosity,        ///< artificial or laminar viscosity
   ColourDiffusion,  ///< colour mixing between particles
+  DensitySolve,     ///< DFSPH: v* = v + dt a, then the constant-density solve (Bender & Koschier 2017, Alg. 3)
   RigidCoupling,    ///< moving bodies' particles follow their pose; fluid forces on them, summed per body
   Haptics,          ///< external forces on bodies (a grabbed body's coupling spring), core/external_force.h
   ClothCoupling,    ///< cloth nodes are boundary particles for the fluid; fluid forces on each node

@@ -102,6 +102,14 @@ void writeRunJson(const std::string& path, const RunInfo& info) {
       << info.profile.seconds[static_cast<std::size_t>(i)];
   j << "},\n";
   j << "  \"rigid_reduce_seconds\": " << info.profile.rigid_reduce_seconds << ",\n";
+  // DFSPH solver (zero with solver wcsph): iterations, steps above the bound, largest errors reached
+  j << "  \"dfsph\": {\"density_iterations\": " << info.profile.density_iterations
+    << ", \"divergence_iterations\": " << info.profile.divergence_iterations
+    << ", \"density_iterations_per_step\": "
+    << (info.profile.steps ? double(info.profile.density_iterations) / double(info.profile.steps) : 0.0)
+    << ", \"unconverged_steps\": " << info.profile.unconverged_steps
+    << ", \"max_density_error\": " << info.profile.max_density_error
+    << ", \"max_divergence_error\": " << info.profile.max_divergence_error << "},\n";
   j << "  \"scene\": " << (info.scene_json.empty() ? "null" : info.scene_json) << "\n";
   j << "}\n";
 

@@ -641,6 +641,20 @@ class Loader {
     };
     const std::string domain_text = vecText(domain.min) + " .. " + vecText(domain.max);
 
+    // DFSPH iteration bounds: the most iterations no fewer than the least (reported at the max key,
+    // or at the min key when only it was written).
+    const DfsphSpec& dfsph = fluid.dfsph;
+    auto checkIterations = [&](const char* min_key, const char* max_key, int lo, int hi) {
+      if (hi >= lo || bad_.count(min_key) || bad_.count(max_key)) return;
+      const std::string at = marks_.count(max_key) ? max_key : min_key;
+      issue(at, markOf(at), "'" + std::string(max_key) + "' (" + std::to_string(hi) + ") must be at least '" +
+                                std::string(min_key) + "' (" + std::to_string(lo) + ")");
+    };
+    checkIterations("fluid.dfsph.min_iterations", "fluid.dfsph.max_iterations", dfsph.min_iterations,
+                    dfsph.max_iterations);
+    checkIterations("fluid.dfsph.divergence_min_iterations", "fluid.dfsph.divergence_max_iterations",
+                    dfsph.divergence_min_iterations, dfsph.divergence_max_iterations);
+
     // Phases: one default phase when none is defined; names present and unique.
     if (!marks_.count("fluid.phases")) {
       fluid.phases.assign(1, PhaseSpec{});

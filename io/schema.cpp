@@ -347,6 +347,37 @@ std::vector<KeyDef> buildTable() {
 
   // fluid: particles, material model, phases, initial blocks and inflows ----------------------
   add(section("fluid", [](SceneSpec& s) { return &s.fluid.loc; }).doc("fluid model, phases, blocks and inflows"));
+  add(field<InScene>("fluid.solver", [](auto& s) -> auto& { return s.fluid.solver; })
+          .doc("pressure solver: wcsph (weakly compressible, equation of state) or dfsph (divergence-free SPH, "
+               "Bender & Koschier 2017: incompressible at large adaptive steps)"));
+  add(section("fluid.dfsph", [](SceneSpec& s) { return &s.fluid.dfsph.loc; })
+          .doc("settings of the dfsph solver (used with fluid.solver: dfsph)"));
+  add(field<InScene>("fluid.dfsph.density_error", [](auto& s) -> auto& { return s.fluid.dfsph.density_error; })
+          .unit("1").greaterThan(0).atMost(0.1)
+          .doc("bound on the average density error (rho - rho0) / rho0 at the end of each step (5e-4 = 0.05 %)"));
+  add(field<InScene>("fluid.dfsph.divergence_error", [](auto& s) -> auto& { return s.fluid.dfsph.divergence_error; })
+          .unit("1").greaterThan(0).atMost(0.1)
+          .doc("bound on the average density change over one step, dt (D rho / Dt) / rho0 (1e-3 = 0.1 %)"));
+  add(field<InScene>("fluid.dfsph.min_iterations", [](auto& s) -> auto& { return s.fluid.dfsph.min_iterations; })
+          .unit("1").atLeast(0).doc("density solve: iterations at least"));
+  add(field<InScene>("fluid.dfsph.max_iterations", [](auto& s) -> auto& { return s.fluid.dfsph.max_iterations; })
+          .unit("1").atLeast(1).atMost(10000)
+          .doc("density solve: iterations at most (>= min_iterations); a step that stops here is a counted warning"));
+  add(field<InScene>("fluid.dfsph.divergence_min_iterations", [](auto& s) -> auto& { return s.fluid.dfsph.divergence_min_iterations; })
+          .unit("1").atLeast(0).doc("divergence solve: iterations at least"));
+  add(field<InScene>("fluid.dfsph.divergence_max_iterations", [](auto& s) -> auto& { return s.fluid.dfsph.divergence_max_iterations; })
+          .unit("1").atLeast(1).atMost(10000).doc("divergence solve: iterations at most (>= divergence_min_iterations)"));
+  add(field<InScene>("fluid.dfsph.divergence_solve", [](auto& s) -> auto& { return s.fluid.dfsph.divergence_solve; })
+          .doc("make the velocity field divergence-free each step (Bender & Koschier 2017, Alg. 2)"));
+  add(field<InScene>("fluid.dfsph.warm_start", [](auto& s) -> auto& { return s.fluid.dfsph.warm_start; })
+          .doc("start each solve from the pressure of the previous step"));
+  add(field<InScene>("fluid.dfsph.relaxation", [](auto& s) -> auto& { return s.fluid.dfsph.relaxation; })
+          .unit("1").greaterThan(0).atMost(1)
+          .doc("Jacobi relaxation of the pressure increments: 1 = fewest iterations, 0.5 = calmest at rest"));
+  add(field<InScene>("fluid.dfsph.cfl", [](auto& s) -> auto& { return s.fluid.dfsph.cfl; })
+          .unit("1").greaterThan(0).atMost(1).doc("Courant number of the adaptive step: dt <= cfl * dx / |v|max"));
+  add(field<InScene>("fluid.dfsph.max_time_step", [](auto& s) -> auto& { return s.fluid.dfsph.max_time_step; })
+          .unit("s").greaterThan(0).doc("largest time step; frames end exactly (the last steps of a frame are evened out)"));
   add(field<InScene>("fluid.particle_spacing", [](auto& s) -> auto& { return s.fluid.particle_spacing; })
           .unit("m").greaterThan(0).doc("lattice spacing dx of the fluid particles"));
   add(field<InScene>("fluid.equation_of_state", [](auto& s) -> auto& { return s.fluid.equation_of_state; })

@@ -50,6 +50,11 @@ struct EnumNames<ViscosityModel> {
                                                                         {ViscosityModel::Laminar, "laminar"}};
 };
 template <>
+struct EnumNames<FluidSolver> {
+  static constexpr std::pair<FluidSolver, const char*> values[] = {{FluidSolver::Wcsph, "wcsph"},
+                                                                     {FluidSolver::Dfsph, "dfsph"}};
+};
+template <>
 struct EnumNames<TimeStepControl> {
   static constexpr std::pair<TimeStepControl, const char*> values[] = {{TimeStepControl::Subdivide, "subdivide"},
                                                                          {TimeStepControl::Warn, "warn"}};

@@ -55,7 +55,8 @@ __kernel void rigid_boundary_reorder(const uint n, __global const uint* sorted, 
  * particles have velocity zero in any order.) */
 
 /* (2) Force of the fluid on each moving particle: the opposite of the boundary terms of
- * pressure.cl that this particle b contributes to each fluid neighbour i within H:
+ * pressure.cl (with `mirror`, of dfsph.cl: 2 psi_b p_i / delta_i^2 gradW, no contact term) that
+ * this particle b contributes to each fluid neighbour i within H:
  *     pressure (p_b: boundary_pressure):     F_b = + (V_b/V0) (p_i + p_b) / delta_i^2 gradW-factor (x_i - x_b)
  *     contact  (pressure.cl):                F_b = - m_i (V_b/V0) k_c c0^2/dx (1 - r/dx) (x_i - x_b) / r
  *     viscosity (pair_loops.h):              F_b = - m_i a_visc(i from b)
@@ -66,7 +67,8 @@ __kernel void rigid_fluid_forces(const SimParams p, const uint n, const uint n_s
                                  __global const float* bpressure, __global const float4* pos,
                                  __global const float4* vel, __global const uint* phase,
                                  __global const float* density, __global const float* pterm,
-                                 __global const uint* cell_start, const int viscous, __global float4* force) {
+                                 __global const uint* cell_start, const int viscous, const int mirror,
+                                 __global float4* force) {
   const uint k = get_global_id(0);
   if (k >= n) return;
   const float4 bb = bsrc[n_static + k];
@@ -86,8 +88,12 @@ __kernel void rigid_fluid_forces(const SimParams p, const uint n, const uint n_s
       const float mi = p.phase_mass[phase[i]];
       const float inv_delta = mi / density[i];
       const float F = sph_grad_factor(SPH_KERNEL, r, H);
-      f += bb.w * (pterm[i] + pb * inv_delta * inv_delta) * F * d;
-      if (r < dx && r > 1e-6f * dx) f -= mi * bb.w * (5.0f * p.c0 * p.c0 / dx) * (1.0f - r / dx) / r * d;
+      if (mirror) { /* DFSPH (dfsph.cl): p_b = p_i, pterm = both solves' p / delta^2; no contact term */
+        f += bb.w * 2.0f * pterm[i] * F * d;
+      } else {
+        f += bb.w * (pterm[i] + pb * inv_delta * inv_delta) * F * d;
+        if (r < dx && r > 1e-6f * dx) f -= mi * bb.w * (5.0f * p.c0 * p.c0 / dx) * (1.0f - r / dx) / r * d;
+      }
       if (viscous)
         f -= mi * sph_boundary_viscosity(&p, mi, density[i], p.phase_viscosity[phase[i]], vel[i].xyz - vb, d, r2, F, bb.w);
     }

@@ -16,16 +16,20 @@ import matplotlib.pyplot as plt  # noqa: E402
 def main(src, dst):
     rows = [r for r in csv.DictReader(line for line in open(src) if not line.startswith("#"))]
     fig, ax = plt.subplots(figsize=(7, 4.5))
-    markers = {"linear": "o", "tait": "s"}
-    colours = {"0.4": "tab:blue", "0.2": "tab:orange"}
-    for eos in ("linear", "tait"):
+    markers = {"linear": "o", "tait": "s", "-": "^"}
+    colours = {("wcsph", "0.4"): "tab:blue", ("wcsph", "0.2"): "tab:orange",
+               ("dfsph", "0.4"): "tab:green", ("dfsph", "0.2"): "tab:red"}
+    for solver in ("wcsph", "dfsph"):
+      for eos in ("linear", "tait", "-"):
         for cfl in ("0.4", "0.2"):
-            pts = [r for r in rows if r["eos"] == eos and abs(float(r["cfl"]) - float(cfl)) < 1e-6]
+            pts = [r for r in rows if r.get("solver", "wcsph") == solver and r["eos"] == eos
+                   and abs(float(r["cfl"]) - float(cfl)) < 1e-6]
             if not pts:
                 continue
             pts.sort(key=lambda r: float(r["wall_s"]))
+            label = f"WCSPH, {eos} EOS, Courant {cfl}" if solver == "wcsph" else f"DFSPH, Courant {cfl}"
             ax.plot([float(r["wall_s"]) for r in pts], [100 * float(r["mean_rel_error"]) for r in pts],
-                    marker=markers[eos], color=colours[cfl], label=f"{eos} EOS, Courant {cfl}")
+                    marker=markers[eos], color=colours[(solver, cfl)], label=label)
             for r in pts:
                 ax.annotate(f"{int(r['particles']) // 1000}k", (float(r["wall_s"]), 100 * float(r["mean_rel_error"])),
                             textcoords="offset points", xytext=(4, 4), fontsize=8)

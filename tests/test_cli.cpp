@@ -201,7 +201,8 @@ TEST_CASE("cli: an unknown --disable stage lists the stages", "[cli]") {
   INFO("exit " << r.code << ", stderr:\n" << r.err);
   CHECK(r.code == 2);
   CHECK(contains(r.err, "--disable: unknown stage 'presure'"));
-  CHECK(contains(r.err, "inflow, grid, density, probes, pressure, viscosity, colour_diffusion, rigid_coupling, haptics, cloth_coupling, integrate, rigid_dynamics, cloth, diagnostics"));
+  CHECK(contains(r.err, "inflow, grid, density, probes, pressure, divergence_solve, viscosity, colour_diffusion, density_solve, "
+                               "rigid_coupling, haptics, cloth_coupling, integrate, rigid_dynamics, cloth, diagnostics"));
   requireNoCompleteOutput(tmp.path / "out");
 }
 

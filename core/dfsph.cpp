@@ -1,0 +1,135 @@
+#include "core/dfsph.h"
+
+#include "core/errors.h"
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+namespace sph {
+
+// Work-group size for the per-particle kernels (as the Simulation's).
+static constexpr std::size_t kLocal = 64;
+
+cl::Buffer DfsphSolver::makeBuffer(std::size_t bytes) {
+  bytes = std::max<std::size_t>(bytes, 16);
+  bytes_ += bytes;
+  return clCall("allocating a DFSPH buffer", [&] { return cl::Buffer(cl_.context(), CL_MEM_READ_WRITE, bytes); });
+}
+
+DfsphSolver::DfsphSolver(ClContext& cl, KernelSet& kernels, std::size_t capacity, const DfsphSpec& spec, double dx,
+                         double support)
+    : cl_(cl), kernels_(kernels), spec_(spec) {
+  // A particle in the bulk has (4/3) pi (H/dx)^3 neighbours (33 at H = 2 dx); below 60 % of that
+  // its support is cut by a free surface (the reference implementation's 20 in 3D at H = 2 dx).
+  const double ratio = support / dx;
+  min_neighbours_ = static_cast<uint32_t>(0.6 * 4.18879 * ratio * ratio * ratio);
+  alpha_ = makeBuffer(capacity * 4);
+  pinc_ = makeBuffer(capacity * 4);
+  err_ = makeBuffer(capacity * 4);
+  partial_ = makeBuffer(kChunks * 4);
+  pdiv_ = makeBuffer(capacity * 4);
+  pdens_ = makeBuffer(capacity * 4);
+  scratch_a_ = makeBuffer(capacity * 4);
+  scratch_b_ = makeBuffer(capacity * 4);
+  vel_before_ = makeBuffer(capacity * 16);
+  // No pressure before the first step (and particles emitted later start from zero: slots past
+  // the active count are never written).
+  clCall("clearing the DFSPH pressures", [&] {
+    auto& q = cl_.queue();
+    for (cl::Buffer* b : {&pdiv_, &pdens_, &scratch_a_, &scratch_b_, &pinc_})
+      q.enqueueFillBuffer(*b, 0.0f, 0, std::max<std::size_t>(capacity, 4) * 4);
+    return q.finish();
+  });
+}
+
+void DfsphSolver::reorder(std::size_t n, const cl::Buffer& sorted) {
+  kernels_.call("dfsph_reorder", n, kLocal, static_cast<uint32_t>(n), sorted, pdiv_, pdens_, scratch_a_, scratch_b_);
+  std::swap(pdiv_, scratch_a_);
+  std::swap(pdens_, scratch_b_);
+}
+
+void DfsphSolver::factors(const SimParams& p, const DfsphFields& f) {
+  kernels_.call("dfsph_factor", p.n_fluid, kLocal, p, *f.pos, *f.phase, *f.density, *f.snbr, *f.snbr_count, *f.bpos,
+                *f.sbnbr, *f.sbnbr_count, alpha_);
+}
+
+void DfsphSolver::source(Kind kind, const SimParams& p, const DfsphFields& f, bool warm) {
+  const int w = warm ? 1 : 0;
+  const float omega = static_cast<float>(spec_.relaxation);
+  if (kind == Kind::Divergence)
+    kernels_.call("dfsph_divergence_source", p.n_fluid, kLocal, p, *f.pos, *f.vel, alpha_, *f.snbr, *f.snbr_count,
+                  *f.bpos, *f.bvel, *f.sbnbr, *f.sbnbr_count, min_neighbours_, w, omega, scratch_a_, pinc_, err_);
+  else
+    kernels_.call("dfsph_density_source", p.n_fluid, kLocal, p, *f.pos, *f.vel, *f.phase, *f.density, alpha_,
+                  *f.snbr, *f.snbr_count, *f.bpos, *f.bvel, *f.sbnbr, *f.sbnbr_count, w, omega, scratch_a_, pinc_, err_);
+}
+
+void DfsphSolver::apply(const SimParams& p, const DfsphFields& f, cl::Buffer& pacc) {
+  kernels_.call("dfsph_apply", p.n_fluid, kLocal, p, *f.pos, *f.vel, *f.phase, *f.density, pinc_, pacc, *f.snbr,
+                *f.snbr_count, *f.bpos, *f.sbnbr, *f.sbnbr_count);
+}
+
+double DfsphSolver::averageError(std::size_t n) {
+  // Chunk sums on the device, the chunks added in order here (double): a fixed order.
+  const uint32_t chunk = static_cast<uint32_t>((n + kChunks - 1) / kChunks);
+  kernels_.call("dfsph_reduce", kChunks, 0, static_cast<uint32_t>(n), chunk, err_, partial_);
+  std::vector<float> part(kChunks);
+  clCall("reading the DFSPH error",
+         [&] { return cl_.queue().enqueueReadBuffer(partial_, CL_TRUE, 0, kChunks * 4, part.data()); });
+  double sum = 0.0;
+  for (float v : part) sum += v;
+  return n > 0 ? sum / static_cast<double>(n) : 0.0;
+}
+
+DfsphSolveResult DfsphSolver::solve(Kind kind, const SimParams& p, const DfsphFields& f) {
+  const bool div = kind == Kind::Divergence;
+  cl::Buffer& pacc = div ? pdiv_ : pdens_;
+  const std::size_t n = p.n_fluid;
+  const double bound = div ? spec_.divergence_error : spec_.density_error;
+  const int min_it = div ? spec_.divergence_min_iterations : spec_.min_iterations;
+  const int max_it = div ? spec_.divergence_max_iterations : spec_.max_iterations;
+  // Warm start (B&K 2017 section 4.4): half the previous step's pressure where the flow now
+  // compresses (kernels/dfsph.cl, dfsph_warm) is applied first (scratch_a_ holds the previous
+  // pressure meanwhile); without it the solve starts from zero.
+  clCall("starting a DFSPH solve", [&] {
+    auto& q = cl_.queue();
+    if (spec_.warm_start) q.enqueueCopyBuffer(pacc, scratch_a_, 0, 0, std::max<std::size_t>(n, 1) * 4);
+    return q.enqueueFillBuffer(pacc, 0.0f, 0, std::max<std::size_t>(n, 1) * 4);
+  });
+  if (spec_.warm_start) {
+    source(kind, p, f, true);
+    apply(p, f, pacc);
+  }
+  // Jacobi iterations: pressures from the velocities, the error of those velocities, then the
+  // velocities from the pressures, until the error is within the bound.
+  DfsphSolveResult r;
+  source(kind, p, f, false);
+  r.error = averageError(n);
+  while ((r.iterations < min_it || r.error > bound) && r.iterations < max_it) {
+    apply(p, f, pacc);
+    source(kind, p, f, false);
+    r.error = averageError(n);
+    ++r.iterations;
+  }
+  r.converged = r.error <= bound;
+  return r;
+}
+
+DfsphSolveResult DfsphSolver::divergenceSolve(const SimParams& p, const DfsphFields& f) {
+  return solve(Kind::Divergence, p, f);
+}
+
+DfsphSolveResult DfsphSolver::densitySolve(const SimParams& p, const DfsphFields& f) {
+  // Keep the velocities the viscous forces saw (for the rigid coupling), then v* = v + dt a.
+  clCall("keeping the velocities",
+         [&] { return cl_.queue().enqueueCopyBuffer(*f.vel, vel_before_, 0, 0, std::max<std::size_t>(p.n_fluid, 1) * 16); });
+  kernels_.call("dfsph_predict", p.n_fluid, kLocal, p, *f.vel, *f.acc);
+  return solve(Kind::Density, p, f);
+}
+
+void DfsphSolver::finish(const SimParams& p, const DfsphFields& f) {
+  kernels_.call("dfsph_finish", p.n_fluid, kLocal, p, *f.phase, *f.density, pdiv_, pdens_, *f.pressure, *f.pterm);
+}
+
+}  // namespace sph

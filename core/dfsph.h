@@ -1,0 +1,90 @@
+// DFSPH: divergence-free SPH on the device (Bender & Koschier 2017, Alg. 1-3; kernels/dfsph.cl).
+//
+// The solver owns its per-particle buffers (factors, accumulated pressures of both solves, the
+// Jacobi increments and the per-particle errors); the particle fields and neighbour lists it reads
+// belong to the Simulation and come in a DfsphFields view. Per step, in Simulation::step():
+//
+//   density pass (density.cl) ─► factors alpha ─► divergence solve: v made divergence-free
+//        ─► gravity, viscosity into acc ─► v* = v + dt a ─► density solve: v* keeps delta = delta0
+//        ─► finish: pressure for output, p / delta^2 for the rigid coupling ─► integrate (x += dt v)
+//
+// Each solve iterates Jacobi passes (source: pressures from velocities; apply: velocities from
+// pressures) until the average error is below its bound (and the least iterations are done) or
+// the most iterations are reached. The average is summed in fixed chunks on the device and the
+// chunks in order on the host: bitwise deterministic.
+#pragma once
+
+#include "core/cl_context.h"
+#include "core/scene_spec.h"
+#include "kernels/shared/sim_params.h"
+
+#include <cstddef>
+#include <cstdint>
+
+namespace sph {
+
+/// The Simulation's buffers the solver reads and writes (current halves of the double buffers).
+struct DfsphFields {
+  const cl::Buffer* pos = nullptr;        ///< (n x float4) (unit: m)
+  cl::Buffer* vel = nullptr;              ///< (n x float4), updated by the solves (unit: m/s)
+  cl::Buffer* acc = nullptr;              ///< (n x float4) non-pressure acceleration; cleared by the prediction (unit: m/s^2)
+  const cl::Buffer* phase = nullptr;      ///< (n) phase index
+  const cl::Buffer* density = nullptr;    ///< (n) mass density rho (unit: kg/m^3)
+  const cl::Buffer* snbr = nullptr;       ///< this step's fluid neighbours within H (n x max_neighbours)
+  const cl::Buffer* snbr_count = nullptr;
+  const cl::Buffer* bpos = nullptr;       ///< boundary particles: xyz (unit: m), w = V_b / V0
+  const cl::Buffer* bvel = nullptr;       ///< boundary particles' velocities (unit: m/s)
+  const cl::Buffer* sbnbr = nullptr;      ///< this step's boundary neighbours within H
+  const cl::Buffer* sbnbr_count = nullptr;
+  cl::Buffer* pressure = nullptr;         ///< (n) written by finish: density-solve pressure (unit: Pa)
+  cl::Buffer* pterm = nullptr;            ///< (n) written by finish: p / delta^2 of both solves (unit: Pa m^6)
+};
+
+/// How one solve ended.
+struct DfsphSolveResult {
+  int iterations = 0;     ///< Jacobi iterations (source + apply), the warm start not counted
+  double error = 0.0;     ///< average error reached (unit: 1, relative to rho0)
+  bool converged = true;  ///< error <= bound when it stopped
+};
+
+class DfsphSolver {
+ public:
+  DfsphSolver(ClContext& cl, KernelSet& kernels, std::size_t capacity, const DfsphSpec& spec, double dx, double support);
+  /// Device memory of the solver's buffers (unit: bytes).
+  std::size_t bytes() const { return bytes_; }
+
+  /// The accumulated pressures follow the particles when the grid stage reorders them.
+  void reorder(std::size_t n, const cl::Buffer& sorted);
+  /// Factors alpha (B&K 2017 eq. 9); every step, after the density pass.
+  void factors(const SimParams& p, const DfsphFields& f);
+  /// Divergence solve (B&K 2017 Alg. 2) on the current velocities.
+  DfsphSolveResult divergenceSolve(const SimParams& p, const DfsphFields& f);
+  /// v* = v + dt a (acc cleared), then the density solve (B&K 2017 Alg. 3).
+  DfsphSolveResult densitySolve(const SimParams& p, const DfsphFields& f);
+  /// The pressure to export and p / delta^2 for the rigid coupling (kernels/dfsph.cl, dfsph_finish).
+  void finish(const SimParams& p, const DfsphFields& f);
+  /// The velocities before this step's density solve: what the viscous forces saw, so that the
+  /// rigid coupling's viscous reaction matches them (n x float4) (unit: m/s).
+  const cl::Buffer& viscousVelocities() const { return vel_before_; }
+
+ private:
+  enum class Kind { Divergence, Density };
+  DfsphSolveResult solve(Kind kind, const SimParams& p, const DfsphFields& f);
+  void source(Kind kind, const SimParams& p, const DfsphFields& f, bool warm);
+  void apply(const SimParams& p, const DfsphFields& f, cl::Buffer& pacc);
+  double averageError(std::size_t n);
+  cl::Buffer makeBuffer(std::size_t bytes);
+
+  ClContext& cl_;
+  KernelSet& kernels_;
+  DfsphSpec spec_;
+  uint32_t min_neighbours_ = 0;  // divergence solve: fewer neighbours = free surface, left alone
+  std::size_t bytes_ = 0;
+  static constexpr uint32_t kChunks = 64;  // chunks of the error reduction
+  cl::Buffer alpha_, pinc_, err_, partial_;
+  cl::Buffer pdiv_, pdens_;                // accumulated pressures (unit: Pa), kept for the warm start
+  cl::Buffer vel_before_;                  // velocities before the density solve (unit: m/s)
+  cl::Buffer scratch_a_, scratch_b_;       // reorder targets (swapped with pdiv_, pdens_); a: the previous pressure in a warm start
+};
+
+}  // namespace sph

@@ -1,0 +1,246 @@
+/* Divergence-free SPH (stages: divergence_solve, density_solve; solver dfsph only).
+ *
+ * Bender & Koschier 2017, "Divergence-Free SPH for Incompressible and Viscous Fluids" (IEEE TVCG),
+ * Alg. 1-3, written here for the symmetric multi-fluid pressure force that the WCSPH path uses
+ * (Solenthaler & Pajarola 2008 eq. 6, pressure.cl), with number densities delta = rho / m, so that
+ * phases of different rest densities share one target, delta0 = 1 / V0 (V0 = dx^3):
+ *     a_i^p = -(1/m_i) [ sum_j (p_i/delta_i^2 + p_j/delta_j^2) gradW_ij + sum_b psi_b 2 p_i/delta_i^2 gradW_ib ]
+ * Boundary particles b (psi_b = V_b / V0, Akinci et al. 2012) mirror the fluid particle's pressure
+ * (p_b = p_i; the symmetric term then weighs 2 p_i), so a wall holds the column at the fluid's spacing.
+ *
+ * The factor (B&K 2017 eq. 8-9): the pressure p_i alone, acting on i and, equal and opposite, on
+ * its neighbours over one step dt, changes delta_i by
+ *     Delta delta_i = -dt^2 p_i / delta_i^2 D_i,
+ *     D_i = (1/m_i) (G_f + 2 G_b) . (G_f + G_b) + sum_j |gradW_ij|^2 / m_j,
+ *     G_f = sum_j gradW_ij,   G_b = sum_b psi_b gradW_ib,
+ * so alpha_i = delta_i^2 / D_i (unit: kg m^2) turns a number-density defect into a pressure:
+ *     density solve (B&K eq. 12):    p_i = (delta*_i - delta0) alpha_i / dt^2,
+ *     divergence solve (B&K eq. 15): p_i = (D delta_i / Dt) alpha_i / dt,
+ * with delta*_i = delta_i + dt D delta_i / Dt the density predicted from the current velocities and
+ *     D delta_i / Dt = sum_j (v_i - v_j) . gradW_ij + sum_b psi_b (v_i - v_b) . gradW_ib   (B&K eq. 2).
+ * Jacobi style: one pass computes every particle's pressure from the velocities (source), the next
+ * applies them (apply); each gathers from its neighbours and writes only its own particle. The
+ * increments are relaxed by omega (fluid.dfsph.relaxation): the diagonal alpha is exact, but the
+ * neighbours' pressures act on i too, and unrelaxed Jacobi overshoots (measured in the hydrostatic
+ * tank: omega 1 churns the fluid near the walls at 0.2-0.3 m/s, omega 0.5 at 0.1 m/s). Only
+ * compressions are corrected: each increment is >= 0, as in the reference implementation (an
+ * iteration that also let the increments go negative, down to zero accumulated pressure, diverged
+ * in the hydrostatic tank within 20 steps: Jacobi then overshoots back and forth). The pressure
+ * applied in a solve accumulates per particle (pacc); half of it starts the next step's solve where
+ * that step compresses (warm start, dfsph_warm below).
+ *
+ * Neighbours: this step's lists within H (snbr, sbnbr; density.cl). */
+
+/* Factor alpha_i = delta_i^2 / D_i (B&K 2017 eq. 9, for the pressure force above). */
+__kernel void dfsph_factor(const SimParams p, __global const float4* pos, __global const uint* phase,
+                           __global const float* density, __global const uint* nbr, __global const uint* nbr_count,
+                           __global const float4* bpos, __global const uint* bnbr,
+                           __global const uint* bnbr_count, __global float* alpha) {
+  const uint i = get_global_id(0);
+  if (i >= p.n_fluid) return;
+  const uint K = p.max_neighbours;
+  const float H = p.support;
+  const float3 xi = pos[i].xyz;
+  const float mi = p.phase_mass[phase[i]];
+  /* sums of gradients over fluid and boundary, and sum_j |gradW_ij|^2 / m_j */
+  float3 gf = (float3)(0.0f), gb = (float3)(0.0f);
+  float s2 = 0.0f;
+  const uint nf = nbr_count[i];
+  for (uint k = 0; k < nf; ++k) {
+    const uint j = nbr[(size_t)i * K + k];
+    const float3 d = xi - pos[j].xyz;
+    const float3 g = sph_grad_factor(SPH_KERNEL, length(d), H) * d;
+    gf += g;
+    s2 += dot(g, g) / p.phase_mass[phase[j]];
+  }
+  const uint nb = bnbr_count[i];
+  for (uint k = 0; k < nb; ++k) {
+    const float4 bb = bpos[bnbr[(size_t)i * K + k]];
+    const float3 d = xi - bb.xyz;
+    gb += bb.w * sph_grad_factor(SPH_KERNEL, length(d), H) * d;
+  }
+  const float D = dot(gf + 2.0f * gb, gf + gb) / mi + s2;
+  const float delta = density[i] / mi;
+  /* a particle without neighbours takes no pressure */
+  alpha[i] = D > 0.0f ? delta * delta / D : 0.0f;
+}
+
+/* D delta_i / Dt (B&K 2017 eq. 2, number density): the rate at which the neighbours close in. */
+inline float dfsph_density_rate(const SimParams* p, const uint i, __global const float4* pos,
+                                __global const float4* vel, __global const uint* nbr, const uint nf,
+                                __global const float4* bpos, __global const float4* bvel,
+                                __global const uint* bnbr, const uint nb) {
+  const float H = p->support;
+  const float3 xi = pos[i].xyz, vi = vel[i].xyz;
+  /* fluid neighbours eight at a time (shared/pair_loops.h: pocl leaves such loops scalar), the
+   * lanes summed in a fixed order, then the rest one by one */
+  float8 acc = (float8)(0.0f);
+  uint k = 0;
+  for (; k + 8 <= nf; k += 8) {
+    const uint8 j = vload8(0, nbr + k);
+    SPH_LOAD8(x, pos, j);
+    SPH_LOAD8(v, vel, j);
+    const float8 dx = xi.x - SPH_LANES8(x, x), dy = xi.y - SPH_LANES8(x, y), dz = xi.z - SPH_LANES8(x, z);
+    const float8 F = sph_grad_factor8(sqrt(dx * dx + dy * dy + dz * dz), H);
+    acc += F * ((vi.x - SPH_LANES8(v, x)) * dx + (vi.y - SPH_LANES8(v, y)) * dy + (vi.z - SPH_LANES8(v, z)) * dz);
+  }
+  float rate = sph_hsum8(acc);
+  for (; k < nf; ++k) {
+    const uint j = nbr[k];
+    const float3 d = xi - pos[j].xyz;
+    rate += sph_grad_factor(SPH_KERNEL, length(d), H) * dot(vi - vel[j].xyz, d);
+  }
+  for (k = 0; k < nb; ++k) {
+    const uint b = bnbr[k];
+    const float4 bb = bpos[b];
+    const float3 d = xi - bb.xyz;
+    rate += bb.w * sph_grad_factor(SPH_KERNEL, length(d), H) * dot(vi - bvel[b].xyz, d);
+  }
+  return rate;
+}
+
+/* Warm start (B&K 2017 section 4.4, as the reference implementation does it): half the previous
+ * step's accumulated pressure, and only where the current velocities compress. (The full pressure,
+ * everywhere, ratcheted up: increments are >= 0, so a pressure left at a particle that had since
+ * expanded pushed on, step after step; the hydrostatic tank blew up at 0.6 s.) */
+inline float dfsph_warm(const bool compressing, const float previous) {
+  return compressing ? 0.5f * previous : 0.0f;
+}
+
+/* Source of the divergence solve (B&K 2017 Alg. 2, eq. 15): p_i = (D delta_i / Dt) alpha_i / dt.
+ * Particles with fewer than `min_neighbours` neighbours (free surface, splashes) are left alone,
+ * as in the reference implementation: their density rate is not that of a full support.
+ * err_i = max(D delta_i / Dt, 0) V0 dt: the relative density change over one step. */
+__kernel void dfsph_divergence_source(const SimParams p, __global const float4* pos, __global const float4* vel,
+                                      __global const float* alpha, __global const uint* nbr,
+                                      __global const uint* nbr_count, __global const float4* bpos,
+                                      __global const float4* bvel, __global const uint* bnbr,
+                                      __global const uint* bnbr_count, const uint min_neighbours,
+                                      const int warm, const float omega, __global const float* pprev,
+                                      __global float* pinc,
+                                      __global float* err) {
+  const uint i = get_global_id(0);
+  if (i >= p.n_fluid) return;
+  const uint K = p.max_neighbours;
+  const uint nf = nbr_count[i], nb = bnbr_count[i];
+  float rate = dfsph_density_rate(&p, i, pos, vel, nbr + (size_t)i * K, nf, bpos, bvel, bnbr + (size_t)i * K, nb);
+  if (nf + nb < min_neighbours) rate = 0.0f;
+  pinc[i] = warm ? dfsph_warm(rate > 0.0f, pprev[i]) : fmax(omega * rate * alpha[i] / p.dt, 0.0f);
+  err[i] = fmax(rate, 0.0f) * p.rest_volume * p.dt;
+}
+
+/* Source of the density solve (B&K 2017 Alg. 3, eq. 12): delta*_i = delta_i + dt D delta_i / Dt,
+ * p_i = (delta*_i - delta0) alpha_i / dt^2. err_i = max(delta*_i V0 - 1, 0): the relative
+ * compression the current velocities would leave at the end of the step. */
+__kernel void dfsph_density_source(const SimParams p, __global const float4* pos, __global const float4* vel,
+                                   __global const uint* phase, __global const float* density,
+                                   __global const float* alpha, __global const uint* nbr,
+                                   __global const uint* nbr_count, __global const float4* bpos,
+                                   __global const float4* bvel, __global const uint* bnbr,
+                                   __global const uint* bnbr_count, const int warm, const float omega,
+                                   __global const float* pprev,
+                                   __global float* pinc, __global float* err) {
+  const uint i = get_global_id(0);
+  if (i >= p.n_fluid) return;
+  const uint K = p.max_neighbours;
+  const float rate = dfsph_density_rate(&p, i, pos, vel, nbr + (size_t)i * K, nbr_count[i], bpos, bvel,
+                                        bnbr + (size_t)i * K, bnbr_count[i]);
+  const float delta = density[i] / p.phase_mass[phase[i]];
+  const float s = (delta + p.dt * rate) * p.rest_volume - 1.0f; /* relative density error */
+  pinc[i] = warm ? dfsph_warm(s > 0.0f, pprev[i]) : fmax(omega * s / p.rest_volume * alpha[i] / (p.dt * p.dt), 0.0f);
+  err[i] = fmax(s, 0.0f);
+}
+
+/* Applies the pressures pinc: v_i += dt a_i^p (the force at the top of this file), and adds them to
+ * the accumulated pressure. Reads the neighbours' pressures, writes only particle i. */
+__kernel void dfsph_apply(const SimParams p, __global const float4* pos, __global float4* vel,
+                          __global const uint* phase, __global const float* density, __global const float* pinc,
+                          __global float* pacc, __global const uint* nbr, __global const uint* nbr_count,
+                          __global const float4* bpos, __global const uint* bnbr, __global const uint* bnbr_count) {
+  const uint i = get_global_id(0);
+  if (i >= p.n_fluid) return;
+  const uint K = p.max_neighbours;
+  const float H = p.support;
+  const float3 xi = pos[i].xyz;
+  const float mi = p.phase_mass[phase[i]];
+  const float di = density[i] / mi;
+  const float ti = pinc[i] / (di * di); /* p_i / delta_i^2 */
+  float3 f = (float3)(0.0f);           /* pressure force (unit: N) */
+  const uint nf = nbr_count[i];
+  __global const uint* list = nbr + (size_t)i * K;
+  /* fluid neighbours eight at a time (as dfsph_density_rate), then the rest one by one */
+  float8 fx = (float8)(0.0f), fy = fx, fz = fx;
+  uint k = 0;
+  for (; k + 8 <= nf; k += 8) {
+    const uint8 j = vload8(0, list + k);
+    SPH_LOAD8(x, pos, j);
+    const float8 dx = xi.x - SPH_LANES8(x, x), dy = xi.y - SPH_LANES8(x, y), dz = xi.z - SPH_LANES8(x, z);
+    const float8 F = sph_grad_factor8(sqrt(dx * dx + dy * dy + dz * dz), H);
+    const uint8 phj = (uint8)(phase[j.s0], phase[j.s1], phase[j.s2], phase[j.s3], phase[j.s4], phase[j.s5],
+                              phase[j.s6], phase[j.s7]);
+    const float8 dj = SPH_GATHER8(density, j) / SPH_GATHER8(p.phase_mass, phj);
+    const float8 c = (ti + SPH_GATHER8(pinc, j) / (dj * dj)) * F;
+    fx -= c * dx;
+    fy -= c * dy;
+    fz -= c * dz;
+  }
+  f = (float3)(sph_hsum8(fx), sph_hsum8(fy), sph_hsum8(fz));
+  for (; k < nf; ++k) {
+    const uint j = list[k];
+    const float3 d = xi - pos[j].xyz;
+    const float dj = density[j] / p.phase_mass[phase[j]];
+    f -= (ti + pinc[j] / (dj * dj)) * sph_grad_factor(SPH_KERNEL, length(d), H) * d;
+  }
+  const uint nb = bnbr_count[i];
+  for (k = 0; k < nb; ++k) {
+    const float4 bb = bpos[bnbr[(size_t)i * K + k]];
+    const float3 d = xi - bb.xyz;
+    f -= bb.w * 2.0f * ti * sph_grad_factor(SPH_KERNEL, length(d), H) * d;
+  }
+  vel[i] += (float4)(p.dt / mi * f, 0.0f);
+  pacc[i] += pinc[i];
+}
+
+/* Per-chunk sums of err (chunk c: particles c*chunk .. (c+1)*chunk - 1, in order), for the average
+ * error; the host adds the chunks in order: a fixed order, so runs are bitwise deterministic. */
+__kernel void dfsph_reduce(const uint n, const uint chunk, __global const float* err, __global float* partial) {
+  const uint c = get_global_id(0);
+  const uint begin = c * chunk;
+  const uint end = min(begin + chunk, n);
+  float s = 0.0f;
+  for (uint k = begin; k < end; ++k) s += err[k];
+  partial[c] = s;
+}
+
+/* Non-pressure forces (gravity, viscosity: acc) before the density solve: v* = v + dt a; acc is
+ * cleared, so that the integrator's v += dt a adds nothing after the solve. */
+__kernel void dfsph_predict(const SimParams p, __global float4* vel, __global float4* acc) {
+  const uint i = get_global_id(0);
+  if (i >= p.n_fluid) return;
+  vel[i] += p.dt * acc[i];
+  acc[i] = (float4)(0.0f);
+}
+
+/* After both solves: the pressure to export (the density solve's, in Pa) and what the rigid
+ * coupling reads, p / delta^2 of all pressure that acted this step (both solves; the reaction on
+ * bodies then balances what the fluid received: Newton's third law). */
+__kernel void dfsph_finish(const SimParams p, __global const uint* phase, __global const float* density,
+                           __global const float* pdiv, __global const float* pdens, __global float* pressure,
+                           __global float* pterm) {
+  const uint i = get_global_id(0);
+  if (i >= p.n_fluid) return;
+  const float d = density[i] / p.phase_mass[phase[i]];
+  pressure[i] = pdens[i];
+  pterm[i] = (pdiv[i] + pdens[i]) / (d * d);
+}
+
+/* The accumulated pressures follow their particles when the grid stage reorders them (grid.cl,
+ * grid_reorder: slot s takes particle sorted[s]). */
+__kernel void dfsph_reorder(const uint n, __global const uint* sorted, __global const float* a,
+                            __global const float* b, __global float* a_out, __global float* b_out) {
+  const uint s = get_global_id(0);
+  if (s >= n) return;
+  const uint j = sorted[s];
+  a_out[s] = a[j];
+  b_out[s] = b[j];
+}
