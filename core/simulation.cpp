@@ -311,14 +311,7 @@ FrameReport Simulation::advanceFrame() {
     rep.messages = std::move(pending_messages_);
     pending_messages_.clear();
     ++frame_;
-    if (sim.numerical_errors == NumericalPolicy::Abort && (rep.nonfinite > 0 || rep.cfl_violations > 0)) {
-      std::ostringstream s;
-      s << "numerical failure at frame " << rep.frame << ", t = " << rep.time << " s: ";
-      if (rep.nonfinite) s << rep.nonfinite << " particle(s) with NaN/inf (stage: density_solve); ";
-      if (rep.cfl_violations) s << rep.cfl_violations << " particle(s) moved more than h in one step (CFL, stage: integrate); ";
-      if (rep.first_bad_id >= 0) s << "first particle id " << rep.first_bad_id;
-      throw NumericalError(s.str());
-    }
+    abortOnNumericalFailure(rep, "density_solve");
     return rep;
   }
   // Time-step control: the scene's substeps, checked against the CFL and viscous limits
@@ -362,19 +355,23 @@ FrameReport Simulation::advanceFrame() {
   pending_messages_.clear();
   ++frame_;
 
-  // Policy: abort on NaN/inf or a CFL violation, naming frame, time, stage and particle. Wall
-  // crossings were already repaired (the particle is back inside): they are reported, not fatal.
-  if (sim.numerical_errors == NumericalPolicy::Abort && (rep.nonfinite > 0 || rep.cfl_violations > 0)) {
-    std::ostringstream s;
-    s << "numerical failure at frame " << rep.frame << ", t = " << rep.time << " s: ";
-    if (rep.nonfinite) s << rep.nonfinite << " particle(s) with NaN/inf (stage: integrate); ";
-    if (rep.cfl_violations)
-      s << rep.cfl_violations << " particle(s) moved more than h in one step (CFL, stage: integrate; dt = " << dt
-        << " s); ";
-    if (rep.first_bad_id >= 0) s << "first particle id " << rep.first_bad_id;
-    throw NumericalError(s.str());
-  }
+  abortOnNumericalFailure(rep, "integrate");
   return rep;
+}
+
+// Policy: abort on NaN/inf or a CFL violation, naming frame, time, stage and particle. Wall
+// crossings were already repaired (the particle is back inside): they are reported, not fatal.
+void Simulation::abortOnNumericalFailure(const FrameReport& rep, const char* nonfinite_stage) const {
+  if (model_.spec.simulation.numerical_errors != NumericalPolicy::Abort || (rep.nonfinite == 0 && rep.cfl_violations == 0))
+    return;
+  std::ostringstream s;
+  s << "numerical failure at frame " << rep.frame << ", t = " << rep.time << " s: ";
+  if (rep.nonfinite) s << rep.nonfinite << " particle(s) with NaN/inf (stage: " << nonfinite_stage << "); ";
+  if (rep.cfl_violations)
+    s << rep.cfl_violations << " particle(s) moved more than h in one step (CFL, stage: integrate; dt = " << rep.dt
+      << " s); ";
+  if (rep.first_bad_id >= 0) s << "first particle id " << rep.first_bad_id;
+  throw NumericalError(s.str());
 }
 
 // --- Stages ------------------------------------------------------------------------------------

@@ -168,6 +168,7 @@ class Simulation {
   void gatherClothForces();
   FrameReport runDiagnostics();
   void prepareInitialState();
+  void abortOnNumericalFailure(const FrameReport& rep, const char* nonfinite_stage) const;
   cl::Buffer makeBuffer(std::size_t bytes);
 
   // A timed block: waits for the queue at its end so the profile is per stage.
