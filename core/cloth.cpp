@@ -135,7 +135,8 @@ ClothModel compileCloths(const std::vector<ClothSpec>& specs, std::vector<InputI
     auto id = [&](int i, int j) { return base + static_cast<uint32_t>(j * nx + i); };
     const double tear = std::isinf(s.tear_strain) ? std::numeric_limits<float>::max() : s.tear_strain;
     auto add = [&](int i0, int j0, int i1, int j1, double k, SpringKind kind) {
-      if (k <= 0.0 || i1 < 0 || i1 >= nx || j1 < 0 || j1 >= ny) return;
+      // Both ends on the grid (a shear spring starts at (i + 1, j), which the last column lacks).
+      if (k <= 0.0 || i0 < 0 || i0 >= nx || j0 < 0 || j0 >= ny || i1 < 0 || i1 >= nx || j1 < 0 || j1 >= ny) return;
       const uint32_t a = id(i0, j0), b = id(i1, j1);
       const double L0 = (x[a - base] - x[b - base]).norm();
       ends.push_back({std::min(a, b), std::max(a, b)});

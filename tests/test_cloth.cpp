@@ -75,7 +75,7 @@ std::vector<Eigen::Vector4f> positions(Simulation& sim) {
 
 }  // namespace
 
-TEST_CASE("Cloth: the spring table holds each spring in both ends' rows; colours share no node", "[cloth]") {
+TEST_CASE("Cloth: the spring table holds each spring in both ends' rows, and colours share no node", "[cloth]") {
   // A 4 x 3 cloth with every spring kind: stretch 3*3 + 4*2 = 17, shear 2*3*2 = 12, bend 2*3 + 4*1 = 10.
   ClothSpec c;
   c.name = "c";

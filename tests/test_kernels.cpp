@@ -102,7 +102,7 @@ TEST_CASE("kernel math: W >= 0, compact support, unit integral", "[kernels]") {
   }
 }
 
-TEST_CASE("kernel math: grad factor is dW/dr / r; gradient antisymmetric", "[kernels]") {
+TEST_CASE("kernel math: grad factor is dW/dr / r, gradient antisymmetric", "[kernels]") {
   for (int kind : kKinds) {
     const float H = 0.04f;
     for (float q : {0.05f, 0.1f, 0.25f, 0.4f, 0.49f, 0.51f, 0.6f, 0.75f, 0.9f, 0.97f}) {
@@ -1152,12 +1152,12 @@ TEST_CASE("viscosity_force (artificial, Monaghan), Wendland C2, equals the brute
   checkViscosity(false, SPH_KERNEL_WENDLAND_C2);
 }
 
-TEST_CASE("viscosity_force (laminar, Morris; -DSPH_LAMINAR=1), cubic spline, equals the brute-force reference",
+TEST_CASE("viscosity_force (laminar, Morris, -DSPH_LAMINAR=1), cubic spline, equals the brute-force reference",
           "[kernels]") {
   checkViscosity(true, SPH_KERNEL_CUBIC_SPLINE);
 }
 
-TEST_CASE("viscosity_force (laminar, Morris; -DSPH_LAMINAR=1), Wendland C2, equals the brute-force reference",
+TEST_CASE("viscosity_force (laminar, Morris, -DSPH_LAMINAR=1), Wendland C2, equals the brute-force reference",
           "[kernels]") {
   checkViscosity(true, SPH_KERNEL_WENDLAND_C2);
 }
