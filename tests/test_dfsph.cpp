@@ -3,6 +3,7 @@
 // bad input. Small scenes from scenes/tests/; tolerances from the physics, stated with each check.
 #include "cli/analysis.h"
 #include "cli/runner.h"
+#include "tests/scene_runs.h"
 #include "core/errors.h"
 #include "core/model.h"
 #include "core/rigid.h"
@@ -20,17 +21,9 @@ using namespace sph;
 
 namespace {
 
-std::string scenePath(const std::string& name) { return std::string(SPHAPTICS_SOURCE_DIR) + "/scenes/tests/" + name; }
-std::string dataPath(const std::string& name) { return std::string(SPHAPTICS_SOURCE_DIR) + "/tests/data/" + name; }
-
-app::RunOptions quietRun(const std::string& scene, std::vector<std::string> sets = {}) {
-  app::RunOptions o;
-  o.scene = scenePath(scene);
-  o.quiet = true;
-  o.write_output = false;
-  o.sets = std::move(sets);
-  return o;
-}
+using testing::dataPath;
+using testing::quietRun;
+using testing::scenePath;
 
 /// The hydrostatic tank (scenes/tests/hydrostatic.yaml) probed as in test_physics.cpp: per layer one
 /// spacing thick in the middle of the tank, the pressure averaged over the frames from 1 s on, and

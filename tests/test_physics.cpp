@@ -3,6 +3,7 @@
 // OpenCL device (pocl on CI). Tolerances come from the physics, stated next to each check.
 #include "cli/analysis.h"
 #include "cli/runner.h"
+#include "tests/scene_runs.h"
 #include "core/errors.h"
 #include "core/model.h"
 #include "core/probes.h"
@@ -20,17 +21,9 @@ using namespace sph;
 
 namespace {
 
-std::string scenePath(const std::string& name) { return std::string(SPHAPTICS_SOURCE_DIR) + "/scenes/tests/" + name; }
-std::string dataPath(const std::string& name) { return std::string(SPHAPTICS_SOURCE_DIR) + "/tests/data/" + name; }
-
-app::RunOptions quietRun(const std::string& scene, std::vector<std::string> sets = {}) {
-  app::RunOptions o;
-  o.scene = scenePath(scene);
-  o.quiet = true;
-  o.write_output = false;
-  o.sets = std::move(sets);
-  return o;
-}
+using testing::dataPath;
+using testing::quietRun;
+using testing::scenePath;
 
 double speed(const ParticleFrame& f, std::size_t i) {
   return std::sqrt(double(f.vx[i]) * f.vx[i] + double(f.vy[i]) * f.vy[i] + double(f.vz[i]) * f.vz[i]);
