@@ -1,6 +1,8 @@
 // H5Part particle input through the HDF5 C API (layout in io/h5part_writer.h).
 #include "io/h5part_reader.h"
 
+#include "io/hdf5_quiet.h"
+
 #include <hdf5.h>
 
 #include <stdexcept>
@@ -10,22 +12,6 @@
 namespace sph::io {
 
 namespace {
-
-/// Silences HDF5's printing of its error stack while in scope (failures become exceptions).
-class QuietHdf5 {
- public:
-  QuietHdf5() {
-    H5Eget_auto2(H5E_DEFAULT, &func_, &data_);
-    H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
-  }
-  ~QuietHdf5() { H5Eset_auto2(H5E_DEFAULT, func_, data_); }
-  QuietHdf5(const QuietHdf5&) = delete;
-  QuietHdf5& operator=(const QuietHdf5&) = delete;
-
- private:
-  H5E_auto2_t func_ = nullptr;
-  void* data_ = nullptr;
-};
 
 /// An HDF5 handle closed at scope exit.
 class Handle {

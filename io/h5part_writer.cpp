@@ -7,6 +7,8 @@
 //  - every dataset in a step has the same length N (N = 0 is allowed: an empty step).
 #include "io/h5part_writer.h"
 
+#include "io/hdf5_quiet.h"
+
 #include <hdf5.h>
 
 #include <stdexcept>
@@ -18,23 +20,6 @@ namespace sph::io {
 static_assert(sizeof(hid_t) == sizeof(int64_t), "H5PartWriter keeps its hid_t in an int64_t");
 
 namespace {
-
-/// Turns off HDF5's printing of its error stack to stderr while in scope: failures become
-/// exceptions whose message names the file and the step instead.
-class QuietHdf5 {
- public:
-  QuietHdf5() {
-    H5Eget_auto2(H5E_DEFAULT, &func_, &data_);
-    H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
-  }
-  ~QuietHdf5() { H5Eset_auto2(H5E_DEFAULT, func_, data_); }
-  QuietHdf5(const QuietHdf5&) = delete;
-  QuietHdf5& operator=(const QuietHdf5&) = delete;
-
- private:
-  H5E_auto2_t func_ = nullptr;
-  void* data_ = nullptr;
-};
 
 /// The most specific description on HDF5's current error stack ("" when empty).
 std::string hdf5Reason() {
