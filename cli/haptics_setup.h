@@ -4,6 +4,7 @@
 
 #include "core/model.h"
 #include "haptics/backends.h"
+#include "haptics/bridge_client.h"
 #include "haptics/live.h"
 #include "haptics/record.h"
 #include "haptics/session.h"
@@ -20,8 +21,10 @@ haptics::Trajectory hapticPath(const HapticsSpec& h);
 haptics::Mapping hapticMapping(const SceneSpec& spec);
 /// A batch (virtual-time) session for a compiled model whose scene has a `haptics` section.
 std::unique_ptr<haptics::BatchSession> makeBatchSession(const Model& model);
-/// A live session (servo thread, steady clock) for `sphaptics run --interactive`; not started.
-std::unique_ptr<haptics::LiveSession> makeLiveSession(const Model& model);
+/// A live source for `sphaptics run --interactive`, not started: the servo thread here against a
+/// scripted or simulated device on the steady clock, or (backend: bridge) the UDP link to a running
+/// sphaptics-bridge whose servo runs next to the device.
+std::unique_ptr<haptics::LiveSource> makeLiveSession(const Model& model);
 /// The replay of a recording's device readings through the model's grab logic (`sphaptics replay`).
 std::unique_ptr<haptics::ReplaySource> makeReplaySource(const Model& model, const haptics::Recording& rec);
 

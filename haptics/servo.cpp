@@ -27,6 +27,13 @@ void Servo::publish(const LocalModel& m) {
   ++pending_seq_;
 }
 
+void Servo::setSmoothing(Smoothing mode, int window) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  pending_smoothing_ = mode;
+  pending_window_ = std::max(1, window);
+  smoothing_changed_ = true;
+}
+
 ServoOutput Servo::step(Device& device) {
   DeviceState s;
   device.read(s);
@@ -45,6 +52,12 @@ ServoOutput Servo::tick(const DeviceState& s) {
   bool fresh = false;
   {
     std::lock_guard<std::mutex> lock(mutex_);
+    // A smoothing mode changed while running (LiveControls): from this tick on.
+    if (smoothing_changed_) {
+      cfg_.smoothing = pending_smoothing_;
+      cfg_.rolling_window = pending_window_;
+      smoothing_changed_ = false;
+    }
     if (pending_seq_ != seen_seq_) {
       seen_seq_ = pending_seq_;
       m0_ = m1_;

@@ -109,6 +109,9 @@ class Servo {
 
   /// From the simulation thread: a new LocalModel (its stamp set by the caller). Thread-safe.
   void publish(const LocalModel& m);
+  /// From any thread: switch the smoothing mode (and rolling-average window, unit: frames); the
+  /// servo takes it at its next tick.
+  void setSmoothing(Smoothing mode, int window);
   /// From the servo thread: one tick at s.time with the device reading s.
   ServoOutput tick(const DeviceState& s);
   /// Reads the device, ticks, writes the force: one servo period.
@@ -125,6 +128,9 @@ class Servo {
   std::mutex mutex_;
   LocalModel pending_;
   uint64_t pending_seq_ = 0, seen_seq_ = 0;
+  Smoothing pending_smoothing_ = Smoothing::Servo;
+  int pending_window_ = 20;
+  bool smoothing_changed_ = false;
   // First-order hold: the previous and current models.
   std::optional<LocalModel> m0_, m1_;
   std::deque<Eigen::Vector3d> rolling_;  // last N feed-forward forces (rolling average)

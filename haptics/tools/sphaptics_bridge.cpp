@@ -17,6 +17,7 @@
 #include <sched.h>
 
 #include <algorithm>
+#include <csignal>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -27,10 +28,16 @@
 
 using namespace sph::haptics;
 
+namespace {
+// SIGINT / SIGTERM end the loop at the next tick (the device is closed, the statistics printed).
+volatile std::sig_atomic_t g_stop = 0;
+extern "C" void onStop(int) { g_stop = 1; }
+}  // namespace
+
 int main(int argc, char** argv) {
   // Options: --listen PORT, --send PORT, --duration S, --rate HZ.
   int listen_port = 47001, send_port = 47002;
-  double duration = 10.0, rate = 1000.0;
+  double duration = 10.0, rate = 1000.0, ramp = 2.0;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     auto next = [&]() -> const char* {
@@ -44,8 +51,10 @@ int main(int argc, char** argv) {
     else if (a == "--send") send_port = std::atoi(next());
     else if (a == "--duration") duration = std::atof(next());
     else if (a == "--rate") rate = std::atof(next());
+    else if (a == "--ramp") ramp = std::atof(next());
     else if (a == "--help" || a == "-h") {
-      std::printf("usage: sphaptics-bridge [--listen PORT] [--send PORT] [--duration S] [--rate HZ]\n");
+      std::printf("usage: sphaptics-bridge [--listen PORT] [--send PORT] [--duration S] [--rate HZ] [--ramp S]\n"
+                  "  --duration: seconds to run (SIGINT/SIGTERM end it earlier); --ramp: start-up force ramp (unit: s)\n");
       return 0;
     } else {
       std::fprintf(stderr, "error: --%s: unknown option (see --help)\n", a.c_str() + (a.rfind("--", 0) == 0 ? 2 : 0));
@@ -53,10 +62,12 @@ int main(int argc, char** argv) {
     }
   }
   if (listen_port <= 0 || listen_port > 65535 || send_port <= 0 || send_port > 65535 || !(duration > 0) ||
-      !(rate >= 100 && rate <= 10000)) {
-    std::fprintf(stderr, "error: ports must be 1-65535, duration > 0 s, rate 100-10000 Hz\n");
+      !(rate >= 100 && rate <= 10000) || !(ramp >= 0 && ramp <= 60)) {
+    std::fprintf(stderr, "error: ports must be 1-65535, duration > 0 s, rate 100-10000 Hz, ramp 0-60 s\n");
     return 2;
   }
+  std::signal(SIGINT, onStop);
+  std::signal(SIGTERM, onStop);
   try {
     // The device, the servo, the socket.
     SteadyClock clock;
@@ -68,12 +79,13 @@ int main(int argc, char** argv) {
     device.open();
     ServoConfig cfg;
     cfg.rate = rate;
+    cfg.ramp_time = ramp;
     Servo servo(cfg, device.spec());
     UdpSocket socket(static_cast<uint16_t>(listen_port));
     bridge::SequenceFilter filter;
     uint64_t rejected = 0, overruns = 0;
     uint32_t seq = 0;
-    std::vector<double> periods;
+    std::vector<double> periods, ages;
     std::vector<uint8_t> buf(2048);
 
     // Real-time priority when permitted (SCHED_FIFO), else the ordinary scheduler.
@@ -85,7 +97,7 @@ int main(int argc, char** argv) {
     auto deadline = std::chrono::steady_clock::now();
     auto last = deadline;
     const long ticks = static_cast<long>(duration * rate);
-    for (long k = 0; k < ticks; ++k) {
+    for (long k = 0; k < ticks && !g_stop; ++k) {
       // Every datagram waiting: the newest valid LocalModel wins.
       for (int n = 0; n < 64; ++n) {
         const std::size_t len = socket.receive(buf, 0);
@@ -96,11 +108,18 @@ int main(int argc, char** argv) {
           ++rejected;
           continue;
         }
-        servo.publish(bridge::sanitize(p, device.spec(), clock.now()));
+        // Round-trip compensation: the model is stamped with the time of the State it was built
+        // from (this clock), so the hold extrapolates over the whole round trip. Never trusted:
+        // a stamp in the future or more than 1 s old is clamped (a stale one then fades out).
+        const double now = clock.now();
+        const double stamp = std::clamp(p.state_time, now - 1.0, now);
+        ages.push_back(now - stamp);
+        servo.publish(bridge::sanitize(p, device.spec(), stamp));
       }
       const ServoOutput o = servo.step(device);
       bridge::StatePacket sp;
       sp.header.sequence = ++seq;
+      sp.header.flags = o.flags;  // the servo's flags (haptics.csv `flags` on the simulation side)
       device.read(sp.state);
       sp.force = o.force;
       sp.servo_rate = rate;
@@ -124,6 +143,11 @@ int main(int argc, char** argv) {
                 periods.size(), 1e3 * pct(0.5), 1e3 * pct(0.99), 1e3 * (periods.empty() ? 0.0 : periods.back()),
                 static_cast<unsigned long long>(overruns), static_cast<unsigned long long>(filter.accepted()),
                 static_cast<unsigned long long>(rejected));
+    // The round trip the hold compensated: the age of each model's State on its arrival here.
+    std::sort(ages.begin(), ages.end());
+    if (!ages.empty())
+      std::printf("model age on arrival (round trip): p50 %.1f ms  max %.1f ms\n", 1e3 * ages[ages.size() / 2], 1e3 * ages.back());
+    std::fflush(stdout);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "error: %s\n", e.what());
     return 3;
