@@ -46,7 +46,8 @@ namespace sph::haptics {
 
 /// What the simulation tells the servo once per frame, in the device frame.
 struct LocalModel {
-  double stamp = 0;                                         ///< servo-clock time it was published (unit: s)
+  double stamp = 0;                                         ///< servo-clock time the state it describes was current (unit: s)
+  double received = -1;                                     ///< servo-clock time it reached the servo; < 0: at `stamp` (a bridge sets it: stamp = the State's time, one round trip earlier) (unit: s)
   Eigen::Vector3d anchor = Eigen::Vector3d::Zero();         ///< grasp point mapped to the device (unit: m)
   Eigen::Vector3d anchor_velocity = Eigen::Vector3d::Zero();///< (unit: m/s)
   Eigen::Vector3d feed_forward = Eigen::Vector3d::Zero();   ///< slowly varying load to render (unit: N)

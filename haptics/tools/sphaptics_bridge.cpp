@@ -114,7 +114,7 @@ int main(int argc, char** argv) {
         const double now = clock.now();
         const double stamp = std::clamp(p.state_time, now - 1.0, now);
         ages.push_back(now - stamp);
-        servo.publish(bridge::sanitize(p, device.spec(), stamp));
+        servo.publish(bridge::sanitize(p, device.spec(), stamp, now));
       }
       const ServoOutput o = servo.step(device);
       bridge::StatePacket sp;
