@@ -92,7 +92,9 @@ ServoOutput Servo::tick(const DeviceState& s) {
   fade_ = stale ? std::max(0.0, fade_ - dfade) : std::min(1.0, fade_ + dfade);
 
   Eigen::Vector3d f = Eigen::Vector3d::Zero();
-  const bool coupled = m1_ && m1_->coupled && cfg_.smoothing == Smoothing::Servo;
+  // Coupled: a body is held and the coupling renders something (a gain of 0 sends K_d = B_d = 0:
+  // no coupling, so no passivity damping either, and nothing is felt).
+  const bool coupled = m1_ && m1_->coupled && cfg_.smoothing == Smoothing::Servo && (m1_->stiffness > 0 || m1_->damping > 0);
   if (coupled) out.flags |= kCoupled;
   if (coupled != was_coupled_) {  // grab or release: the observer starts again
     energy_ = 0;
