@@ -2,7 +2,8 @@
 // the 1 kHz servo next to the device with absolute-deadline sleeps, takes LocalModels from the
 // simulation over UDP on 127.0.0.1 (newest wins, capped to the device's spec) and sends the device
 // State back every tick. The device is the simulated hand (a 0.15 kg mass on a grip spring to a
-// 2 cm circle); a real Touch needs the OpenHaptics backend, which is not written yet.
+// 2 cm circle, button 0 held: tests) or, with --device touch, an OpenHaptics device
+// (haptics/tools/openhaptics_device.cpp, built only when the vendor's HD/hd.h is found).
 //
 //   sphaptics-bridge --listen 47001 --send 47002 --duration 30
 //
@@ -12,6 +13,9 @@
 #include "haptics/bridge_protocol.h"
 #include "haptics/servo.h"
 #include "haptics/udp.h"
+#ifdef SPHAPTICS_HAVE_OPENHAPTICS
+#include "haptics/tools/openhaptics_device.h"
+#endif
 
 #include <pthread.h>
 #include <sched.h>
@@ -22,6 +26,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <memory>
 #include <string>
 #include <thread>
 #include <vector>
@@ -38,6 +43,7 @@ int main(int argc, char** argv) {
   // Options: --listen PORT, --send PORT, --duration S, --rate HZ.
   int listen_port = 47001, send_port = 47002;
   double duration = 10.0, rate = 1000.0, ramp = 2.0;
+  std::string device_kind = "simulated", device_name;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     auto next = [&]() -> const char* {
@@ -52,8 +58,13 @@ int main(int argc, char** argv) {
     else if (a == "--duration") duration = std::atof(next());
     else if (a == "--rate") rate = std::atof(next());
     else if (a == "--ramp") ramp = std::atof(next());
+    else if (a == "--device") device_kind = next();
+    else if (a == "--device-name") device_name = next();
     else if (a == "--help" || a == "-h") {
       std::printf("usage: sphaptics-bridge [--listen PORT] [--send PORT] [--duration S] [--rate HZ] [--ramp S]\n"
+                  "                        [--device simulated|touch] [--device-name NAME]\n"
+                  "  --device: simulated (a hand mass on a 2 cm circle, button 0 held; tests) or touch (OpenHaptics,\n"
+                  "            built only when HD/hd.h was found); --device-name: the OpenHaptics configuration name\n"
                   "  --duration: seconds to run (SIGINT/SIGTERM end it earlier); --ramp: start-up force ramp (unit: s)\n");
       return 0;
     } else {
@@ -66,21 +77,40 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "error: ports must be 1-65535, duration > 0 s, rate 100-10000 Hz, ramp 0-60 s\n");
     return 2;
   }
+  if (device_kind != "simulated" && device_kind != "touch") {
+    std::fprintf(stderr, "error: --device: '%s' is not simulated or touch\n", device_kind.c_str());
+    return 2;
+  }
+#ifndef SPHAPTICS_HAVE_OPENHAPTICS
+  if (device_kind == "touch") {
+    std::fprintf(stderr, "error: --device touch: this sphaptics-bridge was built without OpenHaptics (HD/hd.h and libHD "
+                         "were not found when it was configured; install the OpenHaptics SDK and build again)\n");
+    return 2;
+  }
+#endif
   std::signal(SIGINT, onStop);
   std::signal(SIGTERM, onStop);
   try {
     // The device, the servo, the socket.
     SteadyClock clock;
-    Segment circle;
-    circle.kind = SegmentKind::Circle;
-    circle.t0 = 0.0;
-    circle.t1 = duration;
-    SimulatedDevice device(Trajectory({circle}, {{0.0, 0, true}}), clock);
-    device.open();
+    std::unique_ptr<Device> device;
+    if (device_kind == "simulated") {
+      Segment circle;
+      circle.kind = SegmentKind::Circle;
+      circle.t0 = 0.0;
+      circle.t1 = duration;
+      device = std::make_unique<SimulatedDevice>(Trajectory({circle}, {{0.0, 0, true}}), clock);
+    }
+#ifdef SPHAPTICS_HAVE_OPENHAPTICS
+    else {
+      device = makeOpenHapticsDevice(device_name);
+    }
+#endif
+    device->open();
     ServoConfig cfg;
     cfg.rate = rate;
     cfg.ramp_time = ramp;
-    Servo servo(cfg, device.spec());
+    Servo servo(cfg, device->spec());
     UdpSocket socket(static_cast<uint16_t>(listen_port));
     bridge::SequenceFilter filter;
     uint64_t rejected = 0, overruns = 0;
@@ -114,13 +144,13 @@ int main(int argc, char** argv) {
         const double now = clock.now();
         const double stamp = std::clamp(p.state_time, now - 1.0, now);
         ages.push_back(now - stamp);
-        servo.publish(bridge::sanitize(p, device.spec(), stamp, now));
+        servo.publish(bridge::sanitize(p, device->spec(), stamp, now));
       }
-      const ServoOutput o = servo.step(device);
+      const ServoOutput o = servo.step(*device);
       bridge::StatePacket sp;
       sp.header.sequence = ++seq;
       sp.header.flags = o.flags;  // the servo's flags (haptics.csv `flags` on the simulation side)
-      device.read(sp.state);
+      device->read(sp.state);
       sp.force = o.force;
       sp.servo_rate = rate;
       sp.overruns = static_cast<uint32_t>(overruns);
@@ -134,7 +164,7 @@ int main(int argc, char** argv) {
       periods.push_back(period);
       if (period > 1.5 / rate) ++overruns;
     }
-    device.close();
+    device->close();
     // Servo period statistics.
     std::sort(periods.begin(), periods.end());
     auto pct = [&](double q) { return periods.empty() ? 0.0 : periods[static_cast<std::size_t>(q * (periods.size() - 1))]; };
@@ -148,8 +178,8 @@ int main(int argc, char** argv) {
     if (!ages.empty())
       std::printf("model age on arrival (round trip): p50 %.1f ms  max %.1f ms\n", 1e3 * ages[ages.size() / 2], 1e3 * ages.back());
     std::fflush(stdout);
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "error: %s\n", e.what());
+  } catch (const std::exception& e) {  // the device failed (or the socket): exit 3
+    std::fprintf(stderr, "device error: %s\n", e.what());
     return 3;
   }
   return 0;
