@@ -476,6 +476,17 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
     // Live: the controls (stdin commands when it is a terminal or a pipe, the viewer's panel via
     // live->controls()) are applied at frame boundaries; the servo's ticks go to haptics.csv.
     std::unique_ptr<haptics::CommandReader> commands;
+    // The controls handed to opt.live_controls are taken back however the run ends (this guard
+    // goes before `live` does).
+    bool controls_handed = false;
+    struct TakeBack {
+      const RunOptions& opt;
+      bool& handed;
+      ~TakeBack() {
+        if (handed) opt.live_controls(nullptr);
+        handed = false;
+      }
+    } take_back{opt, controls_handed};
     double paused_seconds = 0.0;  // wall time spent paused (the pacing skips it)
     auto apply_controls = [&](int frame) {
       haptics::LiveSettings s;
@@ -507,6 +518,10 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
       live->publish(sim.bodies());
       live->start();
       log("live: device " + live->deviceName());
+      if (opt.live_controls) {
+        opt.live_controls(&live->controls());
+        controls_handed = true;
+      }
       if (haptics::CommandReader::wanted(STDIN_FILENO)) {
         commands = std::make_unique<haptics::CommandReader>(live->controls(), STDIN_FILENO, [&opt](const std::string& line) {
           if (!opt.quiet) std::cerr << line << "\n";
@@ -629,6 +644,8 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
     }
     if (live) {
       commands.reset();
+      if (controls_handed) opt.live_controls(nullptr);
+      controls_handed = false;
       live->stop();
       drain_ticks();
       const haptics::LiveStats st = live->stats();

@@ -24,6 +24,10 @@ struct RunOptions {
   std::string record;                 ///< with interactive: write the device readings per step and a state hash per frame here
   const haptics::Recording* replay = nullptr;  ///< replay this recording (its frames; every hash checked)
   bool interactive = false;           ///< live: the servo on its own thread in real time, frames paced to the wall clock
+  /// Live runs: called with the session's controls (gain, mapping, smoothing, pause; thread-safe,
+  /// applied at frame boundaries) once it has started, and with nullptr before it stops: the hook
+  /// for an in-process panel (e.g. the viewer's window).
+  std::function<void(haptics::LiveControls*)> live_controls;
 };
 
 /// What a finished run measured (for benchmarks and tests).

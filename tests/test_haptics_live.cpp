@@ -342,3 +342,29 @@ TEST_CASE("Recording: bad, truncated and wrong-version files give a located erro
                                                      "--record", (tmp.path / "no" / "such" / "dir" / "x.rec").string()});
   CHECK(w.code == 2);
 }
+
+TEST_CASE("Live: an in-process panel gets the session's controls while it runs and loses them at the end",
+          "[haptics][live]") {
+  // RunOptions::live_controls (the viewer's hook): called with the controls after the session
+  // starts, with nullptr before it stops; a quit through them ends the run early, complete.
+  app::RunOptions o;
+  o.scene = kDrag;
+  o.quiet = true;
+  o.write_output = false;
+  o.duration = 2.0;
+  o.interactive = true;
+  int given = 0, taken = 0;
+  o.live_controls = [&](haptics::LiveControls* c) {
+    if (c) {
+      ++given;
+      c->command("at 0.1 quit");
+    } else {
+      ++taken;
+    }
+  };
+  const app::RunResult r = app::runScene(o);
+  CHECK(r.exit_code == 0);
+  CHECK(given == 1);
+  CHECK(taken == 1);
+  CHECK(r.frames < 120);  // quit at 0.1 s, not the 2 s asked for
+}
