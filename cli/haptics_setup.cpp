@@ -125,7 +125,7 @@ std::unique_ptr<haptics::LiveSource> makeLiveSession(const Model& model) {
 }
 
 std::unique_ptr<haptics::ReplaySource> makeReplaySource(const Model& model, const haptics::Recording& rec) {
-  return std::make_unique<haptics::ReplaySource>(rec.steps, makeGrab(model));
+  return std::make_unique<haptics::ReplaySource>(rec.steps, rec.step_hashes, makeGrab(model));
 }
 
 }  // namespace sph::app

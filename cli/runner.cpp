@@ -556,9 +556,14 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
       if (live && !opt.record.empty()) {  // --record: the ticks this frame's steps used, and its hash
         const auto used = live->takeStepTicks();
         recording.step_ticks.insert(recording.step_ticks.end(), used.begin(), used.end());
+        const auto step_hashes = live->takeStepHashes();
+        recording.step_hashes.insert(recording.step_hashes.end(), step_hashes.begin(), step_hashes.end());
         recording.hashes.push_back(sim.stateHash());
       }
-      if (replay) {  // replay: every frame's hash as recorded
+      if (replay) {  // replay: every step's body hash and every frame's whole-state hash as recorded
+        if (replay->firstDifferingStep() > 0)
+          throw std::runtime_error("replay: the bodies' state hash differs from the recording at step " +
+                                   std::to_string(replay->firstDifferingStep()) + " (in frame " + std::to_string(f + 1) + ")");
         const uint64_t h = sim.stateHash();
         const std::size_t k = static_cast<std::size_t>(f);
         if (k >= opt.replay->hashes.size() || h != opt.replay->hashes[k])
@@ -678,7 +683,7 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
       recording.frames = static_cast<int>(recording.hashes.size());
       haptics::writeRecording(opt.record, recording);
       log("recorded " + std::to_string(recording.ticks.size()) + " servo ticks, " + std::to_string(recording.step_ticks.size()) +
-          " steps and " + std::to_string(recording.frames) + " frame hashes to " + opt.record);
+          " steps (each with its bodies' hash) and " + std::to_string(recording.frames) + " frame hashes to " + opt.record);
     }
     if (tty) std::cerr << "\n";
     res.loop_seconds = since(t_start);

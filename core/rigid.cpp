@@ -238,6 +238,16 @@ std::vector<Eigen::Vector3f> sampleSurface(const TriMesh& mesh, double spacing, 
 // Dynamics
 // ---------------------------------------------------------------------------------------------
 
+uint64_t hashStates(const std::vector<BodyState>& states, uint64_t h) {
+  for (const BodyState& b : states) {
+    const double v[13] = {b.x.x(), b.x.y(), b.x.z(), b.q.w(), b.q.x(), b.q.y(), b.q.z(),
+                          b.v.x(), b.v.y(), b.v.z(), b.L.x(), b.L.y(), b.L.z()};
+    const auto* p = reinterpret_cast<const unsigned char*>(v);
+    for (std::size_t i = 0; i < sizeof v; ++i) h = (h ^ p[i]) * 1099511628211ull;
+  }
+  return h;
+}
+
 BodyState initialState(const RigidBody& body) {
   BodyState s;
   const RigidBodySpec& spec = body.spec;

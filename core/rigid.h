@@ -11,6 +11,8 @@
 // (body -> world), so a body point p is at x + R(q) p in the world.
 #pragma once
 
+#include <cstdint>
+
 #include "core/mesh.h"
 #include "core/scene_spec.h"
 
@@ -104,6 +106,10 @@ struct BodyState {
   /// A body-frame point in the world.
   Eigen::Vector3d toWorld(const Eigen::Vector3d& p) const { return x + q * p; }
 };
+
+/// FNV-1a hash of the bodies' poses and velocities (x, q, v, L in double precision), continuing
+/// from `seed`: the body part of Simulation::stateHash() and the per-step hash of a haptic recording.
+uint64_t hashStates(const std::vector<BodyState>& states, uint64_t seed = 1469598103934665603ull);
 
 /// The initial state of a compiled body (its scene pose and velocities).
 BodyState initialState(const RigidBody& body);

@@ -821,12 +821,7 @@ uint64_t Simulation::stateHash() {
   mix(f.phase.data(), n * 4);
   mix(f.id.data(), n * 8);
   // Rigid bodies: pose and velocities (double precision, as integrated on the host).
-  for (const rigid::BodyState& b : bodies_) {
-    const double v[13] = {b.x.x(), b.x.y(), b.x.z(), b.q.w(), b.q.x(), b.q.y(), b.q.z(),
-                          b.v.x(), b.v.y(), b.v.z(), b.L.x(), b.L.y(), b.L.z()};
-    mix(v, sizeof v);
-  }
-  return h;
+  return rigid::hashStates(bodies_, h);
 }
 
 }  // namespace sph

@@ -102,7 +102,7 @@ void BridgeSession::apply(double, double, const std::vector<rigid::RigidBody>&, 
     s = latest_.state;
     tick = latest_.header.sequence;
   }
-  if (recording_) step_ticks_.push_back(tick);
+  noteStep(tick, states);
   grab_.update(s, states, out);
   held_body_.store(grab_.grabbed(), std::memory_order_relaxed);
 }

@@ -316,7 +316,7 @@ void LiveSession::apply(double, double, const std::vector<rigid::RigidBody>&, co
     s = latest_;
     tick = latest_tick_;
   }
-  if (recording_) step_ticks_.push_back(tick);
+  noteStep(tick, states);
   grab_.update(s, states, out);
   held_body_.store(grab_.grabbed(), std::memory_order_relaxed);
 }

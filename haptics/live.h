@@ -137,9 +137,11 @@ class LiveSource : public ExternalForceSource {
   LiveControls& controls() { return controls_; }
   /// Simulation thread: every tick record since the last call (haptics.csv, --record).
   std::vector<TickRecord> takeTicks();
-  /// --record: keep the tick index of the reading each apply() used; takeStepTicks() hands them over.
+  /// --record: keep the tick index of the reading each apply() used and the hash of the bodies'
+  /// state that step started from; takeStepTicks() and takeStepHashes() hand them over.
   void record(bool on) { recording_ = on; }
   std::vector<uint64_t> takeStepTicks() { return std::exchange(step_ticks_, {}); }
+  std::vector<uint64_t> takeStepHashes() { return std::exchange(step_hashes_, {}); }
 
  protected:
   virtual void onSettings(const LiveSettings& s) = 0;
@@ -147,6 +149,13 @@ class LiveSource : public ExternalForceSource {
   LiveControls controls_;
   bool recording_ = false;                // simulation thread only
   std::vector<uint64_t> step_ticks_;      // simulation thread only
+  std::vector<uint64_t> step_hashes_;     // simulation thread only
+  /// apply(): with --record, note the tick this step used and the bodies' state it started from.
+  void noteStep(uint64_t tick, const std::vector<rigid::BodyState>& states) {
+    if (!recording_) return;
+    step_ticks_.push_back(tick);
+    step_hashes_.push_back(rigid::hashStates(states));
+  }
   std::atomic<long> held_body_{-1};       // written by the simulation thread, read by the servo thread
 };
 

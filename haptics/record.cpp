@@ -27,7 +27,14 @@ void writeRecording(const std::string& path, const Recording& rec) {
                   s.position.x(), s.position.y(), s.position.z(), s.velocity.x(), s.velocity.y(), s.velocity.z(), s.buttons);
     out << buf;
   }
-  for (uint64_t k : rec.step_ticks) out << "step " << k << "\n";
+  const bool step_hashes = rec.step_hashes.size() == rec.step_ticks.size();
+  for (std::size_t i = 0; i < rec.step_ticks.size(); ++i) {
+    if (step_hashes)
+      std::snprintf(buf, sizeof buf, "step %" PRIu64 " %016" PRIx64 "\n", rec.step_ticks[i], rec.step_hashes[i]);
+    else
+      std::snprintf(buf, sizeof buf, "step %" PRIu64 "\n", rec.step_ticks[i]);
+    out << buf;
+  }
   for (const auto& [frame, s] : rec.settings) {
     std::snprintf(buf, sizeof buf, "settings %d %.17g %.17g %.17g %.17g %.17g %s %d\n", frame, s.gain, s.scale,
                   s.offset.x(), s.offset.y(), s.offset.z(),
@@ -93,6 +100,16 @@ Recording readRecording(const std::string& path) {
     } else if (key == "step" && version == 2) {
       uint64_t k = 0;
       if (!(s >> k)) throw bad("'step' needs the index of the tick it used");
+      // An optional hash of the bodies' state: all steps have one or none do.
+      std::string hex;
+      if (s >> hex) {
+        if (hex.size() != 16 || hex.find_first_not_of("0123456789abcdefABCDEF") != std::string::npos)
+          throw bad("'step' hash must be 16 hex digits");
+        if (rec.step_hashes.size() != rec.step_ticks.size()) throw bad("'step' lines must all have a hash or none");
+        rec.step_hashes.push_back(std::stoull(hex, nullptr, 16));
+      } else if (!rec.step_hashes.empty()) {
+        throw bad("'step' lines must all have a hash or none");
+      }
       rest();
       const auto it = ticks.find(k);
       if (it == ticks.end()) throw bad("'step' uses tick " + std::to_string(k) + ", which is not recorded before it");
@@ -146,14 +163,16 @@ Recording readRecording(const std::string& path) {
   return rec;
 }
 
-ReplaySource::ReplaySource(std::vector<DeviceState> steps, GrabController grab)
-    : steps_(std::move(steps)), grab_(std::move(grab)) {}
+ReplaySource::ReplaySource(std::vector<DeviceState> steps, std::vector<uint64_t> step_hashes, GrabController grab)
+    : steps_(std::move(steps)), step_hashes_(std::move(step_hashes)), grab_(std::move(grab)) {}
 
 void ReplaySource::apply(double, double, const std::vector<rigid::RigidBody>&, const std::vector<rigid::BodyState>& states,
                          std::vector<BodyWrench>& out) {
   // The reading of this step (the last one again if the recording ran out: the replay then differs
   // and the hash check says so).
   if (steps_.empty()) return;
+  if (first_diff_ == 0 && next_ < step_hashes_.size() && rigid::hashStates(states) != step_hashes_[next_])
+    first_diff_ = next_ + 1;
   const DeviceState& s = steps_[std::min(next_, steps_.size() - 1)];
   ++next_;
   grab_.update(s, states, out);

@@ -2,14 +2,17 @@
 // headless by `sphaptics replay FILE`). The servo never touches the simulation's state (only the
 // device), so what a replay needs is the device input: every servo tick's reading is stored, each
 // simulation step names the tick whose reading it used, the live settings changes (gain, mapping,
-// smoothing) name the frame boundary they were applied at, and a state hash per frame (a hash per
-// step would read the whole state back from the OpenCL device every step) checks the replay.
+// smoothing) name the frame boundary they were applied at. Two hashes check the replay: per step the
+// bodies' state the step started from (pose and momenta, kept on the host, so free to hash), and per
+// frame the whole state, particles included (Simulation::stateHash(), read back from the device).
+// A replay that departs is caught at the step where the bodies first differ.
 //
 // File, version 2 (text, one item per line, numbers %.17g: exact):
 //   # sphaptics haptic recording v2
 //   scene <absolute path>          set <key=value> (repeated)        frames <n>
 //   tick <index> <time> <x> <y> <z> <vx> <vy> <vz> <buttons>   (every servo tick; index 0 = at open)
-//   step <tick index>                                           (one per simulation step)
+//   step <tick index> [<16 hex digits>]                         (one per simulation step: the tick it
+//                                                                used, the hash of the bodies' state)
 //   settings <frame> <gain> <scale> <ox> <oy> <oz> <servo|rolling_average> <window>
 //   hash <frame> <16 hex digits>                                (one per frame)
 //   end <ticks> <steps> <hashes>                                (a file without it is truncated)
@@ -41,6 +44,7 @@ struct Recording {
   int frames = 0;                    ///< frames recorded
   std::vector<std::pair<uint64_t, DeviceState>> ticks;  ///< every servo tick's reading, by tick index (v2)
   std::vector<uint64_t> step_ticks;  ///< the tick each step used (v2)
+  std::vector<uint64_t> step_hashes; ///< rigid::hashStates() of the bodies at each step's start (v2; empty in older files)
   std::vector<DeviceState> steps;    ///< the reading each step used (v1; v2: resolved from ticks)
   std::vector<std::pair<int, LiveSettings>> settings;  ///< (frame boundary, settings applied there)
   std::vector<uint64_t> hashes;      ///< Simulation::stateHash() after each frame
@@ -51,20 +55,25 @@ void writeRecording(const std::string& path, const Recording& rec);
 /// Throws RecordingError naming the file and line of what is wrong (bad, truncated, unknown version).
 Recording readRecording(const std::string& path);
 
-/// Feeds recorded readings, one per step, to a grab controller.
+/// Feeds recorded readings, one per step, to a grab controller, and checks each step's body state
+/// against the recorded hash (when the recording has them).
 class ReplaySource : public ExternalForceSource {
  public:
-  ReplaySource(std::vector<DeviceState> steps, GrabController grab);
+  ReplaySource(std::vector<DeviceState> steps, std::vector<uint64_t> step_hashes, GrabController grab);
   void apply(double time, double dt, const std::vector<rigid::RigidBody>& bodies,
              const std::vector<rigid::BodyState>& states, std::vector<BodyWrench>& out) override;
   std::size_t used() const { return next_; }
+  /// The first step (1-based) whose bodies' state differed from the recording; 0 while none has.
+  std::size_t firstDifferingStep() const { return first_diff_; }
   /// Live settings recorded at a frame boundary (gain, mapping, smoothing mode).
   void applySettings(const LiveSettings& s) { haptics::applySettings(grab_, s); }
 
  private:
   std::vector<DeviceState> steps_;
+  std::vector<uint64_t> step_hashes_;
   GrabController grab_;
   std::size_t next_ = 0;
+  std::size_t first_diff_ = 0;
 };
 
 }  // namespace sph::haptics

@@ -233,8 +233,8 @@ TEST_CASE("Haptics: --interactive runs the servo thread live and stops it, and n
 
 TEST_CASE("Haptics: a recorded live session replays with identical state hashes", "[haptics][live]") {
   // haptic_drag.yaml live for 0.25 s with --record; the replay feeds the recorded readings to the
-  // same grab logic and checks the state hash after every frame. A recording with one reading
-  // moved by 1 mm must fail the check (the test can fail).
+  // same grab logic and checks the bodies' hash at every step and the whole state's after every
+  // frame. A recording with one reading moved by 1 mm must fail the check at the next step.
   TempDir tmp;
   const std::string file = (tmp.path / "session.rec").string();
   app::RunOptions o;
@@ -250,6 +250,7 @@ TEST_CASE("Haptics: a recorded live session replays with identical state hashes"
   CHECK(rec.frames == live.frames);
   CHECK(rec.hashes.size() == static_cast<std::size_t>(live.frames));
   CHECK(rec.steps.size() >= static_cast<std::size_t>(live.frames));
+  CHECK(rec.step_hashes.size() == rec.steps.size());
   CHECK(rec.hashes.back() == live.state_hash);
 
   app::RunOptions r;
@@ -269,4 +270,7 @@ TEST_CASE("Haptics: a recorded live session replays with identical state hashes"
   const app::RunResult bad = app::runScene(r);
   CHECK(bad.exit_code != 0);
   CHECK(bad.message.find("state hash differs") != std::string::npos);
+  // The per-step body hash names the step after the moved reading (the first whose start differs).
+  INFO(bad.message);
+  CHECK(bad.message.find("at step " + std::to_string(tampered.steps.size() / 2 + 2)) != std::string::npos);
 }
