@@ -2,6 +2,7 @@
 
 #include "cli/runner.h"
 #include "core/model.h"
+#include "core/scene_spec.h"
 
 #include <algorithm>
 #include <cmath>
@@ -80,6 +81,70 @@ ReleaseCheck releasedBall(const std::string& scene, double dx, double rho_b, dou
   c.held_force = held / nh;
   c.free_force = freef / nf;
   c.a0 = (nf * stv - st * sv) / (nf * stt - st * st);
+  return c;
+}
+
+AccelCheck acceleratedBall(const std::string& scene, double dx, const std::vector<std::string>& sets,
+                           const std::string& device) {
+  AccelCheck c;
+  c.dx = dx;
+  RunOptions o;
+  o.scene = scene;
+  o.device = device;
+  o.quiet = true;
+  o.write_output = false;
+  // The ball's keyframes are in metres, so they do not change with dx.
+  o.sets = {"fluid.particle_spacing=" + num(dx)};
+  o.sets.insert(o.sets.end(), sets.begin(), sets.end());
+  std::vector<StepForce> log;
+  double t0 = -1, t1 = 0, rho = 0, volume = 0, nearest = 0;
+  const RunResult r = runScene(o, [&](Simulation& sim, const FrameReport&) {
+    if (t0 < 0) {
+      const Model& m = sim.model();
+      const auto& keys = m.bodies[0].spec.motion.keyframes;
+      // x = x0 + a (t - t0)^2 / 2 through the keys: a from the second key.
+      t0 = keys.front().time;
+      t1 = keys[keys.size() - 2].time;
+      const double dt = keys[1].time - t0;
+      c.accel = 2.0 * (keys[1].position.x() - keys[0].position.x()) / (dt * dt);
+      rho = m.spec.fluid.phases[0].rest_density;
+      volume = m.bodies[0].volume;
+      c.radius = m.bodies[0].spec.radius * m.bodies[0].spec.scale;
+      // The nearest wall or fluid surface from the centre (the box's walls; the blocks' top).
+      const Eigen::Vector3d x = keys.front().position;
+      nearest = std::min((x - m.spec.domain.min).minCoeff(), (m.spec.domain.max - x).minCoeff());
+      for (const BlockSpec& b : m.spec.fluid.blocks) nearest = std::min(nearest, b.max.z() - x.z());
+      sim.recordStepForces(true);
+    }
+    for (const StepForce& f : sim.takeStepForces()) log.push_back(f);
+  });
+  c.exit_code = r.exit_code;
+  c.message = r.message;
+  c.wall_seconds = r.wall_seconds;
+  if (r.exit_code != 0) return c;
+  const double l3 = std::pow(c.radius / nearest, 3);
+  c.cm_confined = (1.0 + 2.0 * l3) / (2.0 * (1.0 - l3));
+  // Least-squares line F_x(v) over the accelerating phase; its value at v = 0 is the added-mass
+  // force alone (drag, viscous or numerical, grows with v from zero).
+  double sv = 0, sf = 0, svv = 0, svf = 0;
+  int n = 0;
+  for (const StepForce& f : log)
+    if (f.time >= t0 + 0.002 && f.time <= t1) {
+      sv += f.v.x();
+      sf += f.force.x();
+      svv += f.v.x() * f.v.x();
+      svf += f.v.x() * f.force.x();
+      ++n;
+    }
+  if (n < 10) {
+    c.exit_code = 1;
+    c.message = "too few steps in the accelerating phase";
+    return c;
+  }
+  const double slope = (n * svf - sv * sf) / (n * svv - sv * sv);
+  const double intercept = (sf - slope * sv) / n;
+  c.cm = -intercept / (rho * volume * c.accel);
+  c.damping = -slope;
   return c;
 }
 

@@ -10,46 +10,93 @@
 
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cmath>
+#include <string>
+#include <vector>
 
 using namespace sph;
 using testing::scenePath;
 
-TEST_CASE("Forces: a buoyant ball released from rest starts with the added-mass acceleration", "[forces]") {
-  // A ball of density 500 in water, radius 3 cm, released from rest after 0.25 s held. Closed form
-  // (potential flow, C_m = 1/2): a0 = (rho_w - rho_b) g / (rho_b + rho_w / 2) = g / 2 = 4.9 m/s^2;
-  // without added mass it would be g = 9.8 m/s^2. The tank walls and the free surface change C_m:
-  // a concentric container of radius b raises it to (1 + 2 l^3) / (2 (1 - l^3)), l = R / b
-  // (Lamb 1932, art. 92), 0.53 - 0.58 for b = 7 - 10 cm (walls, floor), i.e. a0 = 4.6 - 4.8; the
-  // free surface 7 cm above lowers it. The fit spans 0.03 s, in which the drag grows to at most
-  // 1/2 rho C_d pi R^2 (a0 t)^2 = 0.01 N at C_d = 1, 2 % of the net force. Resolution: R / dx = 3
-  // and 4; the sphere's sampled surface and the one-particle fluid layer next to it carry errors
-  // of order dx / R in the displaced and the entrained volume. Tolerance: 15 % at R / dx = 3,
-  // 10 % at 4. Halving the coupling force leaves the ball nearly weightless in the water and
-  // gives a0 ~ 0.
-  for (const auto& [dx, tol] : {std::pair{0.01, 0.15}, std::pair{0.0075, 0.10}}) {
-    const app::ReleaseCheck c = app::releasedBall(scenePath("release_ball.yaml"), dx, 500.0, 0.03);
+TEST_CASE("Forces: a ball accelerated from rest in still water feels the added mass C_m = 1/2", "[forces]") {
+  // A kinematic ball, radius 3 cm, accelerated along x at a = 5 m/s^2 from rest for 0.04 s
+  // (scenes/tests/accel_ball.yaml; it moves 4 mm, R / 8, and reaches 0.2 m/s: the potential-flow
+  // phase, before a wake forms). The force needed is (m + C_m rho V) a; the fluid's part is
+  // F_x = -C_m rho V a, C_m = 1/2 in unbounded fluid. The nearest wall (the floor, 8 cm from the
+  // centre) raises it: in a concentric sphere of that radius C_m = 0.54 (Lamb 1932, art. 92), an
+  // upper bound for the box. The drag that grows with v (the fluid's artificial viscosity and
+  // the numerical damping of the coupling) is separated by fitting F_x as a line in v and taking
+  // its value at v = 0. Resolution: R / dx = 3 and 4; the entrained fluid layer next to the body
+  // is about dx/2 thick, an O(dx / R) error in the effective volume; with the step-to-step force
+  // noise (about 30 % of the signal, ~150 steps fitted) the tolerance is 25 % about [0.5, 0.54]
+  // at both resolutions. Halving the coupling force halves C_m: 0.30 and 0.21 measured, outside.
+  for (const double dx : {0.01, 0.0075}) {
+    const app::AccelCheck c = app::acceleratedBall(scenePath("accel_ball.yaml"), dx);
     INFO(c.message);
     REQUIRE(c.exit_code == 0);
-    INFO("dx " << dx << " m: a0 " << c.a0 << " m/s^2 (expected " << c.a0_expected << ", without added mass "
-               << c.a0_no_added_mass << "); held force " << c.held_force << " N (buoyancy " << c.buoyancy
-               << " N), free " << c.free_force << " N; " << c.wall_seconds << " s");
-    CHECK(std::abs(c.a0 - c.a0_expected) < tol * c.a0_expected);
+    INFO("dx " << dx << " m (R/dx " << c.radius / dx << "): C_m " << c.cm << " (expected " << c.cm_unbounded << " - "
+               << c.cm_confined << "), damping " << c.damping << " N s/m, a " << c.accel << " m/s^2; " << c.wall_seconds
+               << " s");
+    CHECK(c.cm > 0.75 * c.cm_unbounded);
+    CHECK(c.cm < 1.25 * c.cm_confined);
   }
 }
 
 TEST_CASE("Forces: a free body at rest feels the fluid force it felt while held", "[forces]") {
-  // A ball of the water's density: held, the fluid carries its weight (Archimedes); released it
-  // stays put, and the mean fluid force over its first 0.05 s free must equal the held one. Noise:
-  // the per-step force of a ball of radius 3 dx fluctuates by ~10 % of its weight; over ~280 steps
-  // with a correlation time of ~10 steps the mean is good to ~2 %. Tolerance: 3 % of the
-  // buoyancy for held against free, 5 % for held against rho g V (the sampled surface's volume
-  // error at R / dx = 3). Halving the coupling force halves both and fails the second check.
-  const app::ReleaseCheck c = app::releasedBall(scenePath("release_ball.yaml"), 0.01, 1000.0, 0.05);
+  // A ball of the water's density (scenes/tests/release_ball.yaml): held 0.25 s, the fluid carries
+  // its weight (Archimedes); released, it stays put, and the mean fluid force over its first 0.1 s
+  // free must equal the held one over the last 0.1 s held. Noise: the water column in the tank
+  // rings at its quarter-wave period 4 H / c0 = 0.05 s (the start-up transient of WCSPH, weakly
+  // damped), swinging the force by ~+-35 %; each window spans two periods, which leaves ~5 %.
+  // Tolerance: 8 % of the buoyancy for held against free (two such means), 8 % for held against
+  // rho g V (that noise plus the sampled surface's volume error at R / dx = 3). Halving the
+  // coupling force halves both forces and fails the second check.
+  const app::ReleaseCheck c = app::releasedBall(scenePath("release_ball.yaml"), 0.01, 1000.0, 0.1);
   INFO(c.message);
   REQUIRE(c.exit_code == 0);
   INFO("held " << c.held_force << " N, free " << c.free_force << " N, buoyancy " << c.buoyancy << " N, weight "
                << c.weight << " N, first acceleration " << c.a0 << " m/s^2");
-  CHECK(std::abs(c.free_force - c.held_force) < 0.03 * c.buoyancy);
-  CHECK(std::abs(c.held_force - c.buoyancy) < 0.05 * c.buoyancy);
+  CHECK(std::abs(c.free_force - c.held_force) < 0.08 * c.buoyancy);
+  CHECK(std::abs(c.held_force - c.buoyancy) < 0.08 * c.buoyancy);
+}
+
+TEST_CASE("Forces: a buoyant block placed flush on the floor is lifted to a gap of dx, rises and floats at its draft",
+          "[forces]") {
+  // scenes/tests/rising_block.yaml: the Archimedes block (12 x 12 x 6 cm, 500 kg/m^3) with its
+  // underside on the floor. Compile moves it up by dx (a note says so), so one layer of fluid
+  // lies beneath; it must then rise and float at the Archimedes draft, half its height, with the
+  // tolerance of the Archimedes test (5 %, test_rigid.cpp), over the last 0.3 s (it has settled
+  // by 0.5 s; the heave is gone to under 0.1 mm). Before this,
+  // flush on the floor it never rose; with the fluid's artificial viscosity on the body it rose
+  // at a fifth of the speed (README, Forces on bodies). Halving the coupling force leaves the
+  // block (whose weight is half its buoyancy) without net lift: it stays on the floor.
+  app::RunOptions o = testing::quietRun("rising_block.yaml");
+  double z_sum = 0, z_min = 1e9, z_first = -1;
+  int n = 0;
+  std::size_t particles = 0;
+  double mass = 0;
+  std::vector<std::string> notes;
+  const app::RunResult r = app::runScene(o, [&](Simulation& sim, const FrameReport&) {
+    if (z_first < 0) {
+      z_first = sim.model().bodies[0].spec.position.z();
+      notes = sim.model().notes;
+    }
+    particles = sim.numFluid();
+    mass = sim.model().bodies[0].mass;
+    z_min = std::min(z_min, sim.bodies()[0].x.z());
+    if (sim.time() < 0.6 - 1e-9) return;
+    z_sum += sim.bodies()[0].x.z();
+    ++n;
+  });
+  REQUIRE(r.exit_code == 0);
+  const double dx = 0.01, area = 0.24 * 0.24, h = 0.06, rho = 1000;
+  bool noted = false;
+  for (const std::string& s : notes) noted = noted || s.find("rigid body 'block' (lighter than the fluid)") != std::string::npos;
+  CHECK(noted);
+  CHECK(z_first == Approx(0.03 + dx).margin(1e-9));  // moved up by exactly the missing gap
+  const double level = (particles * dx * dx * dx + mass / rho) / area;
+  const double draft = level - (z_sum / n - 0.5 * h);
+  INFO("start z " << z_first << " m, lowest " << z_min << " m, water level " << level << " m, draft " << draft
+                  << " m (expected " << 0.5 * h << " m)");
+  CHECK(std::abs(draft - 0.5 * h) < 0.05 * 0.5 * h);
 }
