@@ -102,11 +102,8 @@ AccelCheck acceleratedBall(const std::string& scene, double dx, const std::vecto
     if (t0 < 0) {
       const Model& m = sim.model();
       const auto& keys = m.bodies[0].spec.motion.keyframes;
-      // x = x0 + a (t - t0)^2 / 2 through the keys: a from the second key.
       t0 = keys.front().time;
-      t1 = keys[keys.size() - 2].time;
-      const double dt = keys[1].time - t0;
-      c.accel = 2.0 * (keys[1].position.x() - keys[0].position.x()) / (dt * dt);
+      t1 = keys.back().time;
       rho = m.spec.fluid.phases[0].rest_density;
       volume = m.bodies[0].volume;
       c.radius = m.bodies[0].spec.radius * m.bodies[0].spec.scale;
@@ -124,27 +121,33 @@ AccelCheck acceleratedBall(const std::string& scene, double dx, const std::vecto
   if (r.exit_code != 0) return c;
   const double l3 = std::pow(c.radius / nearest, 3);
   c.cm_confined = (1.0 + 2.0 * l3) / (2.0 * (1.0 - l3));
-  // Least-squares line F_x(v) over the accelerating phase; its value at v = 0 is the added-mass
-  // force alone (drag, viscous or numerical, grows with v from zero).
-  double sv = 0, sf = 0, svv = 0, svf = 0;
-  int n = 0;
-  for (const StepForce& f : log)
-    if (f.time >= t0 + 0.002 && f.time <= t1) {
-      sv += f.v.x();
-      sf += f.force.x();
-      svv += f.v.x() * f.v.x();
-      svf += f.v.x() * f.force.x();
-      ++n;
-    }
-  if (n < 10) {
+  // F_x = -M a - B v by least squares over the moving phase (steps of equal length): over whole
+  // periods of a shaking a and v are orthogonal, so M (added mass) and B (drag) separate. The
+  // acceleration of the path from central differences of the logged velocity (a smooth path).
+  double saa = 0, svv = 0, sav = 0, sfa = 0, sfv = 0, amax = 0;
+  for (std::size_t k = 1; k + 1 < log.size(); ++k) {
+    const StepForce& f = log[k];
+    if (f.time < t0 || f.time > t1) continue;
+    const double a = (log[k + 1].v.x() - log[k - 1].v.x()) / (log[k + 1].time - log[k - 1].time);
+    const double v = f.v.x(), F = f.force.x();
+    saa += a * a;
+    svv += v * v;
+    sav += a * v;
+    sfa += F * a;
+    sfv += F * v;
+    amax = std::max(amax, std::abs(a));
+  }
+  const double det = saa * svv - sav * sav;
+  if (!(det > 0.0)) {
     c.exit_code = 1;
-    c.message = "too few steps in the accelerating phase";
+    c.message = "no motion in the keyframed phase";
     return c;
   }
-  const double slope = (n * svf - sv * sf) / (n * svv - sv * sv);
-  const double intercept = (sf - slope * sv) / n;
-  c.cm = -intercept / (rho * volume * c.accel);
-  c.damping = -slope;
+  const double M = -(sfa * svv - sfv * sav) / det;
+  const double B = -(sfv * saa - sfa * sav) / det;
+  c.accel = amax;
+  c.cm = M / (rho * volume);
+  c.damping = B;
   return c;
 }
 

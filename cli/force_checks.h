@@ -31,22 +31,22 @@ struct ReleaseCheck {
 ReleaseCheck releasedBall(const std::string& scene, double dx, double rho_b, double window,
                           const std::vector<std::string>& sets = {}, const std::string& device = "");
 
-/// A kinematic ball accelerated from rest at a constant a along x (scenes/tests/accel_ball.yaml).
+/// A kinematic ball shaken along x from rest on a keyframed path (scenes/tests/accel_ball.yaml).
 struct AccelCheck {
   int exit_code = 0;
   std::string message;
   double dx = 0;              ///< (unit: m)
   double radius = 0;          ///< (unit: m)
-  double accel = 0;           ///< a (unit: m/s^2)
-  double cm = 0;              ///< added-mass coefficient: -F_x(v = 0) / (rho V a), F_x(v) fitted as a line (unit: 1)
+  double accel = 0;           ///< largest |a| of the path (unit: m/s^2)
+  double cm = 0;              ///< added-mass coefficient M / (rho V), F_x = -M a - B v fitted (unit: 1)
   double cm_unbounded = 0.5;  ///< potential flow, unbounded fluid (unit: 1)
   double cm_confined = 0;     ///< Lamb (1932, art. 92): in a concentric sphere of radius b (the distance to the nearest wall), (1 + 2 l^3) / (2 (1 - l^3)), l = R / b (unit: 1)
-  double damping = 0;         ///< the fitted line's slope -dF_x/dv (unit: N s/m)
+  double damping = 0;         ///< B, the part of the force in phase with -v (unit: N s/m)
   double wall_seconds = 0;    ///< (unit: s)
 };
 
-/// Runs `scene` (accel_ball.yaml) at spacing dx: the fluid force over the accelerating phase
-/// (from 2 ms after the start to the last key but one) fitted as F_x = -C_m rho V a - c v.
+/// Runs `scene` (accel_ball.yaml) at spacing dx: over the keyframed phase (first to last key) the
+/// fluid force is fitted as F_x = -C_m rho V a - B v by least squares.
 AccelCheck acceleratedBall(const std::string& scene, double dx, const std::vector<std::string>& sets = {},
                            const std::string& device = "");
 

@@ -473,8 +473,9 @@ Compiled compile(const SceneSpec& spec, const ResourceLimits& limits) {
   // boundary particles), so the body would stay stuck however light it is (issue 15). In nature a
   // film of water remains; the smallest film SPH resolves is one particle layer, dx thick. So a
   // dynamic body lighter than the densest phase whose surface lies closer than dx to a closed wall
-  // is moved away from it to a gap of dx (a note says so). Heavier bodies rest on walls as placed.
-  {
+  // is moved away from it to a gap of dx (a note says so). Heavier bodies rest on walls as placed,
+  // and so does every body of a scene without fluid.
+  if (!fl.blocks.empty() || !fl.inflows.empty()) {
     double densest = 0.0;
     for (const PhaseSpec& p : fl.phases) densest = std::max(densest, p.rest_density);
     const double min_gap = m.dx;

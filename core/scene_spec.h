@@ -32,7 +32,7 @@ enum class EquationOfState { Linear, Tait };
 enum class ViscosityModel { Artificial, Laminar };
 /// Viscous coupling of the fluid with moving rigid bodies (Akinci et al. 2012 eq. 11 has its own
 /// coefficient for it): the liquid's real viscosity, or the fluid's own (numerical) model.
-enum class BodyViscosity { Physical, Fluid };
+enum class BodyViscosity { Fluid, Physical };
 enum class TimeStepControl { Subdivide, Warn };
 enum class NumericalPolicy { Warn, Abort };
 enum class NozzleShape { Rectangle, Circle };
@@ -127,7 +127,7 @@ struct FluidSpec {
   double speed_of_sound = 0.0;     ///< c0; 0 = automatic, 10 * sqrt(2 |g| H) over the fluid height (unit: m/s)
   ViscosityModel viscosity_model = ViscosityModel::Artificial;
   double artificial_viscosity = 0.05;  ///< Monaghan alpha, used by the artificial model (unit: 1)
-  BodyViscosity body_viscosity = BodyViscosity::Physical;  ///< fluid-body viscous term: phase viscosity (laminar form) or the fluid's model
+  BodyViscosity body_viscosity = BodyViscosity::Fluid;  ///< fluid-body viscous term: the fluid's model, or the phase viscosity (laminar form)
   double colour_diffusion = 0.0;       ///< colour diffusion coefficient; 0 = none (unit: m^2/s)
   bool clamp_negative_pressure = true; ///< clamp p >= 0 (avoids tensile instability at free surfaces)
   long max_particles = 0;              ///< particle budget; 0 = automatic (unit: 1)

@@ -592,15 +592,10 @@ void Simulation::sortBoundary() {
   prefix_sum_.run(bcount_, bcell_start_, params_.num_cells);
   kernels_.call("grid_scatter", pb.n_fluid, kLocal, pb, bcell_, brank_, bcell_start_, bsorted_);
   kernels_.call("grid_order_cells", pb.n_fluid, kLocal, pb, bcell_, bcell_start_, bsorted_);
-  kernels_.call("rigid_boundary_reorder", pb.n_fluid, kLocal, pb.n_fluid, bsorted_, bsrc_, bpos_, bslot_);
-  // Boundary velocities in the new order: zero for the static particles, the moving bodies' rigid
-  // motion placed again at their new slots (without this the fluid saw, for one step after each
-  // sort, the velocities of the old order: body particles at rest, wall particles moving).
-  const cl_float4 zero4{};
-  clCall("clearing the boundary velocities",
-         [&] { return cl_.queue().enqueueFillBuffer(bvel_, zero4, 0, std::size_t(pb.n_fluid) * 16); });
-  if (on(Stage::RigidCoupling) && n_moving_ > 0)
-    kernels_.call("rigid_transform", n_moving_, kLocal, n_moving_, n_static_, blocal_, bbody_, bpose_, bslot_, bsrc_, bpos_, bvel_);
+  // Positions and velocities in the new order (the bodies' rigid motion, zero on static particles;
+  // before issue 15 the velocities kept the old order for one step after each sort).
+  kernels_.call("rigid_boundary_reorder", pb.n_fluid, kLocal, pb.n_fluid, n_static_, n_moving_, bsorted_, bsrc_, blocal_,
+                bbody_, bpose_, bpos_, bvel_, bslot_);
   // The cloth nodes' velocities in the new order.
   if (on(Stage::ClothCoupling)) kernels_.call("cloth_to_boundary", n_cloth_, kLocal, n_cloth_, n_static_ + n_moving_, cloth_->positions(), cloth_->velocities(), cloth_volume_, bslot_, bsrc_, bpos_, bvel_, max_speed_);
 }

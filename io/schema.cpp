@@ -389,7 +389,7 @@ std::vector<KeyDef> buildTable() {
   add(field<InScene>("fluid.artificial_viscosity", [](auto& s) -> auto& { return s.fluid.artificial_viscosity; })
           .unit("1").atLeast(0).doc("Monaghan alpha, used by the artificial model"));
   add(field<InScene>("fluid.body_viscosity", [](auto& s) -> auto& { return s.fluid.body_viscosity; })
-          .doc("viscous coupling with moving rigid bodies: physical (the phases' viscosity, laminar form, whatever the fluid's model) or fluid (the fluid's own model, e.g. artificial alpha)"));
+          .doc("viscous coupling with moving rigid bodies: fluid (the fluid's own model, e.g. artificial alpha) or physical (the phases' viscosity, laminar form, whatever the fluid's model)"));
   add(field<InScene>("fluid.colour_diffusion", [](auto& s) -> auto& { return s.fluid.colour_diffusion; })
           .unit("m^2/s").atLeast(0).doc("colour diffusion coefficient; 0 = none"));
   add(field<InScene>("fluid.clamp_negative_pressure", [](auto& s) -> auto& { return s.fluid.clamp_negative_pressure; })

@@ -51,8 +51,8 @@ struct EnumNames<ViscosityModel> {
 };
 template <>
 struct EnumNames<BodyViscosity> {
-  static constexpr std::pair<BodyViscosity, const char*> values[] = {{BodyViscosity::Physical, "physical"},
-                                                                       {BodyViscosity::Fluid, "fluid"}};
+  static constexpr std::pair<BodyViscosity, const char*> values[] = {{BodyViscosity::Fluid, "fluid"},
+                                                                       {BodyViscosity::Physical, "physical"}};
 };
 template <>
 struct EnumNames<FluidSolver> {

@@ -18,25 +18,26 @@
 using namespace sph;
 using testing::scenePath;
 
-TEST_CASE("Forces: a ball accelerated from rest in still water feels the added mass C_m = 1/2", "[forces]") {
-  // A kinematic ball, radius 3 cm, accelerated along x at a = 5 m/s^2 from rest for 0.04 s
-  // (scenes/tests/accel_ball.yaml; it moves 4 mm, R / 8, and reaches 0.2 m/s: the potential-flow
-  // phase, before a wake forms). The force needed is (m + C_m rho V) a; the fluid's part is
-  // F_x = -C_m rho V a, C_m = 1/2 in unbounded fluid. The nearest wall (the floor, 8 cm from the
-  // centre) raises it: in a concentric sphere of that radius C_m = 0.54 (Lamb 1932, art. 92), an
-  // upper bound for the box. The drag that grows with v (the fluid's artificial viscosity and
-  // the numerical damping of the coupling) is separated by fitting F_x as a line in v and taking
-  // its value at v = 0. Resolution: R / dx = 3 and 4; the entrained fluid layer next to the body
-  // is about dx/2 thick, an O(dx / R) error in the effective volume; with the step-to-step force
-  // noise (about 30 % of the signal, ~150 steps fitted) the tolerance is 25 % about [0.5, 0.54]
-  // at both resolutions. Halving the coupling force halves C_m: 0.30 and 0.21 measured, outside.
+TEST_CASE("Forces: a ball shaken in still water feels the added mass C_m = 1/2", "[forces]") {
+  // A kinematic ball, radius 3 cm, shaken along x from rest, x = x0 + A (1 - cos w t), A = 1 mm,
+  // 10 Hz, two periods (scenes/tests/accel_ball.yaml; inviscid). The force needed is
+  // (m + C_m rho V) a; the fluid's part is F_x = -C_m rho V a, C_m = 1/2 in unbounded fluid. The
+  // nearest wall (the floor, 8 cm from the centre) raises it: in a concentric sphere of that
+  // radius C_m = 0.58 (Lamb 1932, art. 92), an upper bound for the box. F_x is fitted as
+  // -M a - B v over the two periods (a and v are orthogonal there: added mass and drag separate).
+  // Resolution: R / dx = 3 and 4. The fluid layer next to the body is about dx/2 thick, an
+  // O(dx / R) error in the effective volume (+-50 % at R / dx = 3 if it moved with the body, which
+  // potential flow does not let it); the water column's ringing near 20 Hz leaks into the 10 Hz
+  // fit. Measured: 0.43 at R / dx = 3, 0.64 at 4 (not monotone: see README, Forces on bodies).
+  // Tolerance: 25 % outside [0.5, 0.58]. Halving the coupling force halves C_m (0.22, 0.33):
+  // below the band.
   for (const double dx : {0.01, 0.0075}) {
     const app::AccelCheck c = app::acceleratedBall(scenePath("accel_ball.yaml"), dx);
     INFO(c.message);
     REQUIRE(c.exit_code == 0);
     INFO("dx " << dx << " m (R/dx " << c.radius / dx << "): C_m " << c.cm << " (expected " << c.cm_unbounded << " - "
-               << c.cm_confined << "), damping " << c.damping << " N s/m, a " << c.accel << " m/s^2; " << c.wall_seconds
-               << " s");
+               << c.cm_confined << "), drag coefficient B " << c.damping << " N s/m, |a| up to " << c.accel
+               << " m/s^2; " << c.wall_seconds << " s");
     CHECK(c.cm > 0.75 * c.cm_unbounded);
     CHECK(c.cm < 1.25 * c.cm_confined);
   }
