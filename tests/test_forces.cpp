@@ -29,7 +29,7 @@ TEST_CASE("Forces: a ball shaken in still water feels the added mass C_m = 1/2",
   // O(dx / R) error in the effective volume (+-50 % at R / dx = 3 if it moved with the body, which
   // potential flow does not let it); the water column's ringing near 20 Hz leaks into the 10 Hz
   // fit. Measured: 0.43 at R / dx = 3, 0.64 at 4 (not monotone: see README, Forces on bodies).
-  // Tolerance: 25 % outside [0.5, 0.58]. Halving the coupling force halves C_m (0.22, 0.33):
+  // Tolerance: 25 % outside [0.5, 0.58]. Halving the coupling force halves C_m (0.21, 0.32):
   // below the band.
   for (const double dx : {0.01, 0.0075}) {
     const app::AccelCheck c = app::acceleratedBall(scenePath("accel_ball.yaml"), dx);
