@@ -173,7 +173,8 @@ int forceChecks(const BenchOptions& opt) {
   auto row = [&](const std::string& check, const std::string& solver, double dx, double r_dx, double v, double lo,
                  double hi, double wall) {
     const double mid = 0.5 * (lo + hi);
-    const double err = v < lo ? (lo - v) / mid : (v > hi ? (v - hi) / mid : 0.0);
+    // (a range at 0, the sideways force: the measured value itself)
+    const double err = mid == 0.0 ? std::abs(v) : (v < lo ? (lo - v) / mid : (v > hi ? (v - hi) / mid : 0.0));
     out << check << "," << solver << "," << dx << "," << r_dx << "," << v << "," << lo << "," << hi << "," << err << ","
         << wall << "\n";
     std::printf("%-22s %-6s %-7.4f %-5.1f %-10.4g [%-8.4g, %-8.4g] %-9.3f %-7.1f\n", check.c_str(), solver.c_str(), dx,
