@@ -166,7 +166,7 @@ int forceChecks(const BenchOptions& opt) {
   std::ofstream out(csv);
   out << "# sphaptics " << SPHAPTICS_VERSION << " force checks of bodies in water (issue 15): measured against the "
          "closed form's range [expected_lo, expected_hi]; rel_error = distance outside that range / its middle "
-         "(0 inside); wall_s: the run's simulation wall time\n";
+         "(0 inside; for a range at 0, the measured value); wall_s: the run's simulation wall time\n";
   out << "check,solver,dx_m,R_over_dx,measured,expected_lo,expected_hi,rel_error,wall_s\n";
   std::printf("\n%-22s %-6s %-7s %-5s %-10s %-21s %-9s %-7s\n", "force check", "solver", "dx m", "R/dx", "measured",
               "expected", "rel err", "wall s");
