@@ -13,9 +13,14 @@
 //     to 10^7 N/m (10^6 times stiffer) x steps of 1/240 s and of the whole frame (1/60 s), both
 //     solvers: steps taken (explicit: subdivided below its limit), largest strain, energy gain
 //     (none may grow: the cloth only loses energy to its dashpots), NaN, wall time.
+//  5. Forces on bodies (issue 15): the checks of tests/test_forces.cpp (cli/force_checks.h) at
+//     R / dx = 3, 4 and 5 (the tests run 3 and 4): added mass of an accelerated ball, free against
+//     held, Stokes drag and sideways force of a towed ball, each against its closed form, with
+//     the wall time of the run: what accuracy costs. One row per check, solver and resolution.
 // The tables are printed and written as CSV; scripts/plot_bench.py draws error against seconds.
 #include "cli/analysis.h"
 #include "cli/commands.h"
+#include "cli/force_checks.h"
 #include "cli/runner.h"
 #include "core/errors.h"
 #include "core/model.h"
@@ -154,12 +159,72 @@ int clothSweep(const BenchOptions& opt) {
   return kExitOk;
 }
 
+// 5. Force checks of bodies in water against resolution (cli/force_checks.h).
+int forceChecks(const BenchOptions& opt) {
+  fs::create_directories(opt.out);
+  const fs::path csv = fs::path(opt.out) / "force_checks.csv";
+  std::ofstream out(csv);
+  out << "# sphaptics " << SPHAPTICS_VERSION << " force checks of bodies in water (issue 15): measured against the "
+         "closed form's range [expected_lo, expected_hi]; rel_error = distance outside that range / its middle "
+         "(0 inside; for a range at 0, the measured value); wall_s: the run's simulation wall time\n";
+  out << "check,solver,dx_m,R_over_dx,measured,expected_lo,expected_hi,rel_error,wall_s\n";
+  std::printf("\n%-22s %-6s %-7s %-5s %-10s %-21s %-9s %-7s\n", "force check", "solver", "dx m", "R/dx", "measured",
+              "expected", "rel err", "wall s");
+  auto row = [&](const std::string& check, const std::string& solver, double dx, double r_dx, double v, double lo,
+                 double hi, double wall) {
+    const double mid = 0.5 * (lo + hi);
+    // (a range at 0, the sideways force: the measured value itself)
+    const double err = mid == 0.0 ? std::abs(v) : (v < lo ? (lo - v) / mid : (v > hi ? (v - hi) / mid : 0.0));
+    out << check << "," << solver << "," << dx << "," << r_dx << "," << v << "," << lo << "," << hi << "," << err << ","
+        << wall << "\n";
+    std::printf("%-22s %-6s %-7.4f %-5.1f %-10.4g [%-8.4g, %-8.4g] %-9.3f %-7.1f\n", check.c_str(), solver.c_str(), dx,
+                r_dx, v, lo, hi, err, wall);
+    std::fflush(stdout);
+  };
+  const std::string accel = sourcePath("scenes/tests/accel_ball.yaml");
+  const std::string release = sourcePath("scenes/tests/release_ball.yaml");
+  const std::string tow = sourcePath("scenes/tests/stokes_tow.yaml");
+  for (const std::string& solver : opt.force_solvers) {
+    const std::vector<std::string> sets = {"fluid.solver=" + solver};
+    for (double dx : {0.01, 0.0075, 0.006}) {
+      // Added mass: C_m between the unbounded 1/2 and Lamb's concentric-sphere value.
+      const AccelCheck a = acceleratedBall(accel, dx, sets, opt.device);
+      if (a.exit_code != 0) std::printf("added mass at dx %g (%s): %s\n", dx, solver.c_str(), a.message.c_str());
+      else row("added_mass_Cm", solver, dx, a.radius / dx, a.cm, a.cm_unbounded, a.cm_confined, a.wall_seconds);
+    }
+    for (double dx : {0.01, 0.0075}) {
+      // A neutral ball: free against held, and held against rho g V (as fractions of rho g V).
+      const ReleaseCheck r = releasedBall(release, dx, 1000.0, 0.1, sets, opt.device);
+      if (r.exit_code != 0) {
+        std::printf("free vs held at dx %g (%s): %s\n", dx, solver.c_str(), r.message.c_str());
+        continue;
+      }
+      row("held_over_buoyancy", solver, dx, r.radius / dx, r.held_force / r.buoyancy, 1.0, 1.0, r.wall_seconds);
+      row("free_over_held", solver, dx, r.radius / dx, r.free_force / r.held_force, 1.0, 1.0, r.wall_seconds);
+    }
+    for (double dx : {0.01, 0.0075}) {
+      // Stokes drag over 6 pi mu R U, against the box's wall factor K; sideways / drag against 0.
+      const TowCheck t = towedBall(tow, dx, sets, opt.device);
+      if (t.exit_code != 0) {
+        std::printf("Stokes drag at dx %g (%s): %s\n", dx, solver.c_str(), t.message.c_str());
+        continue;
+      }
+      row("stokes_drag_over_6piMuRU", solver, dx, t.radius / dx, t.drag / t.stokes, t.wall_factor_lo, t.wall_factor_hi,
+          t.wall_seconds);
+      row("sideways_over_drag", solver, dx, t.radius / dx, t.side / t.drag, 0.0, 0.0, t.wall_seconds);
+    }
+  }
+  std::cout << "wrote " << csv.string() << " (wall times on this machine; a shared machine adds noise)\n";
+  return kExitOk;
+}
+
 }  // namespace
 
 int benchCommand(const BenchOptions& opt) {
   try {
     fs::create_directories(opt.out);
     if (opt.cloth_only) return clothSweep(opt);
+    if (opt.forces_only) return forceChecks(opt);
     const std::string scene = sourcePath("scenes/dam_break.yaml");
     const SceneSpec base = io::loadScene(scene);
     std::cout << "benchmark scene: " << scene << "\n";
@@ -352,6 +417,7 @@ int benchCommand(const BenchOptions& opt) {
                 << " (iso % and iso+obj %: (t_on - t_off) / t_on from the medians of separate runs, noisy on a shared "
                    "machine; cost %: (isosurface + hand-off + writer thread) / frame loop within each export run)\n";
     }
+    if (opt.forces && !opt.speed_only && !opt.iso_only) forceChecks(opt);
     if (opt.cloth && !opt.accuracy_only && !opt.iso_only) return clothSweep(opt);
     return kExitOk;
   } catch (const InputError& e) {

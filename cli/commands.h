@@ -33,6 +33,9 @@ struct BenchOptions {
   bool iso_only = false;  // only the isosurface table
   bool cloth = true;       // the cloth stability sweep (stiffness x step, both solvers)
   bool cloth_only = false; // only the cloth sweep
+  bool forces = true;        // the force checks of bodies in water (issue 15)
+  bool forces_only = false;  // only the force checks
+  std::vector<std::string> force_solvers{"wcsph"};  // fluid.solver values for the force checks
 };
 
 /// Speed table (dam break at several sizes and substep counts) and accuracy-versus-time table

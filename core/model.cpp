@@ -467,6 +467,48 @@ Compiled compile(const SceneSpec& spec, const ResourceLimits& limits) {
   if (!issues.empty()) throw InputError(issues);
   for (RigidBodySpec& b : m.spec.rigid_bodies) b.mesh_data = TriMesh{};  // the Model keeps body.mesh
 
+  // A buoyant body flush on a closed wall: a minimum gap of one spacing dx. Buoyancy is the fluid's
+  // pressure on the body's underside; with the body's surface on the wall no fluid particle fits
+  // between the two boundary layers (each lies dx/2 behind its surface, and fluid rests dx from
+  // boundary particles), so the body would stay stuck however light it is (issue 15). In nature a
+  // film of water remains; the smallest film SPH resolves is one particle layer, dx thick. So a
+  // dynamic body lighter than the densest phase whose surface lies closer than dx to a closed wall
+  // is moved away from it to a gap of dx (a note says so). Heavier bodies rest on walls as placed,
+  // and so does every body of a scene without fluid.
+  if (!fl.blocks.empty() || !fl.inflows.empty()) {
+    double densest = 0.0;
+    for (const PhaseSpec& p : fl.phases) densest = std::max(densest, p.rest_density);
+    const double min_gap = m.dx;
+    for (std::size_t k = 0; k < m.bodies.size(); ++k) {
+      rigid::RigidBody& body = m.bodies[k];
+      if (body.kind != rigid::BodyKind::Dynamic || !(body.mass < densest * body.volume)) continue;
+      const rigid::BodyState s0 = rigid::initialState(body);
+      Eigen::Vector3d lo = Eigen::Vector3d::Constant(INFINITY), hi = Eigen::Vector3d::Constant(-INFINITY);
+      for (const auto& v : body.mesh.positions) {
+        const Eigen::Vector3d w = s0.toWorld(v.cast<double>());
+        lo = lo.cwiseMin(w);
+        hi = hi.cwiseMax(w);
+      }
+      Eigen::Vector3d shift = Eigen::Vector3d::Zero();
+      for (int a = 0; a < 3; ++a) {
+        const double below = lo[a] - dom.min[a], above = dom.max[a] - hi[a];
+        // (a body too wide for the box between two closed walls is left as placed)
+        if (dom.closed[static_cast<std::size_t>(2 * a)] && below < min_gap && above - (min_gap - below) >= min_gap)
+          shift[a] = min_gap - below;
+        else if (dom.closed[static_cast<std::size_t>(2 * a + 1)] && above < min_gap && below - (min_gap - above) >= min_gap)
+          shift[a] = -(min_gap - above);
+      }
+      if (shift.isZero()) continue;
+      body.spec.position += shift;
+      m.spec.rigid_bodies[k].position += shift;
+      std::ostringstream note;
+      note << "rigid body '" << body.spec.name << "' (lighter than the fluid) lay closer than one spacing dx = "
+           << fmt(m.dx) << " m to a closed wall: moved by [" << fmt(shift.x()) << ", " << fmt(shift.y()) << ", "
+           << fmt(shift.z()) << "] m, so that a layer of fluid lies beneath it and buoyancy can act";
+      m.notes.push_back(note.str());
+    }
+  }
+
   // Fluid placed where a body is: particles inside a body, or closer than dx to one of its
   // boundary particles (where the contact repulsion of pressure.cl would act at once), are removed.
   if (!m.bodies.empty() && out.initial.size() > 0) {
@@ -720,6 +762,7 @@ Compiled compile(const SceneSpec& spec, const ResourceLimits& limits) {
   P.num_cells = static_cast<sph_uint>(cells);
   P.c0 = static_cast<float>(m.c0);
   P.alpha = static_cast<float>(fl.artificial_viscosity);
+  P.body_viscosity = fl.body_viscosity == BodyViscosity::Physical ? 1u : 0u;
   P.colour_diffusion = static_cast<float>(fl.colour_diffusion);
   for (std::size_t i = 0; i < fl.phases.size(); ++i) {
     P.phase_rest_density[i] = static_cast<float>(fl.phases[i].rest_density);

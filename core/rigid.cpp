@@ -254,7 +254,9 @@ BodyState initialState(const RigidBody& body) {
   s.q = Eigen::Quaterniond(Eigen::AngleAxisd(spec.orientation_angle * M_PI / 180.0, spec.orientation_axis.normalized()));
   // The scene places the shape's origin; the state tracks the centre of mass.
   s.x = spec.position - s.q * body.origin_offset;
-  if (body.kind == BodyKind::Dynamic) {
+  if (body.kind == BodyKind::Dynamic && spec.hold_until > 0.0) {
+    // Held still until spec.hold_until (Simulation::integrateBodies), then released from rest.
+  } else if (body.kind == BodyKind::Dynamic) {
     s.v = spec.velocity;
     s.w = spec.angular_velocity;
     const Eigen::Matrix3d R = s.q.toRotationMatrix();

@@ -30,6 +30,9 @@ struct SourceLoc {
 enum class KernelType { CubicSpline, WendlandC2 };
 enum class EquationOfState { Linear, Tait };
 enum class ViscosityModel { Artificial, Laminar };
+/// Viscous coupling of the fluid with moving rigid bodies (Akinci et al. 2012 eq. 11 has its own
+/// coefficient for it): the liquid's real viscosity, or the fluid's own (numerical) model.
+enum class BodyViscosity { Fluid, Physical };
 enum class TimeStepControl { Subdivide, Warn };
 enum class NumericalPolicy { Warn, Abort };
 enum class NozzleShape { Rectangle, Circle };
@@ -124,6 +127,7 @@ struct FluidSpec {
   double speed_of_sound = 0.0;     ///< c0; 0 = automatic, 10 * sqrt(2 |g| H) over the fluid height (unit: m/s)
   ViscosityModel viscosity_model = ViscosityModel::Artificial;
   double artificial_viscosity = 0.05;  ///< Monaghan alpha, used by the artificial model (unit: 1)
+  BodyViscosity body_viscosity = BodyViscosity::Fluid;  ///< fluid-body viscous term: the fluid's model, or the phase viscosity (laminar form)
   double colour_diffusion = 0.0;       ///< colour diffusion coefficient; 0 = none (unit: m^2/s)
   bool clamp_negative_pressure = true; ///< clamp p >= 0 (avoids tensile instability at free surfaces)
   long max_particles = 0;              ///< particle budget; 0 = automatic (unit: 1)
@@ -172,6 +176,7 @@ struct RigidBodySpec {
   double density = 0.0;                             ///< 0 = not given; exactly one of density, mass (unit: kg/m^3)
   double mass = 0.0;                                ///< 0 = not given (unit: kg)
   bool dynamic = false;                             ///< moved by forces (true) or static / scripted (false)
+  double hold_until = 0.0;                          ///< dynamic: held still at its initial pose until this time, then released (unit: s)
   Eigen::Vector3d velocity{0.0, 0.0, 0.0};          ///< initial velocity of the centre of mass (unit: m/s)
   Eigen::Vector3d angular_velocity{0.0, 0.0, 0.0};  ///< initial angular velocity, world frame (unit: rad/s)
   double friction = 0.5;                            ///< Coulomb friction coefficient for contact (unit: 1)

@@ -592,8 +592,11 @@ void Simulation::sortBoundary() {
   prefix_sum_.run(bcount_, bcell_start_, params_.num_cells);
   kernels_.call("grid_scatter", pb.n_fluid, kLocal, pb, bcell_, brank_, bcell_start_, bsorted_);
   kernels_.call("grid_order_cells", pb.n_fluid, kLocal, pb, bcell_, bcell_start_, bsorted_);
-  kernels_.call("rigid_boundary_reorder", pb.n_fluid, kLocal, pb.n_fluid, bsorted_, bsrc_, bpos_, bslot_);
-  // The cloth nodes' velocities in the new order (bodies rewrite theirs at the next step).
+  // Positions and velocities in the new order (the bodies' rigid motion, zero on static particles;
+  // before issue 15 the velocities kept the old order for one step after each sort).
+  kernels_.call("rigid_boundary_reorder", pb.n_fluid, kLocal, pb.n_fluid, n_static_, n_moving_, bsorted_, bsrc_, blocal_,
+                bbody_, bpose_, bpos_, bvel_, bslot_);
+  // The cloth nodes' velocities in the new order.
   if (on(Stage::ClothCoupling)) kernels_.call("cloth_to_boundary", n_cloth_, kLocal, n_cloth_, n_static_ + n_moving_, cloth_->positions(), cloth_->velocities(), cloth_volume_, bslot_, bsrc_, bpos_, bvel_, max_speed_);
 }
 
@@ -642,9 +645,21 @@ void Simulation::integrateBodies(double dt) {
   // Momenta from gravity and the fluid; contact impulses between bodies and with the closed walls
   // (core/contact.h); poses (keyframed bodies: the pose at the end of the step from the path
   // itself, no drift); penetration removed by split impulses.
-  for (std::size_t b = 0; b < bodies_.size(); ++b) rigid::integrateVelocity(model_.bodies[b], bodies_[b], g, dt);
+  // A dynamic body with hold_until is held still at its pose until then (its fluid force is still
+  // gathered, as a held body's), and released from rest after: the fluid settles around it first.
+  auto held = [&](std::size_t b) {
+    return model_.bodies[b].kind == rigid::BodyKind::Dynamic && time_ < model_.bodies[b].spec.hold_until;
+  };
+  for (std::size_t b = 0; b < bodies_.size(); ++b)
+    if (!held(b)) rigid::integrateVelocity(model_.bodies[b], bodies_[b], g, dt);
   contacts_->solve(model_.bodies, bodies_, walls, g, dt);
   for (std::size_t b = 0; b < bodies_.size(); ++b) {
+    if (held(b)) {
+      bodies_[b].v.setZero();
+      bodies_[b].w.setZero();
+      bodies_[b].L.setZero();
+      continue;
+    }
     rigid::integratePosition(model_.bodies[b], bodies_[b], dt, walls);
     if (model_.bodies[b].kind == rigid::BodyKind::Kinematic && model_.bodies[b].spec.motion.type == MotionType::Keyframes)
       rigid::followKeyframes(model_.bodies[b], bodies_[b], time_ + dt);

@@ -388,6 +388,8 @@ std::vector<KeyDef> buildTable() {
           .doc("artificial (Monaghan alpha) or laminar (phase viscosity)"));
   add(field<InScene>("fluid.artificial_viscosity", [](auto& s) -> auto& { return s.fluid.artificial_viscosity; })
           .unit("1").atLeast(0).doc("Monaghan alpha, used by the artificial model"));
+  add(field<InScene>("fluid.body_viscosity", [](auto& s) -> auto& { return s.fluid.body_viscosity; })
+          .doc("viscous coupling with moving rigid bodies: fluid (the fluid's own model, e.g. artificial alpha) or physical (the phases' viscosity, laminar form, whatever the fluid's model)"));
   add(field<InScene>("fluid.colour_diffusion", [](auto& s) -> auto& { return s.fluid.colour_diffusion; })
           .unit("m^2/s").atLeast(0).doc("colour diffusion coefficient; 0 = none"));
   add(field<InScene>("fluid.clamp_negative_pressure", [](auto& s) -> auto& { return s.fluid.clamp_negative_pressure; })
@@ -473,6 +475,9 @@ std::vector<KeyDef> buildTable() {
           .doc("body mass; give exactly one of density and mass"));
   add(field<InBodies>("rigid_bodies[].dynamic", [](auto& b) -> auto& { return b.dynamic; })
           .doc("true: moved by gravity and forces; false: static, or scripted by motion"));
+  add(field<InBodies>("rigid_bodies[].hold_until", [](auto& b) -> auto& { return b.hold_until; })
+          .unit("s").atLeast(0)
+          .doc("dynamic bodies: held still at the initial pose (the fluid force still measured) until this time, then released from rest; 0 = free from the start"));
   add(field<InBodies>("rigid_bodies[].velocity", [](auto& b) -> auto& { return b.velocity; })
           .unit("m/s").doc("initial velocity of the centre of mass (dynamic bodies)"));
   add(field<InBodies>("rigid_bodies[].angular_velocity", [](auto& b) -> auto& { return b.angular_velocity; })

@@ -50,6 +50,11 @@ struct EnumNames<ViscosityModel> {
                                                                         {ViscosityModel::Laminar, "laminar"}};
 };
 template <>
+struct EnumNames<BodyViscosity> {
+  static constexpr std::pair<BodyViscosity, const char*> values[] = {{BodyViscosity::Fluid, "fluid"},
+                                                                       {BodyViscosity::Physical, "physical"}};
+};
+template <>
 struct EnumNames<FluidSolver> {
   static constexpr std::pair<FluidSolver, const char*> values[] = {{FluidSolver::Wcsph, "wcsph"},
                                                                      {FluidSolver::Dfsph, "dfsph"}};

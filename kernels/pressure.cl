@@ -64,7 +64,7 @@ inline float4 sph_forces(const SimParams* p, const uint i, __global const float4
     const float F = sph_grad_factor(SPH_KERNEL, r, H);
     f -= bb.w * (pi_term + bpressure[b] * inv_delta2) * F * d;
     if (r < dx && r > 1e-6f * dx) contact += bb.w * (5.0f * p->c0 * p->c0 / dx) * (1.0f - r / dx) / r * d;
-    if (viscous) av += sph_boundary_viscosity(p, mi, rhoi, p->phase_viscosity[phase[i]], vi - bvel[b].xyz, d, r2, F, bb.w);
+    if (viscous) av += sph_boundary_viscosity(p, mi, rhoi, p->phase_viscosity[phase[i]], vi - bvel[b].xyz, d, r2, F, bb.w, bvel[b]);
   }
 
   const float3 g = (float3)(p->gravity[0], p->gravity[1], p->gravity[2]);

@@ -38,21 +38,33 @@ __kernel void rigid_transform(const uint n, const uint n_static, __global const 
   const uint s = slot[n_static + k];
   bsrc[n_static + k] = out;
   bpos[s] = out;
-  bvel[s] = (float4)(pose[4 * b + 2].xyz + cross(pose[4 * b + 3].xyz, r), 0.0f);
+  bvel[s] = (float4)(pose[4 * b + 2].xyz + cross(pose[4 * b + 3].xyz, r), 1.0f); /* w = 1: a body particle */
 }
 
 /* Gathers the boundary particles into cell order after a counting sort (grid.cl) of bsrc, and
- * records where each one went. */
-__kernel void rigid_boundary_reorder(const uint n, __global const uint* sorted, __global const float4* bsrc,
-                                     __global float4* bpos, __global uint* slot) {
+ * records where each one went. The velocities go into the new order too: zero for static
+ * particles, the rigid motion for the n_moving body particles (as rigid_transform writes it);
+ * cloth nodes (after those) are rewritten by cloth_to_boundary right after the sort. (Before
+ * issue 15 bvel kept the old order until the next step's rigid_transform: for one step after each
+ * sort the fluid saw body particles at rest and wall particles moving.) */
+__kernel void rigid_boundary_reorder(const uint n, const uint n_static, const uint n_moving,
+                                     __global const uint* sorted, __global const float4* bsrc,
+                                     __global const float4* body_local, __global const uint* body,
+                                     __global const float4* pose, __global float4* bpos,
+                                     __global float4* bvel, __global uint* slot) {
   const uint s = get_global_id(0);
   if (s >= n) return;
   const uint k = sorted[s];
   bpos[s] = bsrc[k];
   slot[k] = s;
+  float4 v = (float4)(0.0f);
+  if (k >= n_static && k < n_static + n_moving) {
+    const uint b = body[k - n_static];
+    const float3 r = sph_rotate(pose[4 * b + 1], body_local[k - n_static].xyz);
+    v = (float4)(pose[4 * b + 2].xyz + cross(pose[4 * b + 3].xyz, r), 1.0f);
+  }
+  bvel[s] = v;
 }
-/* (bvel is rewritten in the new order by the rigid_transform that follows every sort; static
- * particles have velocity zero in any order.) */
 
 /* (2) Force of the fluid on each moving particle: the opposite of the boundary terms of
  * pressure.cl (with `mirror`, of dfsph.cl: 2 psi_b p_i / delta_i^2 gradW, no contact term) that
@@ -74,7 +86,8 @@ __kernel void rigid_fluid_forces(const SimParams p, const uint n, const uint n_s
   const float4 bb = bsrc[n_static + k];
   const uint s = slot[n_static + k];
   const float pb = bpressure[s];
-  const float3 vb = bvel[s].xyz;
+  const float4 vb4 = bvel[s]; /* w = 1 on a rigid body's particle, 0 on a cloth node */
+  const float3 vb = vb4.xyz;
   const float3 xb = bb.xyz;
   const float H = p.support;
   const float H2 = H * H;
@@ -95,7 +108,7 @@ __kernel void rigid_fluid_forces(const SimParams p, const uint n, const uint n_s
         if (r < dx && r > 1e-6f * dx) f -= mi * bb.w * (5.0f * p.c0 * p.c0 / dx) * (1.0f - r / dx) / r * d;
       }
       if (viscous)
-        f -= mi * sph_boundary_viscosity(&p, mi, density[i], p.phase_viscosity[phase[i]], vel[i].xyz - vb, d, r2, F, bb.w);
+        f -= mi * sph_boundary_viscosity(&p, mi, density[i], p.phase_viscosity[phase[i]], vel[i].xyz - vb, d, r2, F, bb.w, vb4);
     }
   }
   SPH_END_NEIGHBOURS

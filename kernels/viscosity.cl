@@ -24,7 +24,7 @@ __kernel void viscosity_force(const SimParams p, __global const float4* pos, __g
     const uint b = bnbr[(size_t)i * K + k];
     const float3 d = xi - bpos[b].xyz;
     const float r2 = dot(d, d);
-    av += sph_boundary_viscosity(&p, mi, rhoi, nu, vi - bvel[b].xyz, d, r2, sph_grad_factor(SPH_KERNEL, sqrt(r2), p.support), bpos[b].w);
+    av += sph_boundary_viscosity(&p, mi, rhoi, nu, vi - bvel[b].xyz, d, r2, sph_grad_factor(SPH_KERNEL, sqrt(r2), p.support), bpos[b].w, bvel[b]);
   }
   acc[i] += (float4)(s.av + av, 0.0f);
 }

@@ -187,6 +187,7 @@ TEST_CASE("a minimal scene gets every default of core/scene_spec.h", "[io]") {
   CHECK(s.fluid.speed_of_sound == d.fluid.speed_of_sound);
   CHECK(s.fluid.viscosity_model == d.fluid.viscosity_model);
   CHECK(s.fluid.artificial_viscosity == d.fluid.artificial_viscosity);
+  CHECK(s.fluid.body_viscosity == d.fluid.body_viscosity);
   CHECK(s.fluid.colour_diffusion == d.fluid.colour_diffusion);
   CHECK(s.fluid.clamp_negative_pressure == d.fluid.clamp_negative_pressure);
   CHECK(s.fluid.max_particles == d.fluid.max_particles);
@@ -550,7 +551,7 @@ TEST_CASE("the schema text lists every key with type, default, unit and range", 
       "fluid.dfsph.divergence_solve", "fluid.dfsph.warm_start", "fluid.dfsph.relaxation", "fluid.dfsph.cfl", "fluid.dfsph.max_time_step",
       "fluid.particle_spacing",
       "fluid.equation_of_state", "fluid.speed_of_sound", "fluid.viscosity_model", "fluid.artificial_viscosity",
-      "fluid.colour_diffusion", "fluid.clamp_negative_pressure", "fluid.max_particles", "fluid.phases",
+      "fluid.body_viscosity", "fluid.colour_diffusion", "fluid.clamp_negative_pressure", "fluid.max_particles", "fluid.phases",
       "fluid.phases[].name", "fluid.phases[].rest_density", "fluid.phases[].viscosity", "fluid.phases[].colour",
       "fluid.blocks", "fluid.blocks[].phase", "fluid.blocks[].min", "fluid.blocks[].max", "fluid.blocks[].velocity",
       "fluid.inflows", "fluid.inflows[].name", "fluid.inflows[].phase", "fluid.inflows[].shape",
@@ -559,7 +560,7 @@ TEST_CASE("the schema text lists every key with type, default, unit and range", 
       "rigid_bodies", "rigid_bodies[].name", "rigid_bodies[].shape", "rigid_bodies[].mesh", "rigid_bodies[].radius",
       "rigid_bodies[].size", "rigid_bodies[].height", "rigid_bodies[].position", "rigid_bodies[].orientation_axis",
       "rigid_bodies[].orientation_angle", "rigid_bodies[].scale", "rigid_bodies[].density", "rigid_bodies[].mass",
-      "rigid_bodies[].dynamic", "rigid_bodies[].velocity", "rigid_bodies[].angular_velocity",
+      "rigid_bodies[].dynamic", "rigid_bodies[].hold_until", "rigid_bodies[].velocity", "rigid_bodies[].angular_velocity",
       "rigid_bodies[].friction", "rigid_bodies[].restitution", "rigid_bodies[].colour", "rigid_bodies[].grabbable",
       "rigid_bodies[].motion", "rigid_bodies[].motion.type", "rigid_bodies[].motion.velocity",
       "rigid_bodies[].motion.angular_velocity", "rigid_bodies[].motion.keyframes", "rigid_bodies[].motion.keyframes[].time",

@@ -236,8 +236,15 @@ inline SphPairSums sph_pair_sums(const SimParams* p, const uint i, __global cons
  * velocity v = v_i - v_b, gradient factor F: the fluid pair terms above with the
  * boundary particle as a fluid particle of mass w m and the same density and viscosity. */
 inline float3 sph_boundary_viscosity(const SimParams* p, const float m, const float rho, const float nu,
-                                     const float3 v, const float3 d, const float r2, const float F, const float w) {
+                                     const float3 v, const float3 d, const float r2, const float F, const float w,
+                                     const float4 vb) {
   const float eta2 = 0.01f * p->h * p->h;
+  /* A moving body's particle (vb.w = 1, rigid.cl) with fluid.body_viscosity physical: the laminar
+   * term with the liquid's own viscosity nu, whatever the fluid's model (Akinci et al. 2012 eq. 11
+   * gives the fluid-body term its own coefficient). The artificial alpha is a numerical viscosity,
+   * nu_eff ~ alpha h c0 / 10 (Monaghan 2005), ~1000x water's at dx = 1 cm: on a body it is the drag
+   * and squeeze film of syrup (README, Forces on bodies). */
+  if (p->body_viscosity && vb.w > 0.5f) return (2.0f * w * m * nu / rho) * (F * r2) / (r2 + eta2) * v;
 #if SPH_LAMINAR
   return (2.0f * w * m * nu / rho) * (F * r2) / (r2 + eta2) * v; /* (mu_i + mu_b) / (rho_i rho_b) = 2 nu / rho */
 #else

@@ -41,7 +41,7 @@ typedef struct SimParams {
   float c0;               /* speed of sound (unit: m/s) */
   float alpha;            /* Monaghan artificial viscosity coefficient (unit: 1) */
   float colour_diffusion; /* (unit: m^2/s) */
-  float pad1;
+  sph_uint body_viscosity; /* 1: fluid-body viscous term with the phase viscosity, laminar form (BodyViscosity::Physical) */
   float phase_rest_density[SPH_MAX_PHASES]; /* (unit: kg/m^3) */
   float phase_mass[SPH_MAX_PHASES];         /* rest_density * dx^3 (unit: kg) */
   float phase_viscosity[SPH_MAX_PHASES];    /* kinematic (unit: m^2/s) */

@@ -1,0 +1,235 @@
+#include "cli/force_checks.h"
+
+#include "cli/runner.h"
+#include "core/model.h"
+#include "core/scene_spec.h"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+namespace sph::app {
+
+namespace {
+
+std::string num(double v) {
+  std::ostringstream s;
+  s.precision(17);
+  s << v;
+  return s.str();
+}
+
+}  // namespace
+
+ReleaseCheck releasedBall(const std::string& scene, double dx, double rho_b, double window,
+                          const std::vector<std::string>& sets, const std::string& device) {
+  ReleaseCheck c;
+  c.dx = dx;
+  RunOptions o;
+  o.scene = scene;
+  o.device = device;
+  o.quiet = true;
+  o.write_output = false;
+  o.sets = {"fluid.particle_spacing=" + num(dx), "rigid_bodies[0].density=" + num(rho_b)};
+  o.sets.insert(o.sets.end(), sets.begin(), sets.end());
+  // Every step's force and velocity once the first frame is done (the hold lasts much longer).
+  std::vector<StepForce> log;
+  double hold = 0, rho_w = 0, g = 0, volume = 0, mass = 0;
+  const RunResult r = runScene(o, [&](Simulation& sim, const FrameReport&) {
+    if (log.empty() && hold == 0) {
+      const Model& m = sim.model();
+      hold = m.bodies[0].spec.hold_until;
+      rho_w = m.spec.fluid.phases[0].rest_density;
+      g = m.spec.simulation.gravity.norm();
+      volume = m.bodies[0].volume;
+      mass = m.bodies[0].mass;
+      c.radius = m.bodies[0].spec.radius * m.bodies[0].spec.scale;
+      sim.recordStepForces(true);
+    }
+    for (const StepForce& f : sim.takeStepForces()) log.push_back(f);
+  });
+  c.exit_code = r.exit_code;
+  c.message = r.message;
+  c.wall_seconds = r.wall_seconds;
+  if (r.exit_code != 0) return c;
+  c.weight = mass * g;
+  c.buoyancy = rho_w * g * volume;
+  c.a0_expected = (rho_w - rho_b) * g / (rho_b + 0.5 * rho_w);
+  c.a0_no_added_mass = (rho_w - rho_b) * g / rho_b;
+  // Held: the last 0.1 s of the hold. Free: the window after the release; v_z(t) fitted by least
+  // squares (its slope is the mean acceleration over the window).
+  double held = 0, freef = 0, st = 0, sv = 0, stt = 0, stv = 0;
+  int nh = 0, nf = 0;
+  for (const StepForce& f : log) {
+    if (f.time >= hold - 0.1 && f.time < hold) {
+      held += f.force.z();
+      ++nh;
+    } else if (f.time >= hold && f.time <= hold + window) {
+      freef += f.force.z();
+      st += f.time;
+      sv += f.v.z();
+      stt += f.time * f.time;
+      stv += f.time * f.v.z();
+      ++nf;
+    }
+  }
+  if (nh < 2 || nf < 3) {
+    c.exit_code = 1;
+    c.message = "too few steps in the held or free window";
+    return c;
+  }
+  c.held_force = held / nh;
+  c.free_force = freef / nf;
+  c.a0 = (nf * stv - st * sv) / (nf * stt - st * st);
+  return c;
+}
+
+AccelCheck acceleratedBall(const std::string& scene, double dx, const std::vector<std::string>& sets,
+                           const std::string& device) {
+  AccelCheck c;
+  c.dx = dx;
+  RunOptions o;
+  o.scene = scene;
+  o.device = device;
+  o.quiet = true;
+  o.write_output = false;
+  // The ball's keyframes are in metres, so they do not change with dx.
+  o.sets = {"fluid.particle_spacing=" + num(dx)};
+  o.sets.insert(o.sets.end(), sets.begin(), sets.end());
+  std::vector<StepForce> log;
+  double t0 = -1, t1 = 0, rho = 0, volume = 0, nearest = 0;
+  const RunResult r = runScene(o, [&](Simulation& sim, const FrameReport&) {
+    if (t0 < 0) {
+      const Model& m = sim.model();
+      const auto& keys = m.bodies[0].spec.motion.keyframes;
+      t0 = keys.front().time;
+      t1 = keys.back().time;
+      rho = m.spec.fluid.phases[0].rest_density;
+      volume = m.bodies[0].volume;
+      c.radius = m.bodies[0].spec.radius * m.bodies[0].spec.scale;
+      // The nearest wall or fluid surface from the centre (the box's walls; the blocks' top).
+      const Eigen::Vector3d x = keys.front().position;
+      nearest = std::min((x - m.spec.domain.min).minCoeff(), (m.spec.domain.max - x).minCoeff());
+      for (const BlockSpec& b : m.spec.fluid.blocks) nearest = std::min(nearest, b.max.z() - x.z());
+      sim.recordStepForces(true);
+    }
+    for (const StepForce& f : sim.takeStepForces()) log.push_back(f);
+  });
+  c.exit_code = r.exit_code;
+  c.message = r.message;
+  c.wall_seconds = r.wall_seconds;
+  if (r.exit_code != 0) return c;
+  const double l3 = std::pow(c.radius / nearest, 3);
+  c.cm_confined = (1.0 + 2.0 * l3) / (2.0 * (1.0 - l3));
+  // F_x = -M a - B v by least squares over the moving phase (steps of equal length): over whole
+  // periods of a shaking a and v are orthogonal, so M (added mass) and B (drag) separate. The
+  // acceleration of the path from central differences of the logged velocity (a smooth path).
+  double saa = 0, svv = 0, sav = 0, sfa = 0, sfv = 0, amax = 0;
+  for (std::size_t k = 1; k + 1 < log.size(); ++k) {
+    const StepForce& f = log[k];
+    if (f.time < t0 || f.time > t1) continue;
+    const double a = (log[k + 1].v.x() - log[k - 1].v.x()) / (log[k + 1].time - log[k - 1].time);
+    const double v = f.v.x(), F = f.force.x();
+    saa += a * a;
+    svv += v * v;
+    sav += a * v;
+    sfa += F * a;
+    sfv += F * v;
+    amax = std::max(amax, std::abs(a));
+  }
+  const double det = saa * svv - sav * sav;
+  if (!(det > 0.0)) {
+    c.exit_code = 1;
+    c.message = "no motion in the keyframed phase";
+    return c;
+  }
+  const double M = -(sfa * svv - sfv * sav) / det;
+  const double B = -(sfv * saa - sfa * sav) / det;
+  c.accel = amax;
+  c.cm = M / (rho * volume);
+  c.damping = B;
+  return c;
+}
+
+double sphereInSphereWallFactor(double l) {
+  return (1.0 - std::pow(l, 5)) / (1.0 - 2.25 * l + 2.5 * std::pow(l, 3) - 2.25 * std::pow(l, 5) + std::pow(l, 6));
+}
+
+TowCheck towedBall(const std::string& scene, double dx, const std::vector<std::string>& sets, const std::string& device) {
+  TowCheck c;
+  c.dx = dx;
+  RunOptions o;
+  o.scene = scene;
+  o.device = device;
+  o.quiet = true;
+  o.write_output = false;
+  o.sets = {"fluid.particle_spacing=" + num(dx)};
+  o.sets.insert(o.sets.end(), sets.begin(), sets.end());
+  std::vector<StepForce> log;
+  double duration = 0, nu = 0, rho = 0, box = 0;
+  const RunResult r = runScene(o, [&](Simulation& sim, const FrameReport&) {
+    if (duration == 0) {
+      const Model& m = sim.model();
+      duration = m.spec.simulation.duration;
+      nu = m.spec.fluid.phases[0].viscosity;
+      rho = m.spec.fluid.phases[0].rest_density;
+      box = (m.spec.domain.max - m.spec.domain.min).minCoeff();
+      c.radius = m.bodies[0].spec.radius * m.bodies[0].spec.scale;
+      c.speed = m.bodies[0].spec.motion.velocity.norm();
+      sim.recordStepForces(true);
+    }
+    for (const StepForce& f : sim.takeStepForces()) log.push_back(f);
+  });
+  c.exit_code = r.exit_code;
+  c.message = r.message;
+  c.wall_seconds = r.wall_seconds;
+  if (r.exit_code != 0) return c;
+  c.mu = rho * nu;
+  c.reynolds = 2.0 * c.radius * c.speed / nu;
+  c.stokes = 6.0 * M_PI * c.mu * c.radius * c.speed;
+  // Wall factor of the cubic box (side L) bracketed by two spherical containers: the inscribed
+  // one (b = L/2, less liquid than the box: K too high) and the one of the box's volume
+  // (b = L (3 / 4 pi)^(1/3), the corners counted as near as the faces: K too low).
+  c.wall_factor_hi = sphereInSphereWallFactor(c.radius / (0.5 * box));
+  c.wall_factor_lo = sphereInSphereWallFactor(c.radius / (box * std::cbrt(3.0 / (4.0 * M_PI))));
+  // The second half of the run: the viscous set-up time over the gap to the walls has passed.
+  std::vector<const StepForce*> win;
+  for (const StepForce& f : log)
+    if (f.time >= 0.5 * duration) win.push_back(&f);
+  if (win.size() < 12) {
+    c.exit_code = 1;
+    c.message = "too few steps in the window";
+    return c;
+  }
+  double fx = 0;
+  Eigen::Vector2d side = Eigen::Vector2d::Zero();
+  for (const StepForce* f : win) {
+    fx += f->force.x();
+    side += Eigen::Vector2d(f->force.y(), f->force.z());
+  }
+  const double n = static_cast<double>(win.size());
+  c.drag = -fx / n;
+  side /= n;
+  c.side = side.cwiseAbs().maxCoeff();
+  // Noise of the sideways mean: the spread of 6 block means (blocks longer than the force's
+  // correlation time), standard error = sd / sqrt(6).
+  const int blocks = 6;
+  double noise = 0;
+  for (int a = 0; a < 2; ++a) {
+    std::vector<double> means(blocks, 0.0);
+    std::vector<int> counts(blocks, 0);
+    for (std::size_t k = 0; k < win.size(); ++k) {
+      const int b = static_cast<int>(k * blocks / win.size());
+      means[b] += a == 0 ? win[k]->force.y() : win[k]->force.z();
+      ++counts[b];
+    }
+    double mean = 0, var = 0;
+    for (int b = 0; b < blocks; ++b) mean += (means[b] /= counts[b]) / blocks;
+    for (int b = 0; b < blocks; ++b) var += (means[b] - mean) * (means[b] - mean) / (blocks - 1);
+    noise = std::max(noise, std::sqrt(var / blocks));
+  }
+  c.side_noise = noise;
+  return c;
+}
+
+}  // namespace sph::app

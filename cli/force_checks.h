@@ -1,0 +1,81 @@
+// Force checks of bodies in water (issue 15), shared by the tests (tests/test_forces.cpp) and the
+// `bench` table: a buoyant ball released from rest (added mass), the same ball held and free
+// (buoyancy of a free body), and a ball towed through a viscous liquid (Stokes drag, sideways
+// force). Each runs a small scene of scenes/tests/ and compares with its closed form.
+#pragma once
+
+#include <string>
+#include <vector>
+
+namespace sph::app {
+
+/// A ball held still until the scene's hold_until, then released from rest
+/// (scenes/tests/release_ball.yaml).
+struct ReleaseCheck {
+  int exit_code = 0;
+  std::string message;
+  double dx = 0;             ///< particle spacing (unit: m)
+  double radius = 0;         ///< ball radius (unit: m)
+  double weight = 0;         ///< m g (unit: N)
+  double buoyancy = 0;       ///< rho_w g V, V the ball's mesh volume (unit: N)
+  double held_force = 0;     ///< mean vertical fluid force over the last 0.1 s of the hold (unit: N)
+  double free_force = 0;     ///< mean vertical fluid force over the first `window` s after release (unit: N)
+  double a0 = 0;             ///< first vertical acceleration: least-squares slope of v_z over the window (unit: m/s^2)
+  double a0_expected = 0;    ///< (rho_w - rho_b) g / (rho_b + rho_w / 2) (unit: m/s^2)
+  double a0_no_added_mass = 0;  ///< (rho_w - rho_b) g / rho_b (unit: m/s^2)
+  double wall_seconds = 0;   ///< (unit: s)
+};
+
+/// Runs `scene` (release_ball.yaml) at spacing dx with the ball's density rho_b (unit: kg/m^3), fitting the
+/// acceleration over `window` seconds after the release; `sets` are extra --set overrides.
+ReleaseCheck releasedBall(const std::string& scene, double dx, double rho_b, double window,
+                          const std::vector<std::string>& sets = {}, const std::string& device = "");
+
+/// A kinematic ball shaken along x from rest on a keyframed path (scenes/tests/accel_ball.yaml).
+struct AccelCheck {
+  int exit_code = 0;
+  std::string message;
+  double dx = 0;              ///< (unit: m)
+  double radius = 0;          ///< (unit: m)
+  double accel = 0;           ///< largest |a| of the path (unit: m/s^2)
+  double cm = 0;              ///< added-mass coefficient M / (rho V), F_x = -M a - B v fitted (unit: 1)
+  double cm_unbounded = 0.5;  ///< potential flow, unbounded fluid (unit: 1)
+  double cm_confined = 0;     ///< Lamb (1932, art. 92): in a concentric sphere of radius b (the distance to the nearest wall), (1 + 2 l^3) / (2 (1 - l^3)), l = R / b (unit: 1)
+  double damping = 0;         ///< B, the part of the force in phase with -v (unit: N s/m)
+  double wall_seconds = 0;    ///< (unit: s)
+};
+
+/// Runs `scene` (accel_ball.yaml) at spacing dx: over the keyframed phase (first to last key) the
+/// fluid force is fitted as F_x = -C_m rho V a - B v by least squares.
+AccelCheck acceleratedBall(const std::string& scene, double dx, const std::vector<std::string>& sets = {},
+                           const std::string& device = "");
+
+/// A ball towed at constant velocity U along x through a closed box of viscous liquid
+/// (scenes/tests/stokes_tow.yaml), gravity off.
+struct TowCheck {
+  int exit_code = 0;
+  std::string message;
+  double dx = 0;               ///< (unit: m)
+  double radius = 0;           ///< (unit: m)
+  double speed = 0;            ///< U (unit: m/s)
+  double mu = 0;               ///< dynamic viscosity rho nu (unit: Pa s)
+  double reynolds = 0;         ///< 2 R U / nu (unit: 1)
+  double drag = 0;             ///< mean -F_x over the second half of the run (unit: N)
+  double stokes = 0;           ///< 6 pi mu R U (unit: N)
+  double wall_factor_lo = 0;   ///< Haberman & Sayre 1958 K for a container sphere of the box's volume (unit: 1)
+  double wall_factor_hi = 0;   ///< the same for the sphere inscribed in the box (unit: 1)
+  double side = 0;             ///< largest mean sideways component |F_y|, |F_z| over the window (unit: N)
+  double side_noise = 0;       ///< standard error of that mean, from 6 block means (unit: N)
+  double wall_seconds = 0;     ///< (unit: s)
+};
+
+/// Haberman & Sayre (1958) wall factor of a sphere (radius R) moving at the centre of a rigid
+/// spherical container (radius b), lambda = R / b: F = 6 pi mu R U K with
+/// K = (1 - lambda^5) / (1 - 9/4 lambda + 5/2 lambda^3 - 9/4 lambda^5 + lambda^6).
+double sphereInSphereWallFactor(double lambda);
+
+/// Runs `scene` (stokes_tow.yaml) at spacing dx; `sets` are extra --set overrides.
+TowCheck towedBall(const std::string& scene, double dx, const std::vector<std::string>& sets = {},
+                   const std::string& device = "");
+
+}  // namespace sph::app
