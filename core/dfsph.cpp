@@ -25,7 +25,8 @@ DfsphSolver::DfsphSolver(ClContext& cl, KernelSet& kernels, std::size_t capacity
   const double ratio = support / dx;
   min_neighbours_ = static_cast<uint32_t>(0.6 * 4.18879 * ratio * ratio * ratio);
   alpha_ = makeBuffer(capacity * 4);
-  pinc_ = makeBuffer(capacity * 4);
+  source_ = makeBuffer(capacity * 4);
+  accel_ = makeBuffer(capacity * 16);
   err_ = makeBuffer(capacity * 4);
   partial_ = makeBuffer(kChunks * 4);
   pdiv_ = makeBuffer(capacity * 4);
@@ -37,7 +38,7 @@ DfsphSolver::DfsphSolver(ClContext& cl, KernelSet& kernels, std::size_t capacity
   // the active count are never written).
   clCall("clearing the DFSPH pressures", [&] {
     auto& q = cl_.queue();
-    for (cl::Buffer* b : {&pdiv_, &pdens_, &scratch_a_, &scratch_b_, &pinc_})
+    for (cl::Buffer* b : {&pdiv_, &pdens_, &scratch_a_, &scratch_b_})
       q.enqueueFillBuffer(*b, 0.0f, 0, std::max<std::size_t>(capacity, 4) * 4);
     return q.finish();
   });
@@ -51,38 +52,54 @@ void DfsphSolver::reorder(std::size_t n, const cl::Buffer& sorted) {
 
 void DfsphSolver::factors(const SimParams& p, const DfsphFields& f) {
   kernels_.call("dfsph_factor", p.n_fluid, kLocal, p, *f.pos, *f.phase, *f.density, *f.snbr, *f.snbr_count, *f.bpos,
-                *f.sbnbr, *f.sbnbr_count, alpha_);
+                *f.sbnbr, *f.sbnbr_count, wallFactor(), alpha_);
 }
 
-void DfsphSolver::source(Kind kind, const SimParams& p, const DfsphFields& f, bool warm) {
+void DfsphSolver::source(Kind kind, const SimParams& p, const DfsphFields& f, cl::Buffer& pressure) {
+  // Warm start (B&K 2017 section 4.4): a share of the previous step's pressure, scaled as the
+  // reference implementation keeps it (p dt^2 for the density solve, p dt for the divergence solve).
+  const bool div = kind == Kind::Divergence;
+  // Warm start (B&K 2017 section 4.4): the last step's pressure where the flow now compresses, all
+  // of it (the projected iteration can lower a pressure again; half of it, as the reference, left
+  // the hydrostatic tank's column sagging each step: 88 iterations per step against 25).
+  const double warm = spec_.warm_start ? 1.0 : 0.0;
+  kernels_.call("dfsph_source", p.n_fluid, kLocal, p, *f.pos, *f.vel, *f.phase, *f.density, *f.snbr, *f.snbr_count,
+                *f.bpos, *f.bvel, *f.sbnbr, *f.sbnbr_count, div ? 0 : 1, div ? min_neighbours_ : 0u,
+                static_cast<float>(warm), source_, pressure);
+}
+
+void DfsphSolver::iterate(Kind kind, const SimParams& p, const DfsphFields& f, cl::Buffer& pressure) {
+  kernels_.call("dfsph_pressure_accel", p.n_fluid, kLocal, p, *f.pos, *f.phase, *f.density, pressure, *f.snbr,
+                *f.snbr_count, *f.bpos, *f.sbnbr, *f.sbnbr_count, wallFactor(), accel_);
+  const uint32_t min_nbr = kind == Kind::Divergence ? min_neighbours_ : 0u;
+  kernels_.call("dfsph_jacobi", p.n_fluid, kLocal, p, *f.pos, accel_, alpha_, source_, *f.snbr, *f.snbr_count,
+                *f.bpos, *f.sbnbr, *f.sbnbr_count, min_nbr, static_cast<float>(spec_.relaxation), pressure, err_);
+}
+
+void DfsphSolver::apply(const SimParams& p, const DfsphFields& f, const cl::Buffer& pressure) {
+  kernels_.call("dfsph_apply_pressure", p.n_fluid, kLocal, p, *f.pos, *f.vel, *f.phase, *f.density, pressure, *f.snbr,
+                *f.snbr_count, *f.bpos, *f.sbnbr, *f.sbnbr_count, wallFactor());
+}
+
+// --- Mirrored walls: the first version's iteration (kernels/dfsph.cl) ----------------------
+
+void DfsphSolver::sourceIncrements(Kind kind, const SimParams& p, const DfsphFields& f, bool warm) {
   const int w = warm ? 1 : 0;
   const float omega = static_cast<float>(spec_.relaxation);
   if (kind == Kind::Divergence)
     kernels_.call("dfsph_divergence_source", p.n_fluid, kLocal, p, *f.pos, *f.vel, alpha_, *f.snbr, *f.snbr_count,
-                  *f.bpos, *f.bvel, *f.sbnbr, *f.sbnbr_count, min_neighbours_, w, omega, scratch_a_, pinc_, err_);
+                  *f.bpos, *f.bvel, *f.sbnbr, *f.sbnbr_count, min_neighbours_, w, omega, scratch_a_, source_, err_);
   else
     kernels_.call("dfsph_density_source", p.n_fluid, kLocal, p, *f.pos, *f.vel, *f.phase, *f.density, alpha_,
-                  *f.snbr, *f.snbr_count, *f.bpos, *f.bvel, *f.sbnbr, *f.sbnbr_count, w, omega, scratch_a_, pinc_, err_);
+                  *f.snbr, *f.snbr_count, *f.bpos, *f.bvel, *f.sbnbr, *f.sbnbr_count, w, omega, scratch_a_, source_, err_);
 }
 
-void DfsphSolver::apply(const SimParams& p, const DfsphFields& f, cl::Buffer& pacc) {
-  kernels_.call("dfsph_apply", p.n_fluid, kLocal, p, *f.pos, *f.vel, *f.phase, *f.density, pinc_, pacc, *f.snbr,
+void DfsphSolver::applyIncrements(const SimParams& p, const DfsphFields& f, cl::Buffer& pacc) {
+  kernels_.call("dfsph_apply_increments", p.n_fluid, kLocal, p, *f.pos, *f.vel, *f.phase, *f.density, source_, pacc, *f.snbr,
                 *f.snbr_count, *f.bpos, *f.sbnbr, *f.sbnbr_count);
 }
 
-double DfsphSolver::averageError(std::size_t n) {
-  // Chunk sums on the device, the chunks added in order here (double): a fixed order.
-  const uint32_t chunk = static_cast<uint32_t>((n + kChunks - 1) / kChunks);
-  kernels_.call("dfsph_reduce", kChunks, 0, static_cast<uint32_t>(n), chunk, err_, partial_);
-  std::vector<float> part(kChunks);
-  clCall("reading the DFSPH error",
-         [&] { return cl_.queue().enqueueReadBuffer(partial_, CL_TRUE, 0, kChunks * 4, part.data()); });
-  double sum = 0.0;
-  for (float v : part) sum += v;
-  return n > 0 ? sum / static_cast<double>(n) : 0.0;
-}
-
-DfsphSolveResult DfsphSolver::solve(Kind kind, const SimParams& p, const DfsphFields& f) {
+DfsphSolveResult DfsphSolver::solveMirrored(Kind kind, const SimParams& p, const DfsphFields& f) {
   const bool div = kind == Kind::Divergence;
   cl::Buffer& pacc = div ? pdiv_ : pdens_;
   const std::size_t n = p.n_fluid;
@@ -98,21 +115,58 @@ DfsphSolveResult DfsphSolver::solve(Kind kind, const SimParams& p, const DfsphFi
     return q.enqueueFillBuffer(pacc, 0.0f, 0, std::max<std::size_t>(n, 1) * 4);
   });
   if (spec_.warm_start) {
-    source(kind, p, f, true);
-    apply(p, f, pacc);
+    sourceIncrements(kind, p, f, true);
+    applyIncrements(p, f, pacc);
   }
   // Jacobi iterations: pressures from the velocities, the error of those velocities, then the
   // velocities from the pressures, until the error is within the bound.
   DfsphSolveResult r;
-  source(kind, p, f, false);
+  sourceIncrements(kind, p, f, false);
   r.error = averageError(n);
   while ((r.iterations < min_it || r.error > bound) && r.iterations < max_it) {
-    apply(p, f, pacc);
-    source(kind, p, f, false);
+    applyIncrements(p, f, pacc);
+    sourceIncrements(kind, p, f, false);
     r.error = averageError(n);
     ++r.iterations;
   }
   r.converged = r.error <= bound;
+  return r;
+}
+
+double DfsphSolver::averageError(std::size_t n) {
+  // Chunk sums on the device, the chunks added in order here (double): a fixed order.
+  const uint32_t chunk = static_cast<uint32_t>((n + kChunks - 1) / kChunks);
+  kernels_.call("dfsph_reduce", kChunks, 0, static_cast<uint32_t>(n), chunk, err_, partial_);
+  std::vector<float> part(kChunks);
+  clCall("reading the DFSPH error",
+         [&] { return cl_.queue().enqueueReadBuffer(partial_, CL_TRUE, 0, kChunks * 4, part.data()); });
+  double sum = 0.0;
+  for (float v : part) sum += v;
+  return n > 0 ? sum / static_cast<double>(n) : 0.0;
+}
+
+DfsphSolveResult DfsphSolver::solve(Kind kind, const SimParams& p, const DfsphFields& f) {
+  if (mirrored()) return solveMirrored(kind, p, f);
+  const bool div = kind == Kind::Divergence;
+  cl::Buffer& pressure = div ? pdiv_ : pdens_;
+  const std::size_t n = p.n_fluid;
+  const double bound = div ? spec_.divergence_error : spec_.density_error;
+  const int min_it = std::max(1, div ? spec_.divergence_min_iterations : spec_.min_iterations);
+  const int max_it = div ? spec_.divergence_max_iterations : spec_.max_iterations;
+  // The source from the velocities the solve starts with, and the starting pressure.
+  source(kind, p, f, pressure);
+  // Relaxed Jacobi iterations on the pressures (velocities fixed), until the average error of the
+  // pressures found is within the bound; at least min_it (at least one), at most max_it.
+  DfsphSolveResult r;
+  do {
+    iterate(kind, p, f, pressure);
+    r.error = averageError(n);
+    ++r.iterations;
+  } while ((r.iterations < min_it || r.error > bound) && r.iterations < max_it);
+  r.converged = r.error <= bound;
+  // The velocities take the pressures found.
+  apply(p, f, pressure);
+  (div ? prev_dt_div_ : prev_dt_dens_) = p.dt;
   return r;
 }
 

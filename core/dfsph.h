@@ -8,9 +8,10 @@
 //        ─► gravity, viscosity into acc ─► v* = v + dt a ─► density solve: v* keeps delta = delta0
 //        ─► finish: pressure for output, p / delta^2 for the rigid coupling ─► integrate (x += dt v)
 //
-// Each solve iterates Jacobi passes (source: pressures from velocities; apply: velocities from
-// pressures) until the average error is below its bound (and the least iterations are done) or
-// the most iterations are reached. The average is summed in fixed chunks on the device and the
+// Each solve computes its source from the velocities once, then iterates relaxed Jacobi passes on
+// the pressures (accelerations of the pressures; pressures from the residual, projected to p >= 0)
+// until the average error is below its bound (and the least iterations are done) or the most
+// iterations are reached; then the velocities take the pressures. The average is summed in fixed chunks on the device and the
 // chunks in order on the host: bitwise deterministic.
 #pragma once
 
@@ -42,7 +43,7 @@ struct DfsphFields {
 
 /// How one solve ended.
 struct DfsphSolveResult {
-  int iterations = 0;     ///< Jacobi iterations (source + apply), the warm start not counted
+  int iterations = 0;     ///< relaxed Jacobi iterations on the pressures (unit: 1)
   double error = 0.0;     ///< average error reached (unit: 1, relative to rho0)
   bool converged = true;  ///< error <= bound when it stopped
 };
@@ -63,15 +64,29 @@ class DfsphSolver {
   DfsphSolveResult densitySolve(const SimParams& p, const DfsphFields& f);
   /// The pressure to export and p / delta^2 for the rigid coupling (kernels/dfsph.cl, dfsph_finish).
   void finish(const SimParams& p, const DfsphFields& f);
+  /// The density solve's pressures of the last step, following their particles (n) (unit: Pa).
+  const cl::Buffer& densityPressure() const { return pdens_; }
   /// The velocities before this step's density solve: what the viscous forces saw, so that the
   /// rigid coupling's viscous reaction matches them (n x float4) (unit: m/s).
   const cl::Buffer& viscousVelocities() const { return vel_before_; }
 
  private:
   enum class Kind { Divergence, Density };
+  bool mirrored() const { return spec_.walls == DfsphWalls::Mirrored; }
+  /// Weight of a wall's pressure term: 2 mirrors p_i (p_b = p_i), 1 is Akinci's single term.
+  float wallFactor() const { return mirrored() ? 2.0f : 1.0f; }
   DfsphSolveResult solve(Kind kind, const SimParams& p, const DfsphFields& f);
-  void source(Kind kind, const SimParams& p, const DfsphFields& f, bool warm);
-  void apply(const SimParams& p, const DfsphFields& f, cl::Buffer& pacc);
+  /// The solve's source from the current velocities and its starting pressure (warm start).
+  void source(Kind kind, const SimParams& p, const DfsphFields& f, cl::Buffer& pressure);
+  /// One relaxed Jacobi iteration: pressure accelerations, then the pressures and their errors.
+  void iterate(Kind kind, const SimParams& p, const DfsphFields& f, cl::Buffer& pressure);
+  /// v += dt a^p of the pressures found.
+  void apply(const SimParams& p, const DfsphFields& f, const cl::Buffer& pressure);
+  /// Mirrored walls: the first version's solve (increments from the velocities, each >= 0, applied
+  /// every iteration; half the last pressure as warm start).
+  DfsphSolveResult solveMirrored(Kind kind, const SimParams& p, const DfsphFields& f);
+  void sourceIncrements(Kind kind, const SimParams& p, const DfsphFields& f, bool warm);
+  void applyIncrements(const SimParams& p, const DfsphFields& f, cl::Buffer& pacc);
   double averageError(std::size_t n);
   cl::Buffer makeBuffer(std::size_t bytes);
 
@@ -81,10 +96,14 @@ class DfsphSolver {
   uint32_t min_neighbours_ = 0;  // divergence solve: fewer neighbours = free surface, left alone
   std::size_t bytes_ = 0;
   static constexpr uint32_t kChunks = 64;  // chunks of the error reduction
-  cl::Buffer alpha_, pinc_, err_, partial_;
-  cl::Buffer pdiv_, pdens_;                // accumulated pressures (unit: Pa), kept for the warm start
+  // Share of the previous step's pressure a solve starts from (the reference implementation's 0.5).
+  cl::Buffer alpha_, err_, partial_;
+  cl::Buffer source_;                      // s_i of the running solve (unit: 1); mirrored: the increments (unit: Pa)
+  cl::Buffer accel_;                       // pressure accelerations of the current pressures (n x float4) (unit: m/s^2)
+  cl::Buffer pdiv_, pdens_;                // the solves' pressures (unit: Pa), kept for the warm start
+  double prev_dt_div_ = 0.0, prev_dt_dens_ = 0.0;  // step of the last solve of each kind (unit: s)
   cl::Buffer vel_before_;                  // velocities before the density solve (unit: m/s)
-  cl::Buffer scratch_a_, scratch_b_;       // reorder targets (swapped with pdiv_, pdens_); a: the previous pressure in a warm start
+  cl::Buffer scratch_a_, scratch_b_;       // reorder targets (swapped with pdiv_, pdens_); mirrored: a holds the previous pressure in a warm start
 };
 
 }  // namespace sph

@@ -456,8 +456,12 @@ void Simulation::sampleProbes() {
   // was built (capped, as for the isosurface: a NaN run must not hang here).
   const float reach = static_cast<float>(model_.support + std::min(travel_since_build_, 4.0 * model_.support));
   const uint32_t count = static_cast<uint32_t>(probes_->numPoints());
+  // The pressure probed: WCSPH's equation of state of this step's density; DFSPH's the solver's
+  // pressure (the last density solve's, which moved the fluid to here; B&K 2017 eq. 12), not the
+  // equation of state the density pass also writes.
+  const cl::Buffer& pressure = dfsph_ ? dfsph_->densityPressure() : pressure_;
   kernels_.call("probe_sample", count, kLocal, params_, count, reach, probes_->pointBuffer(), pos_[cur_], vel_[cur_],
-                phase_[cur_], density_, pressure_, cell_start_, bpos_, bcell_start_, probes_->sumBuffer());
+                phase_[cur_], density_, pressure, cell_start_, bpos_, bcell_start_, probes_->sumBuffer());
   std::vector<float> sums(8 * std::size_t(count));
   clCall("reading the probe samples",
          [&] { return cl_.queue().enqueueReadBuffer(probes_->sumBuffer(), CL_TRUE, 0, sums.size() * 4, sums.data()); });
@@ -605,7 +609,7 @@ void Simulation::gatherBodyForces() {
   const int viscous = on(Stage::Viscosity) ? 1 : 0;
   // DFSPH: the wall mirrors the fluid's pressure, no contact term, and the viscous reaction uses the
   // velocities the fluid's viscous forces saw (before the density solve changed them).
-  const int mirror = dfsph_ ? 1 : 0;
+  const int mirror = dfsph_ ? (model_.spec.fluid.dfsph.walls == DfsphWalls::Mirrored ? 2 : 1) : 0;
   const cl::Buffer& vel = dfsph_ ? dfsph_->viscousVelocities() : vel_[cur_];
   kernels_.call("rigid_fluid_forces", n_moving_, kLocal, params_, n_moving_, n_static_, bsrc_, bslot_, bvel_, bpressure_, pos_[cur_], vel, phase_[cur_], density_, pterm_, cell_start_, viscous, mirror, bforce_);
   // The per-body reduction is timed on its own (profile.rigid_reduce_seconds).
@@ -702,7 +706,7 @@ void Simulation::gatherClothForces() {
   // With DFSPH the same choices as for bodies (gatherBodyForces): mirrored pressure, and the
   // velocities the fluid's viscous forces saw.
   const int viscous = on(Stage::Viscosity) ? 1 : 0;
-  const int mirror = dfsph_ ? 1 : 0;
+  const int mirror = dfsph_ ? (model_.spec.fluid.dfsph.walls == DfsphWalls::Mirrored ? 2 : 1) : 0;
   const cl::Buffer& vel = dfsph_ ? dfsph_->viscousVelocities() : vel_[cur_];
   kernels_.call("rigid_fluid_forces", n_cloth_, kLocal, params_, n_cloth_, n_static_ + n_moving_, bsrc_, bslot_, bvel_, bpressure_, pos_[cur_], vel, phase_[cur_], density_, pterm_, cell_start_, viscous, mirror, cloth_force_);
 }

@@ -369,11 +369,16 @@ std::vector<KeyDef> buildTable() {
           .unit("1").atLeast(1).atMost(10000).doc("divergence solve: iterations at most (>= divergence_min_iterations)"));
   add(field<InScene>("fluid.dfsph.divergence_solve", [](auto& s) -> auto& { return s.fluid.dfsph.divergence_solve; })
           .doc("make the velocity field divergence-free each step (Bender & Koschier 2017, Alg. 2)"));
+  add(field<InScene>("fluid.dfsph.walls", [](auto& s) -> auto& { return s.fluid.dfsph.walls; })
+          .doc("mirrored: walls mirror the fluid's pressure (p_b = p_i), Jacobi increments >= 0, half the last "
+               "pressure as warm start (right pressure at walls; more iterations); single: Akinci's single wall "
+               "term, pressures projected to >= 0, the full last pressure as warm start (the reference "
+               "implementation's; ~2.4x fewer iterations, the first fluid layer at a wall reads ~1.7x its pressure)"));
   add(field<InScene>("fluid.dfsph.warm_start", [](auto& s) -> auto& { return s.fluid.dfsph.warm_start; })
-          .doc("start each solve from the pressure of the previous step"));
+          .doc("start each solve from the pressure of the previous step (where the flow compresses)"));
   add(field<InScene>("fluid.dfsph.relaxation", [](auto& s) -> auto& { return s.fluid.dfsph.relaxation; })
           .unit("1").greaterThan(0).atMost(1)
-          .doc("Jacobi relaxation of the pressure increments: 1 = fewest iterations, 0.5 = calmest at rest"));
+          .doc("Jacobi relaxation omega of the pressure updates (the reference implementation's 0.5)"));
   add(field<InScene>("fluid.dfsph.cfl", [](auto& s) -> auto& { return s.fluid.dfsph.cfl; })
           .unit("1").greaterThan(0).atMost(1).doc("Courant number of the adaptive step: dt <= cfl * dx / |v|max"));
   add(field<InScene>("fluid.dfsph.max_time_step", [](auto& s) -> auto& { return s.fluid.dfsph.max_time_step; })

@@ -60,6 +60,11 @@ struct EnumNames<FluidSolver> {
                                                                      {FluidSolver::Dfsph, "dfsph"}};
 };
 template <>
+struct EnumNames<DfsphWalls> {
+  static constexpr std::pair<DfsphWalls, const char*> values[] = {{DfsphWalls::Mirrored, "mirrored"},
+                                                                    {DfsphWalls::Single, "single"}};
+};
+template <>
 struct EnumNames<TimeStepControl> {
   static constexpr std::pair<TimeStepControl, const char*> values[] = {{TimeStepControl::Subdivide, "subdivide"},
                                                                          {TimeStepControl::Warn, "warn"}};

@@ -4,30 +4,42 @@
  * Alg. 1-3, written here for the symmetric multi-fluid pressure force that the WCSPH path uses
  * (Solenthaler & Pajarola 2008 eq. 6, pressure.cl), with number densities delta = rho / m, so that
  * phases of different rest densities share one target, delta0 = 1 / V0 (V0 = dx^3):
- *     a_i^p = -(1/m_i) [ sum_j (p_i/delta_i^2 + p_j/delta_j^2) gradW_ij + sum_b psi_b 2 p_i/delta_i^2 gradW_ib ]
- * Boundary particles b (psi_b = V_b / V0, Akinci et al. 2012) mirror the fluid particle's pressure
- * (p_b = p_i; the symmetric term then weighs 2 p_i), so a wall holds the column at the fluid's spacing.
+ *     a_i^p = -(1/m_i) [ sum_j (p_i/delta_i^2 + p_j/delta_j^2) gradW_ij + sum_b psi_b w p_i/delta_i^2 gradW_ib ]
+ * Boundary particles b (psi_b = V_b / V0, Akinci et al. 2012) weigh p_i / delta_i^2 by w = `wall`
+ * (fluid.dfsph.walls): mirrored, w = 2 (p_b = p_i in the symmetric term), so a wall holds the
+ * column at the fluid's spacing; single, w = 1 (Akinci's term, the reference implementation's).
  *
  * The factor (B&K 2017 eq. 8-9): the pressure p_i alone, acting on i and, equal and opposite, on
  * its neighbours over one step dt, changes delta_i by
  *     Delta delta_i = -dt^2 p_i / delta_i^2 D_i,
- *     D_i = (1/m_i) (G_f + 2 G_b) . (G_f + G_b) + sum_j |gradW_ij|^2 / m_j,
+ *     D_i = (1/m_i) (G_f + w G_b) . (G_f + G_b) + sum_j |gradW_ij|^2 / m_j,
  *     G_f = sum_j gradW_ij,   G_b = sum_b psi_b gradW_ib,
  * so alpha_i = delta_i^2 / D_i (unit: kg m^2) turns a number-density defect into a pressure:
  *     density solve (B&K eq. 12):    p_i = (delta*_i - delta0) alpha_i / dt^2,
  *     divergence solve (B&K eq. 15): p_i = (D delta_i / Dt) alpha_i / dt,
  * with delta*_i = delta_i + dt D delta_i / Dt the density predicted from the current velocities and
  *     D delta_i / Dt = sum_j (v_i - v_j) . gradW_ij + sum_b psi_b (v_i - v_b) . gradW_ib   (B&K eq. 2).
- * Jacobi style: one pass computes every particle's pressure from the velocities (source), the next
- * applies them (apply); each gathers from its neighbours and writes only its own particle. The
- * increments are relaxed by omega (fluid.dfsph.relaxation): the diagonal alpha is exact, but the
- * neighbours' pressures act on i too, and unrelaxed Jacobi overshoots (measured in the hydrostatic
- * tank: omega 1 churns the fluid near the walls at 0.2-0.3 m/s, omega 0.5 at 0.1 m/s). Only
- * compressions are corrected: each increment is >= 0, as in the reference implementation (an
- * iteration that also let the increments go negative, down to zero accumulated pressure, diverged
- * in the hydrostatic tank within 20 steps: Jacobi then overshoots back and forth). The pressure
- * applied in a solve accumulates per particle (pacc); half of it starts the next step's solve where
- * that step compresses (warm start, dfsph_warm below).
+ * Two iterations, by the walls (fluid.dfsph.walls):
+ *
+ * single (w = 1; the reference implementation SPlisHSPlasH's formulation since 2.x): B&K 2017
+ * Alg. 2-3 as a linear complementarity problem, relaxed Jacobi on the pressures projected to
+ * p >= 0. The source s_i is computed once from the velocities the solve starts with (relative
+ * units: density solve s_i = delta*_i V0 - 1, divergence solve s_i = dt V0 D delta_i / Dt), then
+ * each iteration
+ *     a_i = a_i^p(p)                                   (dfsph_pressure_accel, the force above / m_i)
+ *     r_i = s_i + dt^2 V0 [ sum_j (a_i - a_j) . gradW_ij + sum_b psi_b a_i . gradW_ib ]   (= s - A p)
+ *     p_i <- max(p_i + omega r_i alpha_i / (dt^2 V0), 0)                                  (dfsph_jacobi)
+ * with the error the compression left, err_i = max(r_i, 0); after the last iteration the velocities
+ * take the pressure once, v_i += dt a_i^p(p) (dfsph_apply_pressure). A is symmetric and a pressure
+ * that overshot comes back down in the next iteration. The pressure is kept for the next step's
+ * warm start, all of it (dfsph_source).
+ *
+ * mirrored (w = 2): A is not symmetric (p_i acts on i through the wall twice, while i's own
+ * density sees the wall once); the projected iteration above diverged there (the hydrostatic tank
+ * boiled at rest with every diagonal tried). It keeps the first version's iteration: one pass
+ * computes increments from the current velocities (dfsph_divergence_source, dfsph_density_source),
+ * each >= 0, the next applies them to the velocities (dfsph_apply_increments); stable, but an
+ * overshoot stays for the rest of the step. Warm start: half the last pressure (dfsph_warm).
  *
  * Neighbours: this step's lists within H (snbr, sbnbr; density.cl). */
 
@@ -35,7 +47,7 @@
 __kernel void dfsph_factor(const SimParams p, __global const float4* pos, __global const uint* phase,
                            __global const float* density, __global const uint* nbr, __global const uint* nbr_count,
                            __global const float4* bpos, __global const uint* bnbr,
-                           __global const uint* bnbr_count, __global float* alpha) {
+                           __global const uint* bnbr_count, const float wall, __global float* alpha) {
   const uint i = get_global_id(0);
   if (i >= p.n_fluid) return;
   const uint K = p.max_neighbours;
@@ -59,7 +71,7 @@ __kernel void dfsph_factor(const SimParams p, __global const float4* pos, __glob
     const float3 d = xi - bb.xyz;
     gb += bb.w * sph_grad_factor(SPH_KERNEL, length(d), H) * d;
   }
-  const float D = dot(gf + 2.0f * gb, gf + gb) / mi + s2;
+  const float D = dot(gf + wall * gb, gf + gb) / mi + s2;
   const float delta = density[i] / mi;
   /* a particle without neighbours takes no pressure */
   alpha[i] = D > 0.0f ? delta * delta / D : 0.0f;
@@ -98,6 +110,156 @@ inline float dfsph_density_rate(const SimParams* p, const uint i, __global const
   }
   return rate;
 }
+
+/* Source of a solve and its warm start (B&K 2017 Alg. 2-3; section 4.4 for the warm start).
+ * density (kind 1, eq. 12): s_i = (delta_i + dt D delta_i / Dt) V0 - 1, the relative compression
+ *     the current velocities would leave at the end of the step;
+ * divergence (kind 0, eq. 15): s_i = dt V0 D delta_i / Dt, the relative density change over dt.
+ * The pressure starts from warm x the previous step's where the flow now compresses, scaled by
+ * (dt_prev / dt)^k (k = 2 density, 1 divergence: the reference implementation keeps p dt^k from
+ * step to step), else from zero (warm = 0: no warm start). */
+__kernel void dfsph_source(const SimParams p, __global const float4* pos, __global const float4* vel,
+                           __global const uint* phase, __global const float* density, __global const uint* nbr,
+                           __global const uint* nbr_count, __global const float4* bpos,
+                           __global const float4* bvel, __global const uint* bnbr,
+                           __global const uint* bnbr_count, const int kind, const uint min_neighbours,
+                           const float warm, __global float* source, __global float* pressure) {
+  const uint i = get_global_id(0);
+  if (i >= p.n_fluid) return;
+  const uint K = p.max_neighbours;
+  const float rate = dfsph_density_rate(&p, i, pos, vel, nbr + (size_t)i * K, nbr_count[i], bpos, bvel,
+                                        bnbr + (size_t)i * K, bnbr_count[i]);
+  const float delta = density[i] / p.phase_mass[phase[i]];
+  float s = kind ? (delta + p.dt * rate) * p.rest_volume - 1.0f : p.dt * rate * p.rest_volume;
+  /* divergence solve: fewer than min_neighbours neighbours (free surface, splashes): left alone */
+  if (nbr_count[i] + bnbr_count[i] < min_neighbours) s = 0.0f;
+  source[i] = s;
+  pressure[i] = s > 0.0f ? warm * pressure[i] : 0.0f;
+}
+
+/* The pressure force of the top of this file on particle i (unit: N), for the pressures `pr`. */
+inline float3 dfsph_force(const SimParams* p, const uint i, __global const float4* pos, __global const uint* phase,
+                          __global const float* density, __global const float* pr, __global const uint* list,
+                          const uint nf, __global const float4* bpos, __global const uint* blist, const uint nb,
+                          const float wall) {
+  const float H = p->support;
+  const float3 xi = pos[i].xyz;
+  const float di = density[i] / p->phase_mass[phase[i]];
+  const float ti = pr[i] / (di * di); /* p_i / delta_i^2 */
+  /* fluid neighbours eight at a time (as dfsph_density_rate), then the rest one by one */
+  float8 fx = (float8)(0.0f), fy = fx, fz = fx;
+  uint k = 0;
+  for (; k + 8 <= nf; k += 8) {
+    const uint8 j = vload8(0, list + k);
+    SPH_LOAD8(x, pos, j);
+    const float8 dx = xi.x - SPH_LANES8(x, x), dy = xi.y - SPH_LANES8(x, y), dz = xi.z - SPH_LANES8(x, z);
+    const float8 F = sph_grad_factor8(sqrt(dx * dx + dy * dy + dz * dz), H);
+    const uint8 phj = (uint8)(phase[j.s0], phase[j.s1], phase[j.s2], phase[j.s3], phase[j.s4], phase[j.s5],
+                              phase[j.s6], phase[j.s7]);
+    const float8 dj = SPH_GATHER8(density, j) / SPH_GATHER8(p->phase_mass, phj);
+    const float8 c = (ti + SPH_GATHER8(pr, j) / (dj * dj)) * F;
+    fx -= c * dx;
+    fy -= c * dy;
+    fz -= c * dz;
+  }
+  float3 f = (float3)(sph_hsum8(fx), sph_hsum8(fy), sph_hsum8(fz));
+  for (; k < nf; ++k) {
+    const uint j = list[k];
+    const float3 d = xi - pos[j].xyz;
+    const float dj = density[j] / p->phase_mass[phase[j]];
+    f -= (ti + pr[j] / (dj * dj)) * sph_grad_factor(SPH_KERNEL, length(d), H) * d;
+  }
+  /* walls: wall = 2 mirrors the pressure (p_b = p_i, delta_b = delta_i), wall = 1 is Akinci's
+   * single term (p_b = 0 in the symmetric sum) */
+  for (k = 0; k < nb; ++k) {
+    const float4 bb = bpos[blist[k]];
+    const float3 d = xi - bb.xyz;
+    f -= bb.w * wall * ti * sph_grad_factor(SPH_KERNEL, length(d), H) * d;
+  }
+  return f;
+}
+
+/* Pressure accelerations a_i^p = f_i / m_i of the current pressures (unit: m/s^2). */
+__kernel void dfsph_pressure_accel(const SimParams p, __global const float4* pos, __global const uint* phase,
+                                   __global const float* density, __global const float* pressure,
+                                   __global const uint* nbr, __global const uint* nbr_count,
+                                   __global const float4* bpos, __global const uint* bnbr,
+                                   __global const uint* bnbr_count, const float wall, __global float4* accel) {
+  const uint i = get_global_id(0);
+  if (i >= p.n_fluid) return;
+  const uint K = p.max_neighbours;
+  const float3 f = dfsph_force(&p, i, pos, phase, density, pressure, nbr + (size_t)i * K, nbr_count[i], bpos,
+                               bnbr + (size_t)i * K, bnbr_count[i], wall);
+  accel[i] = (float4)(f / p.phase_mass[phase[i]], 0.0f);
+}
+
+/* One relaxed Jacobi iteration (the formulas at the top of this file): the residual
+ * r_i = s_i + dt^2 V0 (sum_j (a_i - a_j) . gradW_ij + sum_b psi_b a_i . gradW_ib), the pressure
+ * p_i <- max(p_i + omega r_i alpha_i / (dt^2 V0), 0), err_i = max(r_i, 0) before the update (as the
+ * reference). Divergence solve: a particle with fewer than `min_neighbours` neighbours (free
+ * surface, splashes) has a density rate that is not that of a full support; it takes no pressure
+ * and its error is not counted (as the reference). Reads the neighbours' accelerations, writes
+ * only particle i. */
+__kernel void dfsph_jacobi(const SimParams p, __global const float4* pos, __global const float4* accel,
+                           __global const float* alpha, __global const float* source, __global const uint* nbr,
+                           __global const uint* nbr_count, __global const float4* bpos, __global const uint* bnbr,
+                           __global const uint* bnbr_count, const uint min_neighbours, const float omega,
+                           __global float* pressure, __global float* err) {
+  const uint i = get_global_id(0);
+  if (i >= p.n_fluid) return;
+  const uint K = p.max_neighbours;
+  const float H = p.support;
+  const float3 xi = pos[i].xyz, ai = accel[i].xyz;
+  const uint nf = nbr_count[i], nb = bnbr_count[i];
+  __global const uint* list = nbr + (size_t)i * K;
+  /* sum_j (a_i - a_j) . gradW_ij: eight at a time, then the rest (as dfsph_density_rate) */
+  float8 acc = (float8)(0.0f);
+  uint k = 0;
+  for (; k + 8 <= nf; k += 8) {
+    const uint8 j = vload8(0, list + k);
+    SPH_LOAD8(x, pos, j);
+    SPH_LOAD8(a, accel, j);
+    const float8 dx = xi.x - SPH_LANES8(x, x), dy = xi.y - SPH_LANES8(x, y), dz = xi.z - SPH_LANES8(x, z);
+    const float8 F = sph_grad_factor8(sqrt(dx * dx + dy * dy + dz * dz), H);
+    acc += F * ((ai.x - SPH_LANES8(a, x)) * dx + (ai.y - SPH_LANES8(a, y)) * dy + (ai.z - SPH_LANES8(a, z)) * dz);
+  }
+  float Ap = sph_hsum8(acc);
+  for (; k < nf; ++k) {
+    const uint j = list[k];
+    const float3 d = xi - pos[j].xyz;
+    Ap += sph_grad_factor(SPH_KERNEL, length(d), H) * dot(ai - accel[j].xyz, d);
+  }
+  __global const uint* blist = bnbr + (size_t)i * K;
+  for (k = 0; k < nb; ++k) {
+    const float4 bb = bpos[blist[k]];
+    const float3 d = xi - bb.xyz;
+    Ap += bb.w * sph_grad_factor(SPH_KERNEL, length(d), H) * dot(ai, d);
+  }
+  /* divergence solve: a particle with fewer than min_neighbours neighbours keeps no pressure */
+  if (nf + nb < min_neighbours) {
+    err[i] = 0.0f;
+    return;
+  }
+  const float r = source[i] + p.dt * p.dt * p.rest_volume * Ap;
+  const float inc = omega * r * alpha[i] / (p.dt * p.dt * p.rest_volume);
+  pressure[i] = fmax(pressure[i] + inc, 0.0f);
+  err[i] = fmax(r, 0.0f);
+}
+
+/* The end of a solve: the velocities take the pressures, v_i += dt a_i^p. */
+__kernel void dfsph_apply_pressure(const SimParams p, __global const float4* pos, __global float4* vel,
+                          __global const uint* phase, __global const float* density, __global const float* pressure,
+                          __global const uint* nbr, __global const uint* nbr_count, __global const float4* bpos,
+                          __global const uint* bnbr, __global const uint* bnbr_count, const float wall) {
+  const uint i = get_global_id(0);
+  if (i >= p.n_fluid) return;
+  const uint K = p.max_neighbours;
+  const float3 f = dfsph_force(&p, i, pos, phase, density, pressure, nbr + (size_t)i * K, nbr_count[i], bpos,
+                               bnbr + (size_t)i * K, bnbr_count[i], wall);
+  vel[i] += (float4)(p.dt / p.phase_mass[phase[i]] * f, 0.0f);
+}
+
+/* --- Mirrored walls: increments from the velocities, applied each iteration ----------------- */
 
 /* Warm start (B&K 2017 section 4.4, as the reference implementation does it): half the previous
  * step's accumulated pressure, and only where the current velocities compress. (The full pressure,
@@ -151,9 +313,11 @@ __kernel void dfsph_density_source(const SimParams p, __global const float4* pos
   err[i] = fmax(s, 0.0f);
 }
 
-/* Applies the pressures pinc: v_i += dt a_i^p (the force at the top of this file), and adds them to
+/* Mirrored walls (fluid.dfsph.walls: mirrored), the iteration of the first version: each
+ * iteration computes increments from the velocities (the sources above) and applies them here.
+ * Applies the pressures pinc: v_i += dt a_i^p (the force at the top of this file), and adds them to
  * the accumulated pressure. Reads the neighbours' pressures, writes only particle i. */
-__kernel void dfsph_apply(const SimParams p, __global const float4* pos, __global float4* vel,
+__kernel void dfsph_apply_increments(const SimParams p, __global const float4* pos, __global float4* vel,
                           __global const uint* phase, __global const float* density, __global const float* pinc,
                           __global float* pacc, __global const uint* nbr, __global const uint* nbr_count,
                           __global const float4* bpos, __global const uint* bnbr, __global const uint* bnbr_count) {
