@@ -94,6 +94,12 @@ ClothModel compileCloths(const std::vector<ClothSpec>& specs, std::vector<InputI
       fail(s.loc, msg.str());
       continue;
     }
+    if (s.prestrain > 0 && s.tear_strain <= s.prestrain) {
+      std::ostringstream msg;
+      msg << "cloth '" << s.name << "': tear_strain " << s.tear_strain << " must exceed prestrain " << s.prestrain
+          << " (every spring would break at once)";
+      fail(s.loc, msg.str());
+    }
     const uint32_t base = static_cast<uint32_t>(m.x0.size());
     const std::vector<Eigen::Vector3d> x = nodePositions(s);
     const uint32_t n = static_cast<uint32_t>(x.size());
@@ -138,7 +144,8 @@ ClothModel compileCloths(const std::vector<ClothSpec>& specs, std::vector<InputI
       // Both ends on the grid (a shear spring starts at (i + 1, j), which the last column lacks).
       if (k <= 0.0 || i0 < 0 || i0 >= nx || j0 < 0 || j0 >= ny || i1 < 0 || i1 >= nx || j1 < 0 || j1 >= ny) return;
       const uint32_t a = id(i0, j0), b = id(i1, j1);
-      const double L0 = (x[a - base] - x[b - base]).norm();
+      // Placed stretched by the prestrain (skin's tension): rest length shorter than placed.
+      const double L0 = (x[a - base] - x[b - base]).norm() / (1.0 + s.prestrain);
       ends.push_back({std::min(a, b), std::max(a, b)});
       m.prm.emplace_back(float(L0), float(k), float(s.damping), float(tear));
       m.kind.push_back(kind);
@@ -373,6 +380,37 @@ std::vector<Eigen::Vector3d> ClothSim::collideSpheres(const std::vector<SphereCo
   clCall("reading the sphere impulses", [&] { return cl_.queue().enqueueReadBuffer(impulse_sum_, CL_TRUE, 0, ns * 16, sums.data()); });
   for (uint32_t k = 0; k < ns; ++k) out[k] = sums[k].head<3>().cast<double>();
   return out;
+}
+
+void ClothSim::setCutters(const std::vector<const TriMesh*>& meshes) {
+  // All cutters' triangles in one buffer, each cutter a range of it.
+  std::vector<Eigen::Vector4f> tri;
+  std::vector<uint32_t> range;
+  for (const TriMesh* m : meshes) {
+    range.push_back(static_cast<uint32_t>(tri.size() / 3));
+    range.push_back(static_cast<uint32_t>(m->numTriangles()));
+    for (const auto& t : m->triangles)
+      for (uint32_t v : t) tri.emplace_back(m->positions[v].x(), m->positions[v].y(), m->positions[v].z(), 0.0f);
+  }
+  n_cutters_ = static_cast<uint32_t>(meshes.size());
+  if (n_cutters_ == 0) return;
+  cut_tri_ = upload(tri);
+  cut_range_ = upload(range);
+  cut_pose_ = make(std::size_t(n_cutters_) * 4 * 16);
+}
+
+void ClothSim::cut(const std::vector<CutterPose>& poses) {
+  SPH_ASSERT(poses.size() == n_cutters_, "one pose per cutter");
+  if (n_cutters_ == 0 || ns_ == 0) return;
+  // Per cutter: the rows of R^T (world -> body) and the centre.
+  std::vector<Eigen::Vector4f> pose;
+  for (const CutterPose& p : poses) {
+    const Eigen::Matrix3f Rt = p.q.toRotationMatrix().transpose().cast<float>();
+    for (int r = 0; r < 3; ++r) pose.emplace_back(Rt(r, 0), Rt(r, 1), Rt(r, 2), 0.0f);
+    pose.emplace_back(float(p.centre.x()), float(p.centre.y()), float(p.centre.z()), 0.0f);
+  }
+  clCall("uploading the cutter poses", [&] { return cl_.queue().enqueueWriteBuffer(cut_pose_, CL_TRUE, 0, pose.size() * 16, pose.data()); });
+  k_.call("cloth_cut", ns_, 64, ns_, n_cutters_, x_[cur_], ends_, cut_pose_, cut_range_, cut_tri_, broken_);
 }
 
 void ClothSim::tear() {

@@ -177,7 +177,17 @@ Simulation::Simulation(const Model& model, const HostParticles& initial, ClConte
     dfsph_ = std::make_unique<DfsphSolver>(cl_, kernels_, cap, model_.spec.fluid.dfsph, model_.dx, model_.support);
   emitter_travel_.assign(model_.emitters.size(), model_.dx);  // the first layer leaves at the start time
   // Cloth nodes (stepped by stage cloth; with it disabled they hang still, still boundary for the fluid).
-  if (model_.cloth.nodes() > 0) cloth_ = std::make_unique<cloth::ClothSim>(model_.cloth, cl_, kernels_);
+  if (model_.cloth.nodes() > 0) {
+    cloth_ = std::make_unique<cloth::ClothSim>(model_.cloth, cl_, kernels_);
+    // Cutters (rigid bodies with cutter: true) cut the cloths with their closed surfaces.
+    std::vector<const TriMesh*> blades;
+    for (std::size_t b = 0; b < model_.bodies.size(); ++b)
+      if (model_.bodies[b].spec.cutter) {
+        blades.push_back(&model_.bodies[b].mesh);
+        cutters_.push_back(b);
+      }
+    cloth_->setCutters(blades);
+  }
   if (on(Stage::Probes)) probes_ = std::make_unique<ProbeSampler>(model_, cl_);
   prepareInitialState();
 }
@@ -670,6 +680,12 @@ void Simulation::stepCloth(double dt) {
       cloth_->step(time_, dt, gravityAt(model_.spec.simulation, time_), n_cloth_ > 0 ? &cloth_force_ : nullptr, spheres);
   for (std::size_t k = 0; k < which.size(); ++k)
     if (model_.bodies[which[k]].kind == rigid::BodyKind::Dynamic) bodies_[which[k]].v += J[k] / model_.bodies[which[k]].mass;
+  // Cutters at their new pose break the springs their surfaces cross.
+  if (!cutters_.empty()) {
+    std::vector<cloth::CutterPose> poses;
+    for (std::size_t b : cutters_) poses.push_back({bodies_[b].x, bodies_[b].q});
+    cloth_->cut(poses);
+  }
 }
 
 void Simulation::placeClothParticles() {

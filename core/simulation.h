@@ -232,6 +232,7 @@ class Simulation {
   double travel_since_build_ = 0.0;  // sum over steps of max speed * dt (unit: m)
   PrefixSum prefix_sum_;
   std::unique_ptr<SurfaceMesher> mesher_;  // isosurface stage, created on first use
+  std::vector<std::size_t> cutters_;          // bodies with cutter: true (indices into bodies_), scene order
   std::unique_ptr<cloth::ClothSim> cloth_;  // cloth stage (core/cloth.h), only with a cloth section
   std::unique_ptr<ProbeSampler> probes_;   // probes stage (scenes with a probes section)
   bool record_probes_ = false;
