@@ -428,6 +428,16 @@ void ClothSim::read(std::vector<Eigen::Vector4f>& x, std::vector<Eigen::Vector4f
   });
 }
 
+void ClothSim::write(const std::vector<Eigen::Vector4f>& x, const std::vector<Eigen::Vector4f>& v) {
+  SPH_ASSERT(x.size() == n_ && v.size() == n_, "one position and velocity per node");
+  if (n_ == 0) return;
+  clCall("writing the cloth", [&] {
+    cl_.queue().enqueueWriteBuffer(x_[cur_], CL_TRUE, 0, n_ * 16, x.data());
+    cl_.queue().enqueueWriteBuffer(v_[cur_], CL_TRUE, 0, n_ * 16, v.data());
+    return 0;
+  });
+}
+
 std::vector<uint32_t> ClothSim::readBroken() {
   std::vector<uint32_t> b(ns_, 0);
   if (ns_ > 0)

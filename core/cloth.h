@@ -141,6 +141,8 @@ class ClothSim {
   int lastSubsteps() const { return last_substeps_; }
   /// Positions (w = inverse mass) and velocities of all nodes.
   void read(std::vector<Eigen::Vector4f>& x, std::vector<Eigen::Vector4f>& v);
+  /// Overwrites positions and velocities of all nodes (the host-side contact with bodies).
+  void write(const std::vector<Eigen::Vector4f>& x, const std::vector<Eigen::Vector4f>& v);
   std::vector<uint32_t> readBroken();
   /// Energies, strain and anchor force of cloth `c` now.
   ClothReport report(std::size_t c, const Eigen::Vector3d& g);
