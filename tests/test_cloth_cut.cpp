@@ -272,3 +272,32 @@ TEST_CASE("Cloth on bodies: a cloth draped on a box does not pass through it", "
   CHECK(top_high < 0.45 + 0.0075);
   CHECK(edge_high < 0.44);
 }
+
+TEST_CASE("Cloth: the memory estimate counts the cloth nodes", "[cloth][resources]") {
+  // A 101 x 101 cloth with no fluid: what the estimate adds for it bounds the cloth's device
+  // buffers (ClothSim::bytes()) and stays within 20x of them (the trust test's rule for the rest).
+  SceneSpec s;
+  s.domain.min = Eigen::Vector3d::Zero();
+  s.domain.max = Eigen::Vector3d::Ones();
+  s.fluid.particle_spacing = 0.05;
+  s.fluid.phases.resize(1);
+  s.fluid.phases[0].name = "water";
+  s.simulation.duration = 1.0 / 60.0;
+  const double without = estimateResources(s).bytes;
+  ClothSpec c;
+  c.name = "big";
+  c.resolution_x = c.resolution_y = 101;
+  c.position = Eigen::Vector3d(0.5, 0.5, 0.5);
+  c.anchors.push_back(ClothAnchorSpec{});
+  s.cloth.push_back(c);
+  const ResourceEstimate est = estimateResources(s);
+  ClContext cl;
+  const Compiled comp = compile(s);
+  Simulation sim(comp.model, comp.initial, cl);
+  const double cloth_bytes = static_cast<double>(sim.cloth()->bytes());
+  INFO("estimate " << est.str() << "; the cloth adds " << est.bytes - without << " bytes, its device buffers hold "
+                   << cloth_bytes);
+  CHECK(est.cloth_nodes == 101.0 * 101.0);
+  CHECK(est.bytes - without >= cloth_bytes);
+  CHECK(est.bytes - without <= 20.0 * cloth_bytes);
+}
