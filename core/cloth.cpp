@@ -69,6 +69,27 @@ std::vector<uint32_t> anchoredNodes(const ClothSpec& c, const ClothAnchorSpec& a
   return out;
 }
 
+namespace {
+std::string nodeBudgetMessage(const ClothSpec& s, int nx, int ny) {
+  std::ostringstream msg;
+  msg << "cloth '" << s.name << "': " << nx << " x " << ny << " nodes (with the cloths before it) is more than the "
+      << kMaxNodes << " nodes supported";
+  return msg.str();
+}
+}  // namespace
+
+bool checkNodeBudget(const std::vector<ClothSpec>& specs, std::vector<InputIssue>& issues) {
+  double total = 0;
+  for (const ClothSpec& s : specs) {
+    total += std::max(1.0, double(s.resolution_x)) * std::max(1.0, double(s.resolution_y));
+    if (total > kMaxNodes) {
+      issues.push_back(InputIssue{s.loc.file, s.loc.line, s.loc.col, nodeBudgetMessage(s, s.resolution_x, s.resolution_y)});
+      return false;
+    }
+  }
+  return true;
+}
+
 ClothModel compileCloths(const std::vector<ClothSpec>& specs, std::vector<InputIssue>& issues) {
   ClothModel m;
   auto fail = [&](const SourceLoc& loc, const std::string& msg) {
@@ -88,10 +109,7 @@ ClothModel compileCloths(const std::vector<ClothSpec>& specs, std::vector<InputI
     const int nx = s.resolution_x, ny = s.resolution_y;
     // Bounded resources: about 400 bytes of tables per node (host and device alike).
     if (static_cast<double>(nx) * ny + static_cast<double>(m.x0.size()) > kMaxNodes) {
-      std::ostringstream msg;
-      msg << "cloth '" << s.name << "': " << nx << " x " << ny << " nodes (with the cloths before it) is more than the "
-          << kMaxNodes << " nodes supported";
-      fail(s.loc, msg.str());
+      fail(s.loc, nodeBudgetMessage(s, nx, ny));
       continue;
     }
     if (s.prestrain > 0 && s.tear_strain <= s.prestrain) {

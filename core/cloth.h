@@ -86,6 +86,11 @@ struct ClothModel {
   std::size_t springs() const { return prm.size(); }
 };
 
+/// Reports (into `issues`, at the cloth) the first cloth whose nodes, with those of the cloths
+/// before it, pass kMaxNodes; compile() calls it before its memory estimate so that a huge cloth
+/// is named as such. Returns whether all fit.
+bool checkNodeBudget(const std::vector<ClothSpec>& specs, std::vector<InputIssue>& issues);
+
 /// Builds the nodes, springs and colours of every cloth; reports bad input (anchors that pin no
 /// node, duplicate names) into `issues` with the item's location.
 ClothModel compileCloths(const std::vector<ClothSpec>& specs, std::vector<InputIssue>& issues);

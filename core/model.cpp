@@ -317,6 +317,8 @@ Compiled compile(const SceneSpec& spec, const ResourceLimits& limits) {
   if (fl.phases.size() > SPH_MAX_PHASES)
     fail(fl.loc, "at most " + std::to_string(SPH_MAX_PHASES) + " phases are supported, got " +
                      std::to_string(fl.phases.size()));
+  // Cloths beyond the supported node count are named as such, before the memory estimate.
+  cloth::checkNodeBudget(spec.cloth, issues);
   if (!issues.empty()) throw InputError(issues);
 
   // --- Resources: refuse a scene that would not fit, before allocating anything ---------------
