@@ -69,6 +69,27 @@ std::vector<uint32_t> anchoredNodes(const ClothSpec& c, const ClothAnchorSpec& a
   return out;
 }
 
+namespace {
+std::string nodeBudgetMessage(const ClothSpec& s, int nx, int ny) {
+  std::ostringstream msg;
+  msg << "cloth '" << s.name << "': " << nx << " x " << ny << " nodes (with the cloths before it) is more than the "
+      << kMaxNodes << " nodes supported";
+  return msg.str();
+}
+}  // namespace
+
+bool checkNodeBudget(const std::vector<ClothSpec>& specs, std::vector<InputIssue>& issues) {
+  double total = 0;
+  for (const ClothSpec& s : specs) {
+    total += std::max(1.0, double(s.resolution_x)) * std::max(1.0, double(s.resolution_y));
+    if (total > kMaxNodes) {
+      issues.push_back(InputIssue{s.loc.file, s.loc.line, s.loc.col, nodeBudgetMessage(s, s.resolution_x, s.resolution_y)});
+      return false;
+    }
+  }
+  return true;
+}
+
 ClothModel compileCloths(const std::vector<ClothSpec>& specs, std::vector<InputIssue>& issues) {
   ClothModel m;
   auto fail = [&](const SourceLoc& loc, const std::string& msg) {
@@ -88,11 +109,14 @@ ClothModel compileCloths(const std::vector<ClothSpec>& specs, std::vector<InputI
     const int nx = s.resolution_x, ny = s.resolution_y;
     // Bounded resources: about 400 bytes of tables per node (host and device alike).
     if (static_cast<double>(nx) * ny + static_cast<double>(m.x0.size()) > kMaxNodes) {
-      std::ostringstream msg;
-      msg << "cloth '" << s.name << "': " << nx << " x " << ny << " nodes (with the cloths before it) is more than the "
-          << kMaxNodes << " nodes supported";
-      fail(s.loc, msg.str());
+      fail(s.loc, nodeBudgetMessage(s, nx, ny));
       continue;
+    }
+    if (s.prestrain > 0 && s.tear_strain <= s.prestrain) {
+      std::ostringstream msg;
+      msg << "cloth '" << s.name << "': tear_strain " << s.tear_strain << " must exceed prestrain " << s.prestrain
+          << " (every spring would break at once)";
+      fail(s.loc, msg.str());
     }
     const uint32_t base = static_cast<uint32_t>(m.x0.size());
     const std::vector<Eigen::Vector3d> x = nodePositions(s);
@@ -138,7 +162,8 @@ ClothModel compileCloths(const std::vector<ClothSpec>& specs, std::vector<InputI
       // Both ends on the grid (a shear spring starts at (i + 1, j), which the last column lacks).
       if (k <= 0.0 || i0 < 0 || i0 >= nx || j0 < 0 || j0 >= ny || i1 < 0 || i1 >= nx || j1 < 0 || j1 >= ny) return;
       const uint32_t a = id(i0, j0), b = id(i1, j1);
-      const double L0 = (x[a - base] - x[b - base]).norm();
+      // Placed stretched by the prestrain (skin's tension): rest length shorter than placed.
+      const double L0 = (x[a - base] - x[b - base]).norm() / (1.0 + s.prestrain);
       ends.push_back({std::min(a, b), std::max(a, b)});
       m.prm.emplace_back(float(L0), float(k), float(s.damping), float(tear));
       m.kind.push_back(kind);
@@ -375,6 +400,37 @@ std::vector<Eigen::Vector3d> ClothSim::collideSpheres(const std::vector<SphereCo
   return out;
 }
 
+void ClothSim::setCutters(const std::vector<const TriMesh*>& meshes) {
+  // All cutters' triangles in one buffer, each cutter a range of it.
+  std::vector<Eigen::Vector4f> tri;
+  std::vector<uint32_t> range;
+  for (const TriMesh* m : meshes) {
+    range.push_back(static_cast<uint32_t>(tri.size() / 3));
+    range.push_back(static_cast<uint32_t>(m->numTriangles()));
+    for (const auto& t : m->triangles)
+      for (uint32_t v : t) tri.emplace_back(m->positions[v].x(), m->positions[v].y(), m->positions[v].z(), 0.0f);
+  }
+  n_cutters_ = static_cast<uint32_t>(meshes.size());
+  if (n_cutters_ == 0) return;
+  cut_tri_ = upload(tri);
+  cut_range_ = upload(range);
+  cut_pose_ = make(std::size_t(n_cutters_) * 4 * 16);
+}
+
+void ClothSim::cut(const std::vector<CutterPose>& poses) {
+  SPH_ASSERT(poses.size() == n_cutters_, "one pose per cutter");
+  if (n_cutters_ == 0 || ns_ == 0) return;
+  // Per cutter: the rows of R^T (world -> body) and the centre.
+  std::vector<Eigen::Vector4f> pose;
+  for (const CutterPose& p : poses) {
+    const Eigen::Matrix3f Rt = p.q.toRotationMatrix().transpose().cast<float>();
+    for (int r = 0; r < 3; ++r) pose.emplace_back(Rt(r, 0), Rt(r, 1), Rt(r, 2), 0.0f);
+    pose.emplace_back(float(p.centre.x()), float(p.centre.y()), float(p.centre.z()), 0.0f);
+  }
+  clCall("uploading the cutter poses", [&] { return cl_.queue().enqueueWriteBuffer(cut_pose_, CL_TRUE, 0, pose.size() * 16, pose.data()); });
+  k_.call("cloth_cut", ns_, 64, ns_, n_cutters_, x_[cur_], ends_, cut_pose_, cut_range_, cut_tri_, broken_);
+}
+
 void ClothSim::tear() {
   k_.call("cloth_tear", ns_, 64, ns_, x_[cur_], ends_, prm_, broken_);
 }
@@ -386,6 +442,16 @@ void ClothSim::read(std::vector<Eigen::Vector4f>& x, std::vector<Eigen::Vector4f
   clCall("reading the cloth", [&] {
     cl_.queue().enqueueReadBuffer(x_[cur_], CL_TRUE, 0, n_ * 16, x.data());
     cl_.queue().enqueueReadBuffer(v_[cur_], CL_TRUE, 0, n_ * 16, v.data());
+    return 0;
+  });
+}
+
+void ClothSim::write(const std::vector<Eigen::Vector4f>& x, const std::vector<Eigen::Vector4f>& v) {
+  SPH_ASSERT(x.size() == n_ && v.size() == n_, "one position and velocity per node");
+  if (n_ == 0) return;
+  clCall("writing the cloth", [&] {
+    cl_.queue().enqueueWriteBuffer(x_[cur_], CL_TRUE, 0, n_ * 16, x.data());
+    cl_.queue().enqueueWriteBuffer(v_[cur_], CL_TRUE, 0, n_ * 16, v.data());
     return 0;
   });
 }

@@ -30,6 +30,7 @@
 #include "core/scene_spec.h"
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 
 #include <cstdint>
 #include <string>
@@ -85,6 +86,11 @@ struct ClothModel {
   std::size_t springs() const { return prm.size(); }
 };
 
+/// Reports (into `issues`, at the cloth) the first cloth whose nodes, with those of the cloths
+/// before it, pass kMaxNodes; compile() calls it before its memory estimate so that a huge cloth
+/// is named as such. Returns whether all fit.
+bool checkNodeBudget(const std::vector<ClothSpec>& specs, std::vector<InputIssue>& issues);
+
 /// Builds the nodes, springs and colours of every cloth; reports bad input (anchors that pin no
 /// node, duplicate names) into `issues` with the item's location.
 ClothModel compileCloths(const std::vector<ClothSpec>& specs, std::vector<InputIssue>& issues);
@@ -108,6 +114,13 @@ struct SphereCollider {
   double friction = 0.5;                             ///< Coulomb coefficient against the nodes (unit: 1)
 };
 
+/// Where a cutter (a rigid body with `cutter: true`) is: the pose of its body frame (the frame of
+/// its mesh, origin at the centre of mass).
+struct CutterPose {
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();             ///< centre of mass, world (unit: m)
+  Eigen::Quaterniond q = Eigen::Quaterniond::Identity();        ///< body -> world
+};
+
 /// The cloth state on the device and its time step. Owns its buffers.
 class ClothSim {
  public:
@@ -123,10 +136,18 @@ class ClothSim {
   /// loses its velocity into the sphere relative to it (inelastic), with Coulomb friction. Returns per sphere
   /// the impulse the nodes exert on it (unit: N s), summed over the nodes in order (deterministic).
   std::vector<Eigen::Vector3d> collideSpheres(const std::vector<SphereCollider>& spheres);
+  /// The cutters' closed surfaces in their body frames (uploaded once; scene order of the cutters).
+  void setCutters(const std::vector<const TriMesh*>& meshes);
+  /// Cutting: every unbroken spring whose segment crosses a cutter's surface (or lies inside it)
+  /// breaks for good, one work-item per spring (kernels/cloth.cl, cloth_cut). `poses`: one per
+  /// cutter given to setCutters, in that order.
+  void cut(const std::vector<CutterPose>& poses);
   /// Substeps the explicit solver took in the last step().
   int lastSubsteps() const { return last_substeps_; }
   /// Positions (w = inverse mass) and velocities of all nodes.
   void read(std::vector<Eigen::Vector4f>& x, std::vector<Eigen::Vector4f>& v);
+  /// Overwrites positions and velocities of all nodes (the host-side contact with bodies).
+  void write(const std::vector<Eigen::Vector4f>& x, const std::vector<Eigen::Vector4f>& v);
   std::vector<uint32_t> readBroken();
   /// Energies, strain and anchor force of cloth `c` now.
   ClothReport report(std::size_t c, const Eigen::Vector3d& g);
@@ -154,6 +175,9 @@ class ClothSim {
   bool any_explicit_ = false, any_xpbd_ = false;
   cl::Buffer x_[2], v_[2], prev_, mass_, drag_, anchor_, row_start_, spring_, other_, ends_, prm_, broken_, slot_,
       lambda_, zero_force_, is_xpbd_, iters_, spheres_, impulse_, impulse_sum_, shift_;
+  // Cutters: triangles (3 corners each, body frame), per cutter (first triangle, count) and pose.
+  cl::Buffer cut_tri_, cut_range_, cut_pose_;
+  uint32_t n_cutters_ = 0;
   std::size_t sphere_capacity_ = 0;
 };
 

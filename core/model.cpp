@@ -134,6 +134,10 @@ namespace {
 constexpr double kBytesPerFluidParticle = 3000;  ///< buffers, 4 neighbour lists, host copies (unit: bytes)
 constexpr double kBytesPerBoundaryParticle = 64;  ///< lattice point, volume, cell sort (unit: bytes)
 constexpr double kBytesPerBodyArea = 500;         ///< per dx^2 of body surface: particles + mesh (unit: bytes)
+/// Per cloth node: device state (positions and velocities twice, previous positions, mass, drag,
+/// anchor, flags: ~130), its ~12 spring-row entries with multipliers (~150) and ~6 springs (~200),
+/// colour slots (~50), its boundary-particle copy (~80), and the host's model tables (~400).
+constexpr double kBytesPerClothNode = 1000;       ///< (unit: bytes)
 constexpr double kBytesPerGridCell = 16;          ///< cell start tables, host and device (unit: bytes)
 /// Candidate points rigid::sampleSurface may test for one body (~20 s on one core). (unit: 1)
 constexpr double kMaxSurfaceCandidates = 4.0e8;
@@ -177,11 +181,20 @@ double machineMemoryBytes() {
   return pages > 0 && page > 0 ? static_cast<double>(pages) * static_cast<double>(page) : 0.0;
 }
 
+namespace {
+std::string formatCount(double n) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.3g", n);
+  return buf;
+}
+}  // namespace
+
 std::string ResourceEstimate::str() const {
   char buf[256];
   std::snprintf(buf, sizeof buf,
-                "about %s (%.3g fluid particles, %.3g boundary particles, %.3g body surface particles, %.3g grid cells)",
-                humanBytes(bytes).c_str(), fluid_particles, boundary_particles, body_particles, grid_cells);
+                "about %s (%.3g fluid particles, %.3g boundary particles, %.3g body surface particles, %.3g grid cells%s)",
+                humanBytes(bytes).c_str(), fluid_particles, boundary_particles, body_particles, grid_cells,
+                cloth_nodes > 0 ? (", " + formatCount(cloth_nodes) + " cloth nodes").c_str() : "");
   return buf;
 }
 
@@ -239,9 +252,15 @@ ResourceEstimate estimateResources(const SceneSpec& spec, SourceLoc* worst) {
     e.body_particles += area;
     blame(b.loc, area * kBytesPerBodyArea);
   }
+  // Cloths: their nodes (springs, colours and coupling scale with them).
+  for (const ClothSpec& c : spec.cloth) {
+    const double n = std::max(1.0, double(c.resolution_x)) * std::max(1.0, double(c.resolution_y));
+    e.cloth_nodes += n;
+    blame(c.loc, n * kBytesPerClothNode);
+  }
   e.bytes = (e.fluid_particles + layer_points) * kBytesPerFluidParticle +
             e.boundary_particles * kBytesPerBoundaryParticle + e.body_particles * kBytesPerBodyArea +
-            e.grid_cells * kBytesPerGridCell;
+            e.grid_cells * kBytesPerGridCell + e.cloth_nodes * kBytesPerClothNode;
   if (std::isnan(e.bytes)) e.bytes = INFINITY;
 
   // Steps per frame at the start: the CFL limit with the automatic (or given) speed of sound,
@@ -298,6 +317,8 @@ Compiled compile(const SceneSpec& spec, const ResourceLimits& limits) {
   if (fl.phases.size() > SPH_MAX_PHASES)
     fail(fl.loc, "at most " + std::to_string(SPH_MAX_PHASES) + " phases are supported, got " +
                      std::to_string(fl.phases.size()));
+  // Cloths beyond the supported node count are named as such, before the memory estimate.
+  cloth::checkNodeBudget(spec.cloth, issues);
   if (!issues.empty()) throw InputError(issues);
 
   // --- Resources: refuse a scene that would not fit, before allocating anything ---------------

@@ -89,6 +89,7 @@ struct ResourceEstimate {
   double boundary_particles = 0;  ///< behind the closed walls (unit: 1)
   double body_particles = 0;      ///< on the rigid bodies' surfaces (unit: 1)
   double grid_cells = 0;          ///< neighbour grid (unit: 1)
+  double cloth_nodes = 0;         ///< nodes of all cloths (unit: 1)
   double bytes = 0;               ///< host + device memory (unit: bytes)
   double steps_per_frame = 0;     ///< at the start, from the CFL and viscous limits (unit: 1)
   std::string str() const;        ///< "about 7.4 GB (1.2e8 fluid particles, ...)"

@@ -187,6 +187,7 @@ struct RigidBodySpec {
   double restitution = 0.2;                         ///< normal restitution for contact (unit: 1)
   Eigen::Vector3d colour{0.7, 0.7, 0.7};            ///< linear RGB in [0,1]
   bool grabbable = false;                           ///< the haptic device may grab it
+  bool cutter = false;                              ///< a blade: breaks every cloth spring that crosses its surface
   MotionSpec motion;                                ///< scripted motion (kinematic bodies)
   SourceLoc loc;
   SourceLoc mesh_loc;                               ///< where `mesh` was given (errors raised after loading)
@@ -251,6 +252,7 @@ struct ClothSpec {
   ClothSolver solver = ClothSolver::Xpbd;           ///< xpbd (default, unconditionally stable) or explicit
   int iterations = 8;                               ///< xpbd: Gauss-Seidel sweeps per step (unit: 1)
   double tear_strain = std::numeric_limits<double>::infinity();  ///< a spring breaks past this strain (unit: 1)
+  double prestrain = 0.0;                           ///< placed stretched: rest length = placed length / (1 + prestrain) (unit: 1)
   Eigen::Vector3d colour{0.8, 0.3, 0.3};            ///< linear RGB in [0,1]
   std::vector<ClothAnchorSpec> anchors;             ///< pinned nodes
   SourceLoc loc;

@@ -177,7 +177,24 @@ Simulation::Simulation(const Model& model, const HostParticles& initial, ClConte
     dfsph_ = std::make_unique<DfsphSolver>(cl_, kernels_, cap, model_.spec.fluid.dfsph, model_.dx, model_.support);
   emitter_travel_.assign(model_.emitters.size(), model_.dx);  // the first layer leaves at the start time
   // Cloth nodes (stepped by stage cloth; with it disabled they hang still, still boundary for the fluid).
-  if (model_.cloth.nodes() > 0) cloth_ = std::make_unique<cloth::ClothSim>(model_.cloth, cl_, kernels_);
+  if (model_.cloth.nodes() > 0) {
+    cloth_ = std::make_unique<cloth::ClothSim>(model_.cloth, cl_, kernels_);
+    // Cutters (rigid bodies with cutter: true) cut the cloths with their closed surfaces.
+    std::vector<const TriMesh*> blades;
+    for (std::size_t b = 0; b < model_.bodies.size(); ++b)
+      if (model_.bodies[b].spec.cutter) {
+        blades.push_back(&model_.bodies[b].mesh);
+        cutters_.push_back(b);
+      }
+    cloth_->setCutters(blades);
+    // Other shapes than spheres (boxes, cylinders, capsules, meshes) are obstacles through their
+    // closed surfaces (core/mesh_distance.h).
+    for (std::size_t b = 0; b < model_.bodies.size(); ++b) {
+      const rigid::RigidBody& body = model_.bodies[b];
+      if (body.spec.shape != BodyShape::Sphere && !body.spec.cutter)
+        cloth_obstacles_.emplace_back(b, std::make_unique<ClosedSurface>(body.mesh));
+    }
+  }
   if (on(Stage::Probes)) probes_ = std::make_unique<ProbeSampler>(model_, cl_);
   prepareInitialState();
 }
@@ -689,6 +706,70 @@ void Simulation::stepCloth(double dt) {
       cloth_->step(time_, dt, gravityAt(model_.spec.simulation, time_), n_cloth_ > 0 ? &cloth_force_ : nullptr, spheres);
   for (std::size_t k = 0; k < which.size(); ++k)
     if (model_.bodies[which[k]].kind == rigid::BodyKind::Dynamic) bodies_[which[k]].v += J[k] / model_.bodies[which[k]].mass;
+  // Boxes, cylinders, capsules and meshes push the nodes out (host side).
+  if (!cloth_obstacles_.empty()) collideClothWithBodies();
+  // Cutters at their new pose break the springs their surfaces cross.
+  if (!cutters_.empty()) {
+    std::vector<cloth::CutterPose> poses;
+    for (std::size_t b : cutters_) poses.push_back({bodies_[b].x, bodies_[b].q});
+    cloth_->cut(poses);
+  }
+}
+
+void Simulation::collideClothWithBodies() {
+  // Contact of the nodes with bodies of any closed shape, after the cloth solve (particle
+  // coupling, as for balls; Mueller et al. 2007, collision constraints): a free node inside a body
+  // moves to the closest point of its surface (ClosedSurface: inside test by pseudo-normals,
+  // Baerentzen & Aanaes 2005) and loses its velocity into the body relative to the body's surface
+  // point (inelastic), with Coulomb friction (the body's coefficient). A dynamic body receives the
+  // opposite impulse. Host side in node order, then body order: deterministic. It reads the nodes
+  // back once per step (16 bytes per node each way).
+  std::vector<Eigen::Vector4f> x, v;
+  cloth_->read(x, v);
+  bool moved = false;
+  for (const auto& [b, surface] : cloth_obstacles_) {
+    const rigid::RigidBody& body = model_.bodies[b];
+    rigid::BodyState& s = bodies_[b];
+    const Eigen::Matrix3d R = s.q.toRotationMatrix();
+    // A cheap reject: nodes farther from the centre than the mesh's largest radius.
+    double reach = 0;
+    for (const Eigen::Vector3f& p : body.mesh.positions) reach = std::max(reach, double(p.norm()));
+    Eigen::Vector3d J = Eigen::Vector3d::Zero(), T = Eigen::Vector3d::Zero();
+    for (std::size_t i = 0; i < x.size(); ++i) {
+      if (x[i].w() == 0.0f) continue;  // anchored
+      const Eigen::Vector3d p = x[i].head<3>().cast<double>();
+      const Eigen::Vector3d local = R.transpose() * (p - s.x);
+      if (local.norm() > reach) continue;
+      if (!surface->inside(local)) continue;
+      const SurfaceIndex::Nearest hit = surface->index().nearest(local);
+      const Eigen::Vector3d n = R * surface->pseudoNormal(hit.triangle, hit.feature);  // outward, world
+      const Eigen::Vector3d q = s.x + R * hit.point;
+      // Position: onto the surface. Velocity: no approach relative to the surface point.
+      const Eigen::Vector3d r = q - s.x, vb = s.v + s.w.cross(r);
+      Eigen::Vector3d vi = v[i].head<3>().cast<double>();
+      const Eigen::Vector3d rel = vi - vb;
+      const double vn = rel.dot(n);
+      if (vn < 0) {
+        const Eigen::Vector3d vt = rel - vn * n;
+        const double st = vt.norm();
+        const double keep = st > 0 ? std::max(0.0, 1.0 - body.spec.friction * (-vn) / st) : 0.0;
+        const Eigen::Vector3d dv = -vn * n - (1.0 - keep) * vt;
+        vi += dv;
+        const Eigen::Vector3d Ji = -static_cast<double>(model_.cloth.mass[i]) * dv;  // on the body
+        J += Ji;
+        T += r.cross(Ji);
+      }
+      x[i].head<3>() = q.cast<float>();
+      v[i].head<3>() = vi.cast<float>();
+      moved = true;
+    }
+    if (body.kind == rigid::BodyKind::Dynamic) {
+      s.v += J / body.mass;
+      s.L += T;
+      s.w = rigid::worldInverseInertia(body, s.q) * s.L;
+    }
+  }
+  if (moved) cloth_->write(x, v);
 }
 
 void Simulation::placeClothParticles() {

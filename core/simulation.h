@@ -5,6 +5,7 @@
 
 #include "core/cl_context.h"
 #include "core/cloth.h"
+#include "core/mesh_distance.h"
 #include "core/contact.h"
 #include "core/external_force.h"
 #include "core/dfsph.h"
@@ -232,6 +233,11 @@ class Simulation {
   double travel_since_build_ = 0.0;  // sum over steps of max speed * dt (unit: m)
   PrefixSum prefix_sum_;
   std::unique_ptr<SurfaceMesher> mesher_;  // isosurface stage, created on first use
+  // Bodies other than spheres and cutters that the cloth nodes collide with (host side, once per
+  // step after the cloth solve): body index and its closed surface (body frame).
+  std::vector<std::pair<std::size_t, std::unique_ptr<ClosedSurface>>> cloth_obstacles_;
+  void collideClothWithBodies();
+  std::vector<std::size_t> cutters_;          // bodies with cutter: true (indices into bodies_), scene order
   std::unique_ptr<cloth::ClothSim> cloth_;  // cloth stage (core/cloth.h), only with a cloth section
   std::unique_ptr<ProbeSampler> probes_;   // probes stage (scenes with a probes section)
   bool record_probes_ = false;

@@ -495,6 +495,8 @@ std::vector<KeyDef> buildTable() {
           .unit("1").atLeast(0).atMost(1).doc("linear RGB colour, each component in [0, 1]"));
   add(field<InBodies>("rigid_bodies[].grabbable", [](auto& b) -> auto& { return b.grabbable; })
           .doc("the haptic device may grab this body"));
+  add(field<InBodies>("rigid_bodies[].cutter", [](auto& b) -> auto& { return b.cutter; })
+          .doc("a blade (a scalpel): every cloth spring whose segment crosses the body's surface breaks for good"));
   add(section("rigid_bodies[].motion", nullptr).doc("scripted motion: makes a non-dynamic body kinematic"));
   add(field<InBodies>("rigid_bodies[].motion.type", [](auto& b) -> auto& { return b.motion.type; })
           .doc("none (static), constant (constant velocity and angular velocity) or keyframes (a C1 path through keyframes)"));
@@ -555,6 +557,9 @@ std::vector<KeyDef> buildTable() {
           .unit("1").atLeast(1).atMost(1000).doc("xpbd: Gauss-Seidel sweeps over all springs per time step"));
   add(field<InCloths>("cloth[].tear_strain", [](auto& c) -> auto& { return c.tear_strain; })
           .unit("1").greaterThan(0).allowInfinity().doc("a spring breaks for good when its strain (L - L0) / L0 exceeds this; .inf = never"));
+  add(field<InCloths>("cloth[].prestrain", [](auto& c) -> auto& { return c.prestrain; })
+          .unit("1").atLeast(0).atMost(1).doc("the cloth is placed stretched: every spring's rest length is its placed length / (1 + prestrain) "
+                                             "(skin's natural tension, which makes a cut gape)"));
   add(field<InCloths>("cloth[].colour", [](auto& c) -> auto& { return c.colour; })
           .unit("1").atLeast(0).atMost(1).doc("linear RGB colour, each component in [0, 1]"));
   add(nestedList<InAnchors>("cloth[].anchors").defaultNote("[]")

@@ -252,3 +252,64 @@ __kernel void cloth_sphere_shift_reduce(const uint n, const uint n_spheres, cons
   for (uint i = 0; i < n; ++i) J -= mass[i] * shift[k * n + i].xyz;
   out[k] = (float4)(J / dt, 0.0f);
 }
+
+/* Cutting (a rigid body with cutter: true, a scalpel blade). Segment (p, q) against triangle
+ * (a, b, c) (Moeller & Trumbore 1997): the segment crosses the triangle when its parameter t of
+ * p + t (q - p) is in [0, 1] and the barycentric (u, v) lie in the triangle. */
+inline bool cloth_segment_hits_triangle(const float3 p, const float3 d, const float3 a, const float3 b,
+                                        const float3 c, const float tmax) {
+  const float3 e1 = b - a, e2 = c - a;
+  const float3 h = cross(d, e2);
+  const float det = dot(e1, h);
+  if (fabs(det) < 1e-20f) return false;
+  const float f = 1.0f / det;
+  const float3 s = p - a;
+  const float u = f * dot(s, h);
+  if (u < 0.0f || u > 1.0f) return false;
+  const float3 qv = cross(s, e1);
+  const float v = f * dot(d, qv);
+  if (v < 0.0f || u + v > 1.0f) return false;
+  const float t = f * dot(e2, qv);
+  return t >= 0.0f && t <= tmax;
+}
+
+/* Solid angle of triangle (a, b, c) seen from the origin (Van Oosterom & Strackee 1983), signed. */
+inline float cloth_solid_angle(const float3 a, const float3 b, const float3 c) {
+  const float la = length(a), lb = length(b), lc = length(c);
+  const float num = dot(a, cross(b, c));
+  const float den = la * lb * lc + dot(a, b) * lc + dot(b, c) * la + dot(c, a) * lb;
+  return 2.0f * atan2(num, den);
+}
+
+/* Spring s breaks for good when its segment crosses a cutter's surface, or lies inside it (its
+ * midpoint's generalised winding number, Jacobson et al. 2013, above 1/2: robust where a parity
+ * ray through a mesh edge is not). Cutter k: pose[4k .. 4k+2] = rows of R^T (world -> body),
+ * pose[4k+3] = centre of mass (world); range[k] = (first triangle, count); tri[3t .. 3t+2] = the
+ * body-frame corners. One work-item per spring writes only its own flag (deterministic). */
+__kernel void cloth_cut(const uint ns, const uint n_cutters, __global const float4* x, __global const uint* ends,
+                        __global const float4* pose, __global const uint2* range, __global const float4* tri,
+                        __global uint* broken) {
+  const uint s = get_global_id(0);
+  if (s >= ns || broken[s]) return;
+  const float3 xa = x[ends[2 * s]].xyz, xb = x[ends[2 * s + 1]].xyz;
+  for (uint k = 0; k < n_cutters; ++k) {
+    const float3 r0 = pose[4 * k].xyz, r1 = pose[4 * k + 1].xyz, r2 = pose[4 * k + 2].xyz, c = pose[4 * k + 3].xyz;
+    /* The spring's ends in the cutter's body frame. */
+    const float3 da = xa - c, db = xb - c;
+    const float3 p = (float3)(dot(r0, da), dot(r1, da), dot(r2, da));
+    const float3 q = (float3)(dot(r0, db), dot(r1, db), dot(r2, db));
+    const float3 m = 0.5f * (p + q);
+    bool cut = false;
+    float omega = 0.0f;
+    for (uint t = range[k].x; t < range[k].x + range[k].y && !cut; ++t) {
+      const float3 a = tri[3 * t].xyz, b = tri[3 * t + 1].xyz, cc = tri[3 * t + 2].xyz;
+      cut = cloth_segment_hits_triangle(p, q - p, a, b, cc, 1.0f);
+      omega += cloth_solid_angle(a - m, b - m, cc - m);
+    }
+    /* Winding number omega / 4 pi: about 1 inside, 0 outside. */
+    if (cut || omega > 2.0f * M_PI_F) {
+      broken[s] = 1u;
+      return;
+    }
+  }
+}
