@@ -247,6 +247,13 @@ TEST_CASE("DFSPH: the same scene twice gives bitwise equal states, and the error
   CHECK(static_cast<uint64_t>(iterations) == a.profile.density_iterations);
   CHECK(static_cast<uint64_t>(unconverged) == a.profile.unconverged_steps);
   CHECK(a.profile.density_iterations >= 2 * a.profile.steps);  // min_iterations = 2
+  // single walls: deterministic too (the projected Jacobi, the same fixed-order reduction)
+  o.sets = {"fluid.solver=dfsph", "fluid.dfsph.walls=single"};
+  const app::RunResult s1 = app::runScene(o);
+  const app::RunResult s2 = app::runScene(o);
+  REQUIRE(s1.exit_code == 0);
+  CHECK(s1.state_hash == s2.state_hash);
+  CHECK(s1.state_hash != a.state_hash);
 }
 
 TEST_CASE("DFSPH stage mask: its kernels run only with solver dfsph", "[dfsph]") {
@@ -302,8 +309,11 @@ TEST_CASE("DFSPH coupling: a ball pushed into a free blob conserves the total mo
   // As the WCSPH test (test_rigid.cpp): gravity off, no wall within reach. The body receives the
   // reaction to the pressure of both solves (dfsph_finish: p / delta^2 of all pressure that acted
   // this step) and to the viscous force, so the total momentum may drift by rounding only: 1e-3 of
-  // the momentum exchanged, the WCSPH test's tolerance.
-  app::RunOptions o = quietRun("push_blob.yaml", {"fluid.solver=dfsph"});
+  // the momentum exchanged, the WCSPH test's tolerance. With both wall variants: the body's
+  // particles weigh the pressure as the walls do (rigid.cl, `mirror` = 2 or 1).
+  const std::string walls = GENERATE(std::string("mirrored"), std::string("single"));
+  INFO("fluid.dfsph.walls: " << walls);
+  app::RunOptions o = quietRun("push_blob.yaml", {"fluid.solver=dfsph", "fluid.dfsph.walls=" + walls});
   Eigen::Vector3d p0 = Eigen::Vector3d::Constant(NAN);
   double worst = 0, exchanged = 0;
   const app::RunResult r = app::runScene(o, [&](Simulation& sim, const FrameReport&) {
