@@ -5,6 +5,7 @@
 #include "core/model.h"
 #include "haptics/backends.h"
 #include "haptics/live.h"
+#include "haptics/mouse.h"
 #include "haptics/record.h"
 #include "haptics/session.h"
 
@@ -19,9 +20,12 @@ haptics::Trajectory hapticPath(const HapticsSpec& h);
 /// x_scene = scale R x_device + offset, with the automatic scale (largest domain extent / 0.15 m).
 haptics::Mapping hapticMapping(const SceneSpec& spec);
 /// A batch (virtual-time) session for a compiled model whose scene has a `haptics` section.
-std::unique_ptr<haptics::BatchSession> makeBatchSession(const Model& model);
+/// With `mouse`, the device is the mouse backend fed by that queue instead of the scene's backend.
+std::unique_ptr<haptics::BatchSession> makeBatchSession(const Model& model,
+                                                        std::shared_ptr<haptics::MouseInput> mouse = nullptr);
 /// A live session (servo thread, steady clock) for `sphaptics run --interactive`; not started.
-std::unique_ptr<haptics::LiveSession> makeLiveSession(const Model& model);
+std::unique_ptr<haptics::LiveSession> makeLiveSession(const Model& model,
+                                                      std::shared_ptr<haptics::MouseInput> mouse = nullptr);
 /// The replay of a recording's device readings through the model's grab logic (`sphaptics replay`).
 std::unique_ptr<haptics::ReplaySource> makeReplaySource(const Model& model, const haptics::Recording& rec);
 

@@ -9,7 +9,44 @@
 
 #include <CLI/CLI.hpp>
 
+#include <atomic>
+#include <cstdlib>
 #include <iostream>
+#include <thread>
+
+namespace {
+
+/// `run` with a window over it (viewer/): the simulation on a thread publishing frames, the window
+/// on this one (GLFW wants the main thread). Reset ends the run and starts it again; closing the
+/// window stops it. Without a window (no display) the run goes on headless.
+int runWithWindow(sph::app::RunOptions run, bool mouse) {
+  using namespace sph;
+  auto link = std::make_shared<LiveLink>();
+  run.live_link = link;
+  if (mouse) run.mouse = std::make_shared<haptics::MouseInput>();
+  std::atomic<bool> done{false};
+  std::atomic<int> code{0};
+  std::thread sim([&] {
+    for (;;) {
+      code = app::runScene(run).exit_code;
+      if (!link->controls.reset.exchange(false) || link->controls.stop.load() || code.load() != 0) break;
+      std::cerr << "reset: the scene starts again\n";
+    }
+    done = true;
+  });
+#ifdef SPHAPTICS_HAVE_VIEWER
+  viewer::LiveViewOptions vo;
+  vo.title = run.scene;
+  const int window = viewer::liveWindow(vo, link, run.mouse, [&] { return done.load(); });
+  if (window == 0) link->controls.stop = true;  // the window was closed (or the run ended)
+#else
+  std::cerr << "window: this sphaptics was built without the viewer; going on without it\n";
+#endif
+  sim.join();
+  return code.load();
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
   using namespace sph;
@@ -41,7 +78,15 @@ int main(int argc, char** argv) {
                       "(replay it with `sphaptics replay FILE`)");
   cmd_run->add_flag("--interactive", run.interactive,
                     "Live: the haptic servo on its own thread at its rate against the scene's device, frames paced to "
-                    "real time; prints simulation rate, servo rate, overruns and force");
+                    "real time; prints simulation rate, servo rate, overruns and force. Opens the live window when "
+                    "there is a display and this build has the viewer (see --headless)");
+  bool run_headless = false, run_window = false, run_mouse = false;
+  cmd_run->add_flag("--headless", run_headless, "With --interactive: no window, even with a display");
+  cmd_run->add_flag("--window", run_window,
+                    "Open the live window over the run (also a batch run: frames as fast as the simulation goes)");
+  cmd_run->add_flag("--mouse", run_mouse,
+                    "The mouse is the haptic device (in the window: left button grabs, wheel sets the depth); "
+                    "needs the window and a scene with a haptics section");
 
   // replay
   std::string replay_file;
@@ -145,6 +190,18 @@ int main(int argc, char** argv) {
   if (*cmd_run) {
     run.duration_given = opt_duration->count() > 0;
     if (!maxMemory(run_max_memory, run.max_memory)) return kExitBadInput;
+    if (run_headless && run_window) {
+      std::cerr << "--headless: cannot be combined with --window\n";
+      return kExitBadInput;
+    }
+    const char* display = std::getenv("DISPLAY");
+    const bool have_display = display && *display;
+    const bool window = run_window || (run.interactive && !run_headless && have_display);
+    if (run_mouse && !window) {
+      std::cerr << "--mouse: needs the window (--window, or --interactive with a display and without --headless)\n";
+      return kExitBadInput;
+    }
+    if (window) return runWithWindow(run, run_mouse);
     return app::runScene(run).exit_code;
   }
   if (*cmd_replay) {

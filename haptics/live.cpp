@@ -41,7 +41,13 @@ void LiveSession::loop() {
       std::chrono::duration<double>(1.0 / servo_.config().rate));
   auto deadline = std::chrono::steady_clock::now();
   auto last = deadline;
+  lowpass_ = servo_.config().lowpass;
   while (running_.load()) {
+    // A new smoothing cut-off from the window, taken between ticks.
+    if (const double hz = lowpass_request_.exchange(-1.0); hz > 0) {
+      servo_.setLowpass(hz);
+      lowpass_ = hz;
+    }
     // One servo period: read, compute, write.
     DeviceState s;
     device_->read(s);

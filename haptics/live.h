@@ -40,6 +40,12 @@ class LiveSession : public ExternalForceSource {
   /// After a frame: the LocalModel of the current states, stamped with the clock's time.
   void publish(const std::vector<rigid::BodyState>& states);
   LiveStats stats() const;
+  /// Simulation thread only (the grab is the simulation thread's): the grab, and a new force gain.
+  const GrabController& grab() const { return grab_; }
+  void setGain(double gain) { grab_.setGain(gain); }
+  /// Any thread: a new feed-forward cut-off (unit: Hz), applied by the servo thread at its next tick.
+  void setLowpass(double hz) { lowpass_request_.store(hz); }
+  double lowpass() const { return lowpass_.load(); }  ///< in use (unit: Hz)
   bool running() const { return running_.load(); }
   /// Keep the reading each apply() used (for --record); takeApplied() hands them over.
   void record(bool on) { recording_ = on; }
@@ -53,6 +59,8 @@ class LiveSession : public ExternalForceSource {
   GrabController grab_;  // simulation thread only
   std::thread thread_;
   std::atomic<bool> running_{false};
+  std::atomic<double> lowpass_request_{-1.0};  // < 0: no request
+  std::atomic<double> lowpass_{0.0};
   mutable std::mutex mutex_;  // guards latest_ and stats_ / periods_
   DeviceState latest_;
   LiveStats stats_;

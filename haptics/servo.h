@@ -115,6 +115,8 @@ class Servo {
   ServoOutput step(Device& device);
 
   const ServoConfig& config() const { return cfg_; }
+  /// Servo thread only: a new feed-forward cut-off (unit: Hz), from the next tick.
+  void setLowpass(double hz) { cfg_.lowpass = hz; }
   uint64_t ticks() const { return ticks_; }
   uint64_t modelsReceived() const { return models_; }
 

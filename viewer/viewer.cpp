@@ -6,6 +6,10 @@
 //   Scene GL   particles as point sprites shaded as spheres, surfaces and bodies as lit meshes,
 //              the domain box as lines and its floor as a quad
 //   Panel      play / pause / step / timeline, colour mode and legend, layers, camera
+//   Live       (liveWindow) the same scene drawing over a running simulation: the newest frame of
+//              a LiveMailbox (core/live_frame.h), never waited for; the device's cursor, grasp
+//              point and force arrow; a panel with rates, a force plot, gain, smoothing, pause, reset;
+//              with the mouse backend (haptics/mouse.h) the left button grabs
 #include "viewer/view_options.h"
 
 #include "core/errors.h"
@@ -29,12 +33,14 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <deque>
 #include <filesystem>
 #include <iostream>
 #include <limits>
 #include <memory>
 #include <stdexcept>
 #include <string>
+#include <thread>
 #include <vector>
 
 namespace sph::viewer {
@@ -61,6 +67,21 @@ struct LoadedMesh {
   Eigen::Vector3f colour;     ///< linear RGB
   std::vector<float> vertices;  ///< (triangles x 3 corners) x (position 3, normal 3)
 };
+
+/// Triangles as (position, normal) per corner; vertex normals from the mesh, else face normals.
+void flattenMesh(const TriMesh& mesh, std::vector<float>& out) {
+  const bool has_normals = mesh.normals.size() == mesh.positions.size() && !mesh.normals.empty();
+  out.reserve(out.size() + mesh.triangles.size() * 18);
+  for (const auto& t : mesh.triangles) {
+    const Eigen::Vector3f& a = mesh.positions[t[0]];
+    const Eigen::Vector3f face = (mesh.positions[t[1]] - a).cross(mesh.positions[t[2]] - a).normalized();
+    for (int k = 0; k < 3; ++k) {
+      const Eigen::Vector3f& p = mesh.positions[t[static_cast<std::size_t>(k)]];
+      const Eigen::Vector3f n = has_normals ? mesh.normals[t[static_cast<std::size_t>(k)]] : face;
+      out.insert(out.end(), {p.x(), p.y(), p.z(), n.x(), n.y(), n.z()});
+    }
+  }
+}
 
 /// The folder's content as of the last scan.
 class RunData {
@@ -112,7 +133,7 @@ class RunData {
       m.name = s.name;
       m.body = s.body;
       m.colour = colourOf(s);
-      flatten(io::readObj(it->second, /*allow_empty=*/true), m.vertices);
+      flattenMesh(io::readObj(it->second, /*allow_empty=*/true), m.vertices);
       out.push_back(std::move(m));
     }
     return out;
@@ -156,21 +177,6 @@ class RunData {
       if (name == key || sanitised == key) return colour;
     }
     return s.body ? Eigen::Vector3f(0.7f, 0.7f, 0.7f) : Eigen::Vector3f(0.2f, 0.4f, 0.9f);
-  }
-
-  /// Triangles as (position, normal) per corner; vertex normals from the file, else face normals.
-  static void flatten(const TriMesh& mesh, std::vector<float>& out) {
-    const bool has_normals = mesh.normals.size() == mesh.positions.size() && !mesh.normals.empty();
-    out.reserve(mesh.triangles.size() * 18);
-    for (const auto& t : mesh.triangles) {
-      const Eigen::Vector3f& a = mesh.positions[t[0]];
-      const Eigen::Vector3f face = (mesh.positions[t[1]] - a).cross(mesh.positions[t[2]] - a).normalized();
-      for (int k = 0; k < 3; ++k) {
-        const Eigen::Vector3f& p = mesh.positions[t[static_cast<std::size_t>(k)]];
-        const Eigen::Vector3f n = has_normals ? mesh.normals[t[static_cast<std::size_t>(k)]] : face;
-        out.insert(out.end(), {p.x(), p.y(), p.z(), n.x(), n.y(), n.z()});
-      }
-    }
   }
 
   std::string dir_;
@@ -331,7 +337,10 @@ struct Layers {
 
 class Viewer {
  public:
-  Viewer(const ViewOptions& opt, RunData& run) : opt_(opt), run_(run) {
+  Viewer(const ViewOptions& opt, RunData* run, std::shared_ptr<LiveLink> live = nullptr,
+         std::shared_ptr<haptics::MouseInput> mouse = nullptr)
+      : opt_(opt), run_(run), live_(std::move(live)), mouse_in_(std::move(mouse)) {
+    if (live_) live_scene_ = live_->mailbox.scene();
     for (const std::string& h : opt.hide) {
       if (h == "particles") layers_.particles = false;
       if (h == "surfaces") layers_.surfaces = false;
@@ -353,7 +362,7 @@ class Viewer {
     glfwWindowHint(GLFW_OPENGL_PROFILE, GLFW_OPENGL_CORE_PROFILE);
     glfwWindowHint(GLFW_OPENGL_FORWARD_COMPAT, GLFW_TRUE);
     glfwWindowHint(GLFW_VISIBLE, visible ? GLFW_TRUE : GLFW_FALSE);
-    const std::string title = "sphaptics view " + opt_.dir;
+    const std::string title = (live_ ? "sphaptics run " : "sphaptics view ") + opt_.dir;
     window_ = glfwCreateWindow(opt_.width, opt_.height, title.c_str(), nullptr, nullptr);
     if (!window_) throw WindowError("cannot open an OpenGL 3.3 core window (GLFW reported why above)");
     glfwMakeContextCurrent(window_);
@@ -381,7 +390,9 @@ class Viewer {
     box_.create();
     floor_.create();
     buildBox();
-    const auto [lo, hi] = run_.bounds();
+    overlay_points_.create();
+    overlay_lines_.create();
+    const auto [lo, hi] = bounds();
     camera_.frame(lo, hi, static_cast<float>(opt_.width) / static_cast<float>(opt_.height));
   }
 
@@ -391,6 +402,8 @@ class Viewer {
       particles_.destroy();
       box_.destroy();
       floor_.destroy();
+      overlay_points_.destroy();
+      overlay_lines_.destroy();
       for (auto& m : mesh_buffers_) m.destroy();
       if (point_program_) glDeleteProgram(point_program_);
       if (mesh_program_) glDeleteProgram(mesh_program_);
@@ -462,20 +475,20 @@ class Viewer {
       const double now = glfwGetTime();
       // Playback clock: frames advance at the playback rate, looping at the end.
       const double rate = playbackRate();
-      if (playing_ && run_.frames() > 0) {
+      if (playing_ && run_->frames() > 0) {
         accumulator += (now - last) * rate;
         while (accumulator >= 1.0) {
           accumulator -= 1.0;
-          frame_ = (frame_ + 1 < run_.frames()) ? frame_ + 1 : (loop_ || opt_.benchmark > 0 ? 0 : frame_);
+          frame_ = (frame_ + 1 < run_->frames()) ? frame_ + 1 : (loop_ || opt_.benchmark > 0 ? 0 : frame_);
         }
       }
       last = now;
       // A run still being written: look for new frames twice a second.
-      if (run_.running() && now - last_scan > 0.5) {
+      if (run_->running() && now - last_scan > 0.5) {
         last_scan = now;
-        const int before = run_.frames();
-        run_.rescan();
-        if (follow_ && run_.frames() > before) frame_ = run_.frames() - 1;
+        const int before = run_->frames();
+        run_->rescan();
+        if (follow_ && run_->frames() > before) frame_ = run_->frames() - 1;
       }
       if (frame_ != loaded_ || loaded_layers_ != std::array<bool, 2>{layers_.surfaces, layers_.bodies}) load(frame_);
 
@@ -499,20 +512,235 @@ class Viewer {
     return elapsed > 0 ? static_cast<double>(drawn) / elapsed : 0.0;
   }
 
+  /// Live: draws the newest published frame until the window closes or run_done() is true (then
+  /// the last frame stays up for `linger` seconds); returns the window's frame rate.
+  double liveLoop(const std::function<bool()>& run_done) {
+    const double t0 = glfwGetTime();
+    long drawn = 0;
+    if (mouse_in_) sendCamera(/*reset_depth=*/true);
+    while (!glfwWindowShouldClose(window_)) {
+      glfwPollEvents();
+      // The newest frame, if it is new: the simulation has published it and never waits for us.
+      if (auto f = live_->mailbox.latest(); f && f != live_frame_) loadLive(std::move(f));
+      if (run_done() && (!live_frame_ || live_frame_->finished || live_->mailbox.latest() == live_frame_)) break;
+
+      int w = 0, h = 0;
+      glfwGetFramebufferSize(window_, &w, &h);
+      ImGui_ImplOpenGL3_NewFrame();
+      ImGui_ImplGlfw_NewFrame();
+      ImGui::NewFrame();
+      handleInput(h);
+      drawLivePanel();
+      drawLegend();
+      ImGui::Render();
+      glBindFramebuffer(GL_FRAMEBUFFER, 0);
+      drawScene(w, h);
+      ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
+      glfwSwapBuffers(window_);
+      ++drawn;
+    }
+    // Closing the window ends the run.
+    live_->controls.stop = true;
+    const double elapsed = glfwGetTime() - t0;
+    return elapsed > 0 ? static_cast<double>(drawn) / elapsed : 0.0;
+  }
+
  private:
+  /// Live: takes a published frame: particles, bodies at their poses, cloths, the device overlay.
+  void loadLive(std::shared_ptr<const LiveFrame> f) {
+    live_frame_ = std::move(f);
+    const LiveFrame& fr = *live_frame_;
+    if (!live_scene_) live_scene_ = live_->mailbox.scene();
+    radius_ = live_scene_ ? live_scene_->particle_radius : 0.005f;
+    uploadParticles();
+    // Bodies (body-frame meshes moved to their poses) and cloths, as the playback's meshes.
+    meshes_.clear();
+    if (live_scene_) {
+      for (std::size_t b = 0; b < live_scene_->body_meshes.size() && b < fr.body_positions.size(); ++b) {
+        TriMesh world = live_scene_->body_meshes[b];
+        for (auto& p : world.positions) p = fr.body_orientations[b] * p + fr.body_positions[b];
+        for (auto& n : world.normals) n = fr.body_orientations[b] * n;
+        LoadedMesh m;
+        m.name = "body_" + live_scene_->body_names[b];
+        m.body = true;
+        m.colour = live_scene_->body_colours[b];
+        flattenMesh(world, m.vertices);
+        meshes_.push_back(std::move(m));
+      }
+      for (std::size_t c = 0; c < fr.cloths.size(); ++c) {
+        LoadedMesh m;
+        m.name = "cloth";
+        m.body = true;
+        m.colour = c < live_scene_->cloth_colours.size() ? live_scene_->cloth_colours[c] : Eigen::Vector3f(0.8f, 0.3f, 0.3f);
+        flattenMesh(fr.cloths[c], m.vertices);
+        meshes_.push_back(std::move(m));
+      }
+    }
+    for (auto& b : mesh_buffers_) b.destroy();
+    mesh_buffers_.assign(meshes_.size(), VertexBuffer{});
+    for (std::size_t i = 0; i < meshes_.size(); ++i) {
+      mesh_buffers_[i].create();
+      mesh_buffers_[i].upload(meshes_[i].vertices);
+    }
+    // The device overlay: cursor and grasp point (sprites), the spring between them and the force
+    // arrow from the grasp point (lines, arrow_scale_ metres per newton).
+    const LiveHaptics& hp = fr.haptics;
+    if (live_scene_ && live_scene_->haptics) {
+      const Eigen::Vector3f c = hp.cursor.cast<float>(), g = hp.grasp.cast<float>();
+      std::vector<float> pts{c.x(), c.y(), c.z(), 0.2f, 0.9f, 0.9f};
+      if (hp.held >= 0) pts.insert(pts.end(), {g.x(), g.y(), g.z(), 0.95f, 0.2f, 0.8f});
+      overlay_points_.upload(pts);
+      std::vector<float> lines{c.x(), c.y(), c.z(), 0, 0, 1, g.x(), g.y(), g.z(), 0, 0, 1};
+      overlay_spring_ = 2;
+      const Eigen::Vector3f from = hp.held >= 0 ? g : c;
+      const Eigen::Vector3f d = arrow_scale_ * hp.force.cast<float>();
+      if (d.norm() > 1e-6f) {
+        const Eigen::Vector3f tip = from + d;
+        // Two barbs at 25 % of the length, in a plane containing the arrow.
+        const Eigen::Vector3f side = d.cross(std::abs(d.z()) < 0.9f * d.norm() ? Eigen::Vector3f::UnitZ() : Eigen::Vector3f::UnitX()).normalized();
+        const Eigen::Vector3f b1 = tip - 0.25f * d + 0.12f * d.norm() * side, b2 = tip - 0.25f * d - 0.12f * d.norm() * side;
+        lines.insert(lines.end(), {from.x(), from.y(), from.z(), 0, 0, 1, tip.x(), tip.y(), tip.z(), 0, 0, 1,
+                                   tip.x(), tip.y(), tip.z(), 0, 0, 1, b1.x(), b1.y(), b1.z(), 0, 0, 1,
+                                   tip.x(), tip.y(), tip.z(), 0, 0, 1, b2.x(), b2.y(), b2.z(), 0, 0, 1});
+      }
+      overlay_lines_.upload(lines);
+    }
+    // Statistics over the last 10 s of frames.
+    samples_.push_back({glfwGetTime(), fr.time, hp.servo_seconds, hp.force.norm(), fr.frame, hp.servo_ticks});
+    while (samples_.size() > 2 && samples_.back().wall - samples_.front().wall > 10.0) samples_.pop_front();
+    if (!settings_read_ && live_scene_ && live_scene_->haptics) {
+      gain_ = static_cast<float>(hp.gain);
+      lowpass_ = static_cast<float>(hp.lowpass > 0 ? hp.lowpass : 25.0);
+      settings_read_ = hp.lowpass > 0;
+    }
+  }
+
+  /// Live: rates over the last second of samples: (simulation frames/s, simulated s per s, servo Hz).
+  std::array<double, 3> liveRates() const {
+    if (samples_.size() < 2) return {0, 0, 0};
+    const Sample& b = samples_.back();
+    std::size_t i = samples_.size() - 1;
+    while (i > 0 && b.wall - samples_[i].wall < 1.0) --i;
+    const Sample& a = samples_[i];
+    const double dt = std::max(b.wall - a.wall, 1e-9);
+    const double servo_dt = b.servo_seconds - a.servo_seconds;
+    return {(b.frame - a.frame) / dt, (b.time - a.time) / dt,
+            servo_dt > 0 ? static_cast<double>(b.ticks - a.ticks) / servo_dt : 0.0};
+  }
+
+  /// Live: the panel: rates, force plot, gain and smoothing, pause and reset, view settings.
+  void drawLivePanel() {
+    ImGui::SetNextWindowPos(ImVec2(10, 10), ImGuiCond_FirstUseEver);
+    ImGui::SetNextWindowSize(ImVec2(340, 0), ImGuiCond_FirstUseEver);
+    ImGui::Begin("sphaptics live");
+    ImGui::TextWrapped("%s", opt_.dir.c_str());
+    const LiveFrame* f = live_frame_.get();
+    if (!f) {
+      ImGui::TextUnformatted("waiting for the first frame ...");
+    } else {
+      const auto r = liveRates();
+      ImGui::Text("frame %d   t = %.3f s   %zu particles%s", f->frame, f->time, f->particles.size(), f->finished ? "   (finished)" : "");
+      ImGui::Text("simulation: %.1f frames/s (%.2f x real time)", r[0], r[1]);
+      if (live_scene_ && live_scene_->haptics) {
+        const LiveHaptics& hp = f->haptics;
+        ImGui::Text("servo: %.0f Hz   |F| = %.3f N", r[2], hp.force.norm());
+        ImGui::Text("held: %s", hp.held >= 0 && live_scene_ && static_cast<std::size_t>(hp.held) < live_scene_->body_names.size()
+                                    ? live_scene_->body_names[static_cast<std::size_t>(hp.held)].c_str() : "nothing");
+        // |F| over the last seconds (one sample per frame received).
+        std::vector<float> plot;
+        for (const Sample& s : samples_) plot.push_back(static_cast<float>(s.force));
+        char label[64];
+        std::snprintf(label, sizeof label, "|F| last %.0f s", samples_.empty() ? 0.0 : samples_.back().wall - samples_.front().wall);
+        float top = 0.5f;
+        for (float v : plot) top = std::max(top, v);
+        ImGui::PlotLines("##force", plot.data(), static_cast<int>(plot.size()), 0, label, 0.0f, top * 1.1f, ImVec2(0, 70));
+        ImGui::Text("force axis 0 to %.2f N", static_cast<double>(top * 1.1f));
+        if (ImGui::SliderFloat("gain", &gain_, 0.05f, 20.0f, "%.2f", ImGuiSliderFlags_Logarithmic)) live_->controls.gain = gain_;
+        if (ImGui::SliderFloat("smoothing (Hz)", &lowpass_, 1.0f, 200.0f, "%.0f", ImGuiSliderFlags_Logarithmic))
+          live_->controls.lowpass = lowpass_;
+        ImGui::SliderFloat("arrow (m/N)", &arrow_scale_, 0.005f, 1.0f, "%.3f", ImGuiSliderFlags_Logarithmic);
+      }
+    }
+    if (ImGui::Checkbox("pause (P)", &paused_)) live_->controls.paused = paused_;
+    ImGui::SameLine();
+    if (ImGui::Button("reset (R)")) requestReset();
+
+    int mode = static_cast<int>(colour_);
+    if (ImGui::Combo("colour", &mode, kColourLabels, 4)) {
+      colour_ = static_cast<ColourBy>(mode);
+      fix_range_ = false;
+      if (live_frame_) uploadParticles();
+    }
+    ImGui::SliderFloat("particle size", &point_scale_, 0.2f, 3.0f, "%.2f x");
+    ImGui::Checkbox("particles (1)", &layers_.particles);
+    ImGui::SameLine();
+    ImGui::Checkbox("bodies (3)", &layers_.bodies);
+    ImGui::SameLine();
+    ImGui::Checkbox("box (4)", &layers_.box);
+    if (ImGui::Button("frame the domain (F)")) resetCamera();
+    ImGui::Text("window: %.0f frames/s", static_cast<double>(ImGui::GetIO().Framerate));
+    if (ImGui::CollapsingHeader("mouse and keys"))
+      ImGui::TextUnformatted(mouse_in_ ? "left: grab (the cursor moves a point in the plane facing you)\n"
+                                         "wheel: that plane nearer / farther   shift + wheel: zoom\n"
+                                         "right drag: orbit   middle drag: pan\nP: pause   R: reset   Q / Esc: quit"
+                                       : "left drag: orbit   right / middle drag: pan\nwheel: zoom   P: pause   R: reset\n"
+                                         "1, 3, 4: layers   C: colour   F: frame   Q / Esc: quit");
+    ImGui::End();
+  }
+
+  void requestReset() {
+    live_->controls.reset = true;
+    samples_.clear();
+    settings_read_ = false;
+  }
+
+  /// Live with the mouse backend: the camera the cursor is read in (when it changed).
+  void sendCamera(bool reset_depth) {
+    int ww = 0, wh = 0;
+    glfwGetWindowSize(window_, &ww, &wh);
+    const Eigen::Vector3f e = camera_.eye(), f = (camera_.target - e).normalized();
+    const double key[8] = {e.x(), e.y(), e.z(), camera_.target.x(), camera_.target.y(), camera_.target.z(),
+                           static_cast<double>(ww), static_cast<double>(wh)};
+    if (!reset_depth && std::equal(key, key + 8, last_camera_)) return;
+    std::copy(key, key + 8, last_camera_);
+    haptics::MouseEvent ev;
+    ev.kind = haptics::MouseEvent::Kind::Camera;
+    ev.camera.eye = e.cast<double>();
+    ev.camera.forward = f.cast<double>();
+    const Eigen::Vector3f r = f.cross(Eigen::Vector3f::UnitZ()).normalized();
+    ev.camera.right = r.cast<double>();
+    ev.camera.up = r.cross(f).cast<double>();
+    ev.camera.fovy = camera_.fovy;
+    ev.camera.width = ww;
+    ev.camera.height = wh;
+    // The plane through the orbit target to begin with; the wheel moves it later.
+    if (reset_depth) ev.depth = camera_.distance;
+    mouse_in_->push(ev);
+  }
+
+  /// The domain box: the run folder's, or the live scene's.
+  std::pair<Eigen::Vector3f, Eigen::Vector3f> bounds() const {
+    if (run_) return run_->bounds();
+    if (live_scene_) return {live_scene_->domain_min, live_scene_->domain_max};
+    return {Eigen::Vector3f::Zero(), Eigen::Vector3f::Ones()};
+  }
+
+  /// The particles on screen.
+  const ParticleFrame& shown() const { return live_frame_ ? live_frame_->particles : current_; }
+
   double playbackRate() const {
     if (fps_ > 0) return fps_;
     if (opt_.fps > 0) return opt_.fps;
-    return run_.info().frame_rate > 0 ? run_.info().frame_rate : 30.0;
+    return run_->info().frame_rate > 0 ? run_->info().frame_rate : 30.0;
   }
 
   /// Reads frame k (particles and meshes) and uploads it.
   void load(int k) {
     loaded_ = k;
     try {
-      current_ = run_.particles(k);
+      current_ = run_->particles(k);
       // Hidden layers are not read (a surface OBJ of 50k particles takes longer than the particles).
-      meshes_ = run_.meshes(k, layers_.surfaces, layers_.bodies);
+      meshes_ = run_->meshes(k, layers_.surfaces, layers_.bodies);
       loaded_layers_ = {layers_.surfaces, layers_.bodies};
       load_error_.clear();
     } catch (const std::exception& e) {
@@ -520,7 +748,7 @@ class Viewer {
       load_error_ = e.what();
       return;
     }
-    radius_ = run_.particleRadius(current_);
+    radius_ = run_->particleRadius(current_);
     uploadParticles();
     for (auto& b : mesh_buffers_) b.destroy();
     mesh_buffers_.assign(meshes_.size(), VertexBuffer{});
@@ -532,7 +760,7 @@ class Viewer {
 
   /// Particle colours for the current mode (the range from this frame unless fixed), then upload.
   void uploadParticles() {
-    const ParticleFrame& f = current_;
+    const ParticleFrame& f = shown();
     // Automatic range: the 1st to 99th percentile of this frame, so that a few outliers (a
     // pressure spike at a wall) do not wash out the rest.
     if (colour_ != ColourBy::Phase && !fix_range_ && f.size() > 0) {
@@ -557,7 +785,7 @@ class Viewer {
 
   /// The domain box's twelve edges and its floor.
   void buildBox() {
-    const auto [lo, hi] = run_.bounds();
+    const auto [lo, hi] = bounds();
     std::vector<float> lines;
     auto corner = [&](int i) { return Eigen::Vector3f(i & 1 ? hi.x() : lo.x(), i & 2 ? hi.y() : lo.y(), i & 4 ? hi.z() : lo.z()); };
     for (int a = 0; a < 8; ++a)
@@ -621,6 +849,24 @@ class Viewer {
       glBindVertexArray(particles_.vao);
       glDrawArrays(GL_POINTS, 0, particles_.count);
     }
+
+    // Live: the device overlay on top of everything (the cursor may be inside the water).
+    if (live_ && live_scene_ && live_scene_->haptics && overlay_points_.count > 0) {
+      glDisable(GL_DEPTH_TEST);
+      const Eigen::Vector3f ext = live_scene_->domain_max - live_scene_->domain_min;
+      glUseProgram(point_program_);
+      glUniform1f(glGetUniformLocation(point_program_, "radius"), std::max(2.0f * radius_, 0.008f * ext.norm()));
+      glBindVertexArray(overlay_points_.vao);
+      glDrawArrays(GL_POINTS, 0, overlay_points_.count);
+      glUseProgram(mesh_program_);
+      glUniform1f(lit_loc, 0.0f);
+      glBindVertexArray(overlay_lines_.vao);
+      glUniform3f(colour_loc, 0.2f, 0.9f, 0.9f);  // the spring: cursor to grasp point
+      glDrawArrays(GL_LINES, 0, std::min(overlay_spring_, overlay_lines_.count));
+      glUniform3f(colour_loc, 1.0f, 0.8f, 0.1f);  // the force sent to the device
+      if (overlay_lines_.count > overlay_spring_) glDrawArrays(GL_LINES, overlay_spring_, overlay_lines_.count - overlay_spring_);
+      glEnable(GL_DEPTH_TEST);
+    }
     glBindVertexArray(0);
     glUseProgram(0);
   }
@@ -660,9 +906,9 @@ class Viewer {
     ImGui::SetNextWindowPos(ImVec2(10, 10), ImGuiCond_FirstUseEver);
     ImGui::SetNextWindowSize(ImVec2(330, 0), ImGuiCond_FirstUseEver);
     ImGui::Begin("sphaptics view");
-    const int n = run_.frames();
+    const int n = run_->frames();
     ImGui::TextWrapped("%s", opt_.dir.c_str());
-    ImGui::Text("status: %s   frames: %d", run_.info().status.empty() ? "(no run.json)" : run_.info().status.c_str(), n);
+    ImGui::Text("status: %s   frames: %d", run_->info().status.empty() ? "(no run.json)" : run_->info().status.c_str(), n);
     ImGui::Text("frame %d   t = %.4f s   %zu particles", frame_, current_.time, current_.size());
     if (!load_error_.empty()) ImGui::TextWrapped("cannot read this frame yet: %s", load_error_.c_str());
 
@@ -681,7 +927,7 @@ class Viewer {
     ImGui::SliderInt("frame", &frame_, 0, std::max(n - 1, 0));
     float fps = static_cast<float>(playbackRate());
     if (ImGui::SliderFloat("frames/s", &fps, 1.0f, 240.0f, "%.0f", ImGuiSliderFlags_Logarithmic)) fps_ = fps;
-    if (run_.running()) ImGui::Checkbox("follow the newest frame", &follow_);
+    if (run_->running()) ImGui::Checkbox("follow the newest frame", &follow_);
 
     // Colour.
     int mode = static_cast<int>(colour_);
@@ -714,7 +960,7 @@ class Viewer {
   void resetCamera() {
     int w = 0, h = 0;
     glfwGetFramebufferSize(window_, &w, &h);
-    const auto [lo, hi] = run_.bounds();
+    const auto [lo, hi] = bounds();
     const float fovy = camera_.fovy;
     camera_ = OrbitCamera{};
     camera_.fovy = fovy;
@@ -729,7 +975,41 @@ class Viewer {
     const float dx = static_cast<float>(x - mouse_[0]), dy = static_cast<float>(y - mouse_[1]);
     mouse_[0] = x;
     mouse_[1] = y;
-    if (!io.WantCaptureMouse) {
+    if (mouse_in_) {
+      // The mouse is the haptic device: left = grab, wheel = depth of the cursor's plane;
+      // right drag orbits, middle drag pans, shift + wheel zooms.
+      const bool left = glfwGetMouseButton(window_, GLFW_MOUSE_BUTTON_LEFT) == GLFW_PRESS;
+      if (!io.WantCaptureMouse || grab_down_) {
+        if (glfwGetMouseButton(window_, GLFW_MOUSE_BUTTON_RIGHT) == GLFW_PRESS) camera_.orbit(dx, dy);
+        if (glfwGetMouseButton(window_, GLFW_MOUSE_BUTTON_MIDDLE) == GLFW_PRESS) camera_.pan(dx, dy, static_cast<float>(height));
+        const bool shift = glfwGetKey(window_, GLFW_KEY_LEFT_SHIFT) == GLFW_PRESS || glfwGetKey(window_, GLFW_KEY_RIGHT_SHIFT) == GLFW_PRESS;
+        sendCamera(false);
+        if (dx != 0 || dy != 0) {
+          haptics::MouseEvent ev;
+          ev.kind = haptics::MouseEvent::Kind::Move;
+          ev.x = x;
+          ev.y = y;
+          mouse_in_->push(ev);
+        }
+        if (scroll_ != 0) {
+          if (shift) {
+            camera_.zoom(scroll_);
+          } else {
+            haptics::MouseEvent ev;
+            ev.kind = haptics::MouseEvent::Kind::Wheel;
+            ev.steps = -scroll_;  // wheel up (positive) brings the plane nearer
+            mouse_in_->push(ev);
+          }
+        }
+        if (left != grab_down_) {
+          haptics::MouseEvent ev;
+          ev.kind = haptics::MouseEvent::Kind::Button;
+          ev.pressed = left;
+          mouse_in_->push(ev);
+          grab_down_ = left;
+        }
+      }
+    } else if (!io.WantCaptureMouse) {
       if (glfwGetMouseButton(window_, GLFW_MOUSE_BUTTON_LEFT) == GLFW_PRESS) camera_.orbit(dx, dy);
       if (glfwGetMouseButton(window_, GLFW_MOUSE_BUTTON_RIGHT) == GLFW_PRESS ||
           glfwGetMouseButton(window_, GLFW_MOUSE_BUTTON_MIDDLE) == GLFW_PRESS)
@@ -738,8 +1018,26 @@ class Viewer {
     }
     scroll_ = 0;
     if (io.WantCaptureKeyboard) return;
+    if (live_) {  // live keys: no timeline
+      if (ImGui::IsKeyPressed(GLFW_KEY_P) || ImGui::IsKeyPressed(GLFW_KEY_SPACE)) {
+        paused_ = !paused_;
+        live_->controls.paused = paused_;
+      }
+      if (ImGui::IsKeyPressed(GLFW_KEY_R)) requestReset();
+      if (ImGui::IsKeyPressed(GLFW_KEY_1)) layers_.particles = !layers_.particles;
+      if (ImGui::IsKeyPressed(GLFW_KEY_3)) layers_.bodies = !layers_.bodies;
+      if (ImGui::IsKeyPressed(GLFW_KEY_4)) layers_.box = !layers_.box;
+      if (ImGui::IsKeyPressed(GLFW_KEY_F)) resetCamera();
+      if (ImGui::IsKeyPressed(GLFW_KEY_C)) {
+        colour_ = static_cast<ColourBy>((static_cast<int>(colour_) + 1) % 4);
+        fix_range_ = false;
+        if (live_frame_) uploadParticles();
+      }
+      if (ImGui::IsKeyPressed(GLFW_KEY_Q) || ImGui::IsKeyPressed(GLFW_KEY_ESCAPE)) glfwSetWindowShouldClose(window_, 1);
+      return;
+    }
     // ImGui 1.86 indexes keys by the GLFW key codes.
-    const int n = run_.frames();
+    const int n = run_->frames();
     if (ImGui::IsKeyPressed(GLFW_KEY_SPACE)) playing_ = !playing_;
     if (ImGui::IsKeyPressed(GLFW_KEY_RIGHT)) frame_ = std::min(frame_ + 1, std::max(n - 1, 0));
     if (ImGui::IsKeyPressed(GLFW_KEY_LEFT)) frame_ = std::max(frame_ - 1, 0);
@@ -759,7 +1057,25 @@ class Viewer {
   }
 
   const ViewOptions& opt_;
-  RunData& run_;
+  RunData* run_ = nullptr;                       ///< playback: the folder (null when live)
+  std::shared_ptr<LiveLink> live_;               ///< live: the running simulation's link (null in playback)
+  std::shared_ptr<haptics::MouseInput> mouse_in_;  ///< live with the mouse backend: its input queue
+  std::shared_ptr<const LiveScene> live_scene_;
+  std::shared_ptr<const LiveFrame> live_frame_;  ///< the frame on screen (kept while it is drawn)
+  VertexBuffer overlay_points_, overlay_lines_;  ///< device cursor and grasp point; spring and force arrow
+  int overlay_spring_ = 0;                       ///< vertices of the spring line in overlay_lines_
+  float arrow_scale_ = 0.1f;                     ///< force arrow length per newton (unit: m/N)
+  // Live statistics: per new frame (window clock, frame, simulated time, servo ticks, servo clock, |F|).
+  struct Sample {
+    double wall, time, servo_seconds, force;
+    int frame;
+    uint64_t ticks;
+  };
+  std::deque<Sample> samples_;
+  float gain_ = 1.0f, lowpass_ = 25.0f;
+  bool paused_ = false, settings_read_ = false;
+  bool grab_down_ = false;
+  double last_camera_[8] = {0, 0, 0, 0, 0, 0, 0, 0};
   GLFWwindow* window_ = nullptr;
   bool glfw_ = false, imgui_ = false;
   GLuint point_program_ = 0, mesh_program_ = 0, fbo_ = 0, rbo_[2] = {0, 0};
@@ -816,7 +1132,7 @@ int viewCommand(const ViewOptions& opt) {
   }
 
   try {
-    Viewer viewer(opt, *run);
+    Viewer viewer(opt, run.get());
     viewer.open(/*visible=*/opt.screenshot.empty());
     if (!opt.screenshot.empty()) {
       viewer.screenshot(first, opt.screenshot);
@@ -834,6 +1150,28 @@ int viewCommand(const ViewOptions& opt) {
     return kExitBadInput;
   } catch (const std::exception& e) {
     std::cerr << "view: " << e.what() << "\n";
+    return kExitDevice;
+  }
+}
+
+int liveWindow(const LiveViewOptions& opt, std::shared_ptr<LiveLink> link, std::shared_ptr<haptics::MouseInput> mouse,
+               const std::function<bool()>& run_done) {
+  ViewOptions vo;
+  vo.dir = opt.title;
+  vo.width = opt.width;
+  vo.height = opt.height;
+  vo.colour = opt.colour;
+  try {
+    // The scene is set before the first frame; wait for it (the run is compiling the scene).
+    while (!link->mailbox.scene() && !run_done()) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    if (!link->mailbox.scene()) return kExitOk;
+    Viewer viewer(vo, nullptr, link, std::move(mouse));
+    viewer.open(/*visible=*/true);
+    const double fps = viewer.liveLoop(run_done);
+    std::cout << "window: " << fps << " frames/s\n";
+    return kExitOk;
+  } catch (const std::exception& e) {
+    std::cerr << "window: " << e.what() << "; going on without it\n";
     return kExitDevice;
   }
 }
