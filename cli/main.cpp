@@ -19,7 +19,7 @@ namespace {
 /// `run` with a window over it (viewer/): the simulation on a thread publishing frames, the window
 /// on this one (GLFW wants the main thread). Reset ends the run and starts it again; closing the
 /// window stops it. Without a window (no display) the run goes on headless.
-int runWithWindow(sph::app::RunOptions run, bool mouse) {
+int runWithWindow(sph::app::RunOptions run, bool mouse, const std::string& screenshot) {
   using namespace sph;
   auto link = std::make_shared<LiveLink>();
   run.live_link = link;
@@ -37,6 +37,7 @@ int runWithWindow(sph::app::RunOptions run, bool mouse) {
 #ifdef SPHAPTICS_HAVE_VIEWER
   viewer::LiveViewOptions vo;
   vo.title = run.scene;
+  vo.screenshot = screenshot;
   const int window = viewer::liveWindow(vo, link, run.mouse, [&] { return done.load(); });
   if (window == 0) link->controls.stop = true;  // the window was closed (or the run ended)
 #else
@@ -81,12 +82,15 @@ int main(int argc, char** argv) {
                     "real time; prints simulation rate, servo rate, overruns and force. Opens the live window when "
                     "there is a display and this build has the viewer (see --headless)");
   bool run_headless = false, run_window = false, run_mouse = false;
+  std::string run_window_screenshot;
   cmd_run->add_flag("--headless", run_headless, "With --interactive: no window, even with a display");
   cmd_run->add_flag("--window", run_window,
                     "Open the live window over the run (also a batch run: frames as fast as the simulation goes)");
   cmd_run->add_flag("--mouse", run_mouse,
                     "The mouse is the haptic device (in the window: left button grabs, wheel sets the depth); "
                     "needs the window and a scene with a haptics section");
+  cmd_run->add_option("--window-screenshot", run_window_screenshot,
+                      "With the window: write its last picture (panel included) as a PNG when the run ends");
 
   // replay
   std::string replay_file;
@@ -201,7 +205,11 @@ int main(int argc, char** argv) {
       std::cerr << "--mouse: needs the window (--window, or --interactive with a display and without --headless)\n";
       return kExitBadInput;
     }
-    if (window) return runWithWindow(run, run_mouse);
+    if (!run_window_screenshot.empty() && !window) {
+      std::cerr << "--window-screenshot: needs the window (--window, or --interactive with a display)\n";
+      return kExitBadInput;
+    }
+    if (window) return runWithWindow(run, run_mouse, run_window_screenshot);
     return app::runScene(run).exit_code;
   }
   if (*cmd_replay) {

@@ -6,6 +6,8 @@
 #include "cli/runner.h"
 #include "core/live_frame.h"
 #include "haptics/mouse.h"
+#include "io/png.h"
+#include "tests/run_binary.h"
 #include "tests/scene_runs.h"
 #include "tests/temp_dir.h"
 
@@ -285,4 +287,41 @@ TEST_CASE("Live window: a renderer that stalls 200 ms per frame does not slow th
                                       << drawn_total);
   CHECK(drawn_total >= 2);
   CHECK(*std::max_element(with.begin(), with.end()) >= 0.9 * *std::max_element(base.begin(), base.end()));
+}
+
+TEST_CASE("Live window: under Xvfb the window over a run shows the water, the device cursor and the grasp point",
+          "[live][viewer]") {
+  // haptic_drag.yaml for 0.1 s with --window (a batch run: the scripted device grabs the ball at
+  // t = 0); the window's last picture is written at the end. Mesa's software OpenGL, 480 x 270.
+  if (!SPHAPTICS_HAVE_VIEWER || std::system("command -v xvfb-run >/dev/null 2>&1") != 0) {
+    WARN("SKIPPED: " << (SPHAPTICS_HAVE_VIEWER ? "xvfb-run is not installed (apt-get install xvfb xauth)"
+                                               : "this build has no viewer (GLFW, OpenGL or Dear ImGui missing)"));
+    return;
+  }
+  sph::testing::TempDir tmp;
+  const std::filesystem::path png = tmp.path / "live.png", log = tmp.path / "live.log";
+  const std::string cmd = "LIBGL_ALWAYS_SOFTWARE=1 xvfb-run -a " + sph::testing::shellQuote(SPHAPTICS_BINARY) + " run " +
+                          sph::testing::shellQuote(sph::testing::scenePath("haptic_drag.yaml")) + " --window --duration 0.1 -q" +
+                          " --out " + sph::testing::shellQuote((tmp.path / "out").string()) + " --window-screenshot " +
+                          sph::testing::shellQuote(png.string()) + " >" + sph::testing::shellQuote(log.string()) + " 2>&1 </dev/null";
+  const int status = std::system(cmd.c_str());
+  INFO(cmd << "\n" << sph::testing::readFile(log));
+  REQUIRE(status == 0);
+  REQUIRE(std::filesystem::exists(png));
+  CHECK(sph::testing::readFile(log).find("window: ") != std::string::npos);
+  // Pixels of each colour: the water's blue (phase colour 0.2, 0.4, 0.9), the cursor's cyan
+  // (0.2, 0.9, 0.9) and the grasp point's magenta (0.95, 0.2, 0.8); the background, box and floor
+  // are grey and the panel is dark blue-grey, none of which match.
+  const io::RgbImage img = io::readPng(png.string());
+  int water = 0, cyan = 0, magenta = 0;
+  for (std::size_t i = 0; i + 2 < img.rgb.size(); i += 3) {
+    const int r = img.rgb[i], g = img.rgb[i + 1], b = img.rgb[i + 2];
+    if (b > r + 60 && b > g + 20 && g > r + 20 && g < 200) ++water;
+    if (g > 200 && b > 200 && r < 150) ++cyan;
+    if (r > 200 && b > 180 && g < 140) ++magenta;
+  }
+  INFO("water " << water << ", cursor " << cyan << ", grasp " << magenta << " pixels");
+  CHECK(water > 500);
+  CHECK(cyan > 10);
+  CHECK(magenta > 10);
 }

@@ -44,6 +44,7 @@ struct LiveViewOptions {
   int width = 1280;                ///< (unit: pixels)
   int height = 720;                ///< (unit: pixels)
   std::string colour = "phase";    ///< particle colour: phase, pressure, speed or density
+  std::string screenshot;          ///< write the window's last picture (panel included) here when the run ends
 };
 
 /// Opens the window over `link` (core/live_frame.h) and draws the newest published frame until the

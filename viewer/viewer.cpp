@@ -447,18 +447,22 @@ class Viewer {
     ImGui::Render();
     ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
 
-    // Read back (bottom-up in OpenGL), flip, write.
+    writeFramebuffer(opt_.width, opt_.height, path);
+    glBindFramebuffer(GL_FRAMEBUFFER, 0);
+  }
+
+  /// Reads the bound framebuffer back (bottom-up in OpenGL), flips it and writes a PNG.
+  static void writeFramebuffer(int width, int height, const std::string& path) {
     io::RgbImage img;
-    img.width = opt_.width;
-    img.height = opt_.height;
-    img.rgb.resize(static_cast<std::size_t>(opt_.width) * static_cast<std::size_t>(opt_.height) * 3);
+    img.width = width;
+    img.height = height;
+    img.rgb.resize(static_cast<std::size_t>(width) * static_cast<std::size_t>(height) * 3);
     std::vector<uint8_t> rows(img.rgb.size());
     glPixelStorei(GL_PACK_ALIGNMENT, 1);
-    glReadPixels(0, 0, opt_.width, opt_.height, GL_RGB, GL_UNSIGNED_BYTE, rows.data());
-    const std::size_t stride = static_cast<std::size_t>(opt_.width) * 3;
-    for (int y = 0; y < opt_.height; ++y)
-      std::copy_n(&rows[static_cast<std::size_t>(opt_.height - 1 - y) * stride], stride, &img.rgb[static_cast<std::size_t>(y) * stride]);
-    glBindFramebuffer(GL_FRAMEBUFFER, 0);
+    glReadPixels(0, 0, width, height, GL_RGB, GL_UNSIGNED_BYTE, rows.data());
+    const std::size_t stride = static_cast<std::size_t>(width) * 3;
+    for (int y = 0; y < height; ++y)
+      std::copy_n(&rows[static_cast<std::size_t>(height - 1 - y) * stride], stride, &img.rgb[static_cast<std::size_t>(y) * stride]);
     io::writePng(path, img);
   }
 
@@ -514,7 +518,7 @@ class Viewer {
 
   /// Live: draws the newest published frame until the window closes or run_done() is true (then
   /// the last frame stays up for `linger` seconds); returns the window's frame rate.
-  double liveLoop(const std::function<bool()>& run_done) {
+  double liveLoop(const std::function<bool()>& run_done, const std::string& screenshot = "") {
     const double t0 = glfwGetTime();
     long drawn = 0;
     if (mouse_in_) sendCamera(/*reset_depth=*/true);
@@ -522,7 +526,7 @@ class Viewer {
       glfwPollEvents();
       // The newest frame, if it is new: the simulation has published it and never waits for us.
       if (auto f = live_->mailbox.latest(); f && f != live_frame_) loadLive(std::move(f));
-      if (run_done() && (!live_frame_ || live_frame_->finished || live_->mailbox.latest() == live_frame_)) break;
+      const bool last = run_done() && (!live_frame_ || live_frame_->finished || live_->mailbox.latest() == live_frame_);
 
       int w = 0, h = 0;
       glfwGetFramebufferSize(window_, &w, &h);
@@ -536,8 +540,14 @@ class Viewer {
       glBindFramebuffer(GL_FRAMEBUFFER, 0);
       drawScene(w, h);
       ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
+      // The run's last picture, panel included, as a PNG (before the swap, from the back buffer).
+      if (last && !screenshot.empty()) {
+        glReadBuffer(GL_BACK);
+        writeFramebuffer(w, h, screenshot);
+      }
       glfwSwapBuffers(window_);
       ++drawn;
+      if (last) break;
     }
     // Closing the window ends the run.
     live_->controls.stop = true;
@@ -631,7 +641,7 @@ class Viewer {
   /// Live: the panel: rates, force plot, gain and smoothing, pause and reset, view settings.
   void drawLivePanel() {
     ImGui::SetNextWindowPos(ImVec2(10, 10), ImGuiCond_FirstUseEver);
-    ImGui::SetNextWindowSize(ImVec2(340, 0), ImGuiCond_FirstUseEver);
+    ImGui::SetNextWindowSize(ImVec2(390, 0), ImGuiCond_FirstUseEver);
     ImGui::Begin("sphaptics live");
     ImGui::TextWrapped("%s", opt_.dir.c_str());
     const LiveFrame* f = live_frame_.get();
@@ -1167,7 +1177,8 @@ int liveWindow(const LiveViewOptions& opt, std::shared_ptr<LiveLink> link, std::
     if (!link->mailbox.scene()) return kExitOk;
     Viewer viewer(vo, nullptr, link, std::move(mouse));
     viewer.open(/*visible=*/true);
-    const double fps = viewer.liveLoop(run_done);
+    const double fps = viewer.liveLoop(run_done, opt.screenshot);
+    if (!opt.screenshot.empty()) std::cout << "wrote " << opt.screenshot << "\n";
     std::cout << "window: " << fps << " frames/s\n";
     return kExitOk;
   } catch (const std::exception& e) {
