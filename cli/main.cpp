@@ -172,6 +172,8 @@ int main(int argc, char** argv) {
   cmd_view->add_option("--hide", view.hide, "Layer to switch off: particles, surfaces, bodies, box (repeatable)")
       ->check(CLI::IsMember(viewer::viewLayerNames()))
       ->allow_extra_args(false);
+  cmd_view->add_option("--particle-size", view.particle_size,
+                       "Particle sprite size, relative to half the particle spacing")->capture_default_str();
   cmd_view->add_option("--fps", view.fps, "Playback rate (unit: frames/s; default: the run's frame rate, real time)");
   cmd_view->add_option("--benchmark", view.benchmark,
                        "Play for this long, print the viewer's drawn frames per second, exit (unit: s)");

@@ -20,6 +20,7 @@ struct ViewOptions {
   int height = 720;                ///< window / screenshot height (unit: pixels)
   std::string colour = "phase";    ///< particle colour: phase, pressure, speed or density
   std::vector<std::string> hide;   ///< layers switched off at start: particles, surfaces, bodies, box
+  double particle_size = 1.0;      ///< sprite radius / half the particle spacing (unit: 1)
   double fps = 0;                  ///< playback rate; 0 = the run's frame rate, i.e. real time (unit: frames/s)
   double benchmark = 0;            ///< > 0: play for this long, print the drawn frames per second, exit (unit: s)
 };

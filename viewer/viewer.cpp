@@ -64,21 +64,25 @@ struct WindowError : std::runtime_error {
 struct LoadedMesh {
   std::string name;           ///< sequence name (fluid_water, body_ball)
   bool body = false;
-  Eigen::Vector3f colour;     ///< linear RGB
-  std::vector<float> vertices;  ///< (triangles x 3 corners) x (position 3, normal 3)
+  Eigen::Vector3f colour;     ///< linear RGB (when the mesh has no per-vertex colours)
+  bool vertex_colours = false;  ///< the OBJ has per-vertex colours (`v x y z r g b`)
+  std::vector<float> vertices;  ///< (triangles x 3 corners) x (position 3, normal 3, colour 3)
 };
 
-/// Triangles as (position, normal) per corner; vertex normals from the mesh, else face normals.
+/// Triangles as (position, normal, colour) per corner; vertex normals from the mesh, else face
+/// normals; vertex colours from the mesh, else white (the draw call then uses the mesh's colour).
 void flattenMesh(const TriMesh& mesh, std::vector<float>& out) {
   const bool has_normals = mesh.normals.size() == mesh.positions.size() && !mesh.normals.empty();
-  out.reserve(out.size() + mesh.triangles.size() * 18);
+  const bool has_colours = mesh.colours.size() == mesh.positions.size() && !mesh.colours.empty();
+  out.reserve(out.size() + mesh.triangles.size() * 27);
   for (const auto& t : mesh.triangles) {
     const Eigen::Vector3f& a = mesh.positions[t[0]];
     const Eigen::Vector3f face = (mesh.positions[t[1]] - a).cross(mesh.positions[t[2]] - a).normalized();
     for (int k = 0; k < 3; ++k) {
       const Eigen::Vector3f& p = mesh.positions[t[static_cast<std::size_t>(k)]];
       const Eigen::Vector3f n = has_normals ? mesh.normals[t[static_cast<std::size_t>(k)]] : face;
-      out.insert(out.end(), {p.x(), p.y(), p.z(), n.x(), n.y(), n.z()});
+      const Eigen::Vector3f c = has_colours ? mesh.colours[t[static_cast<std::size_t>(k)]] : Eigen::Vector3f::Ones();
+      out.insert(out.end(), {p.x(), p.y(), p.z(), n.x(), n.y(), n.z(), c.x(), c.y(), c.z()});
     }
   }
 }
@@ -133,7 +137,9 @@ class RunData {
       m.name = s.name;
       m.body = s.body;
       m.colour = colourOf(s);
-      flattenMesh(io::readObj(it->second, /*allow_empty=*/true), m.vertices);
+      const TriMesh mesh = io::readObj(it->second, /*allow_empty=*/true);
+      m.vertex_colours = !mesh.colours.empty();
+      flattenMesh(mesh, m.vertices);
       out.push_back(std::move(m));
     }
     return out;
@@ -149,7 +155,7 @@ class RunData {
       hi = hi.cwiseMax(Eigen::Vector3f(p.x[i], p.y[i], p.z[i]));
     }
     for (const auto& m : meshes(0))
-      for (std::size_t i = 0; i + 5 < m.vertices.size(); i += 6) {
+      for (std::size_t i = 0; i + 8 < m.vertices.size(); i += 9) {
         lo = lo.cwiseMin(Eigen::Vector3f(m.vertices[i], m.vertices[i + 1], m.vertices[i + 2]));
         hi = hi.cwiseMax(Eigen::Vector3f(m.vertices[i], m.vertices[i + 1], m.vertices[i + 2]));
       }
@@ -169,14 +175,14 @@ class RunData {
  private:
   /// A sequence's colour: its body's or phase's colour from run.json, else a neutral grey.
   Eigen::Vector3f colourOf(const io::ObjSequence& s) const {
-    const std::string key = s.name.substr(s.body ? 5 : 6);
-    for (const auto& [name, colour] : s.body ? info_.bodies : info_.phases) {
+    const std::string key = s.name.substr(s.cloth ? 6 : s.body ? 5 : 6);
+    for (const auto& [name, colour] : s.cloth ? info_.cloths : s.body ? info_.bodies : info_.phases) {
       std::string sanitised = name;  // as io::surfaceObjName writes phase names
       for (char& c : sanitised)
         if (!std::isalnum(static_cast<unsigned char>(c)) && c != '_' && c != '-') c = '_';
       if (name == key || sanitised == key) return colour;
     }
-    return s.body ? Eigen::Vector3f(0.7f, 0.7f, 0.7f) : Eigen::Vector3f(0.2f, 0.4f, 0.9f);
+    return s.cloth ? Eigen::Vector3f(0.8f, 0.3f, 0.3f) : s.body ? Eigen::Vector3f(0.7f, 0.7f, 0.7f) : Eigen::Vector3f(0.2f, 0.4f, 0.9f);
   }
 
   std::string dir_;
@@ -250,24 +256,30 @@ void main() {
 const char* const kMeshVs = R"(#version 330 core
 layout(location = 0) in vec3 position;
 layout(location = 1) in vec3 normal;
+layout(location = 2) in vec3 vertex_colour;
 uniform mat4 view;
 uniform mat4 projection;
 out vec3 v_normal;
+out vec3 v_colour;
 void main() {
   gl_Position = projection * view * vec4(position, 1.0);
   v_normal = mat3(view) * normal;
+  v_colour = vertex_colour;
 })";
 
 // Two-sided Lambert in eye space, the light over the viewer's shoulder.
 const char* const kMeshFs = R"(#version 330 core
 in vec3 v_normal;
+in vec3 v_colour;
 uniform vec3 colour;
-uniform float lit;   // 1: shaded, 0: flat colour (lines)
+uniform float lit;             // 1: shaded, 0: flat colour (lines)
+uniform float vertex_colours;  // 1: the per-vertex colour, 0: the uniform colour
 out vec4 frag;
 void main() {
   vec3 n = normalize(v_normal);
   float light = mix(1.0, 0.3 + 0.7 * abs(dot(n, normalize(vec3(0.3, 0.5, 1.0)))), lit);
-  frag = vec4(pow(colour * light, vec3(1.0 / 2.2)), 1.0);
+  vec3 base = mix(colour, v_colour, vertex_colours);
+  frag = vec4(pow(base * light, vec3(1.0 / 2.2)), 1.0);
 })";
 
 GLuint compileProgram(const char* vs_src, const char* fs_src) {
@@ -301,25 +313,33 @@ GLuint compileProgram(const char* vs_src, const char* fs_src) {
   return p;
 }
 
-/// A vertex array of interleaved float attributes (3 + 3 floats per vertex).
+/// A vertex array of interleaved float attributes: 3 + 3 floats per vertex (particles, lines), or
+/// 3 + 3 + 3 (meshes: position, normal, colour).
 struct VertexBuffer {
   GLuint vao = 0, vbo = 0;
   GLsizei count = 0;
-  void create() {
+  int floats = 6;  ///< per vertex
+  void create(int floats_per_vertex = 6) {
+    floats = floats_per_vertex;
+    const GLsizei stride = floats * static_cast<GLsizei>(sizeof(float));
     glGenVertexArrays(1, &vao);
     glGenBuffers(1, &vbo);
     glBindVertexArray(vao);
     glBindBuffer(GL_ARRAY_BUFFER, vbo);
     glEnableVertexAttribArray(0);
-    glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 6 * sizeof(float), nullptr);
+    glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, stride, nullptr);
     glEnableVertexAttribArray(1);
-    glVertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, 6 * sizeof(float), reinterpret_cast<void*>(3 * sizeof(float)));
+    glVertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, stride, reinterpret_cast<void*>(3 * sizeof(float)));
+    if (floats >= 9) {
+      glEnableVertexAttribArray(2);
+      glVertexAttribPointer(2, 3, GL_FLOAT, GL_FALSE, stride, reinterpret_cast<void*>(6 * sizeof(float)));
+    }
     glBindVertexArray(0);
   }
   void upload(const std::vector<float>& data) {
     glBindBuffer(GL_ARRAY_BUFFER, vbo);
     glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(data.size() * sizeof(float)), data.data(), GL_DYNAMIC_DRAW);
-    count = static_cast<GLsizei>(data.size() / 6);
+    count = static_cast<GLsizei>(data.size() / static_cast<std::size_t>(floats));
   }
   void destroy() {
     if (vbo) glDeleteBuffers(1, &vbo);
@@ -349,6 +369,7 @@ class Viewer {
     }
     const auto& names = viewColourNames();
     colour_ = static_cast<ColourBy>(std::find(names.begin(), names.end(), opt.colour) - names.begin());
+    point_scale_ = static_cast<float>(opt.particle_size);
   }
 
   /// Creates the window (hidden for a screenshot) and the OpenGL objects.
@@ -589,7 +610,7 @@ class Viewer {
     for (auto& b : mesh_buffers_) b.destroy();
     mesh_buffers_.assign(meshes_.size(), VertexBuffer{});
     for (std::size_t i = 0; i < meshes_.size(); ++i) {
-      mesh_buffers_[i].create();
+      mesh_buffers_[i].create(9);
       mesh_buffers_[i].upload(meshes_[i].vertices);
     }
     // The device overlay: cursor and grasp point (sprites), the spring between them and the force
@@ -763,7 +784,7 @@ class Viewer {
     for (auto& b : mesh_buffers_) b.destroy();
     mesh_buffers_.assign(meshes_.size(), VertexBuffer{});
     for (std::size_t i = 0; i < meshes_.size(); ++i) {
-      mesh_buffers_[i].create();
+      mesh_buffers_[i].create(9);
       mesh_buffers_[i].upload(meshes_[i].vertices);
     }
   }
@@ -828,6 +849,8 @@ class Viewer {
     glUniformMatrix4fv(glGetUniformLocation(mesh_program_, "view"), 1, GL_FALSE, view.data());
     glUniformMatrix4fv(glGetUniformLocation(mesh_program_, "projection"), 1, GL_FALSE, proj.data());
     const GLint colour_loc = glGetUniformLocation(mesh_program_, "colour"), lit_loc = glGetUniformLocation(mesh_program_, "lit");
+    const GLint vcol_loc = glGetUniformLocation(mesh_program_, "vertex_colours");
+    glUniform1f(vcol_loc, 0.0f);
     if (layers_.box) {
       glUniform1f(lit_loc, 0.0f);
       glUniform3f(colour_loc, 0.09f, 0.09f, 0.09f);
@@ -845,9 +868,11 @@ class Viewer {
       if (meshes_[i].body ? !layers_.bodies : !layers_.surfaces) continue;
       const Eigen::Vector3f& c = meshes_[i].colour;
       glUniform3f(colour_loc, c.x(), c.y(), c.z());
+      glUniform1f(vcol_loc, meshes_[i].vertex_colours ? 1.0f : 0.0f);
       glBindVertexArray(mesh_buffers_[i].vao);
       glDrawArrays(GL_TRIANGLES, 0, mesh_buffers_[i].count);
     }
+    glUniform1f(vcol_loc, 0.0f);
 
     // Particles as sphere sprites.
     if (layers_.particles && particles_.count > 0) {
@@ -1120,6 +1145,8 @@ int viewCommand(const ViewOptions& opt) {
     run = std::make_unique<RunData>(opt.dir);
     if (run->frames() == 0 && !run->running())
       throw InputError(opt.dir, 0, 0, "nothing to show: no particles.h5part(.partial) and no fluid_*/body_* OBJ files");
+    if (!(opt.particle_size > 0 && opt.particle_size <= 10))
+      throw InputError("--particle-size", 0, 0, "must be above 0 and at most 10");
     if (opt.width < 16 || opt.height < 16 || opt.width > 8192 || opt.height > 8192)
       throw InputError("--size", 0, 0, "width and height must be 16 to 8192 pixels");
     const int n = run->frames();
