@@ -3,6 +3,9 @@
 //
 //   RunData    the folder: particle steps (io::H5PartReader), OBJ sequences, run.json; re-scanned
 //              while the run is still going
+//   Loader     a thread that reads the requested frame (HDF5 step, OBJ parse) and re-scans the
+//              folder, so that the drawing thread never waits on a file: it draws the last frame
+//              loaded and uploads the next when it is ready
 //   Scene GL   particles as point sprites shaded as spheres, surfaces and bodies as lit meshes,
 //              the domain box as lines and its floor as a quad
 //   Panel      play / pause / step / timeline, colour mode and legend, layers, camera
@@ -32,12 +35,14 @@
 #include <cctype>
 #include <chrono>
 #include <cmath>
+#include <condition_variable>
 #include <cstdio>
 #include <deque>
 #include <filesystem>
 #include <iostream>
 #include <limits>
 #include <memory>
+#include <mutex>
 #include <stdexcept>
 #include <string>
 #include <thread>
@@ -90,12 +95,18 @@ void flattenMesh(const TriMesh& mesh, std::vector<float>& out) {
 /// The folder's content as of the last scan.
 class RunData {
  public:
-  explicit RunData(std::string dir) : dir_(std::move(dir)) { rescan(); }
+  // Threads: the files (HDF5 above all, which is not thread-safe) are read by one thread at a
+  // time: the constructor's, then the loader's (rescan, particles, meshes). The drawing thread
+  // reads only the copies that rescan leaves under the mutex: info(), running(), frames(), bounds().
+  explicit RunData(std::string dir) : dir_(std::move(dir)) {
+    rescan();
+    bounds_ = computeBounds();
+  }
 
   /// Re-reads run.json, reopens the particle file and lists the OBJ sequences (for a run still
   /// being written). A particle file that cannot be opened just now keeps the previous count.
   void rescan() {
-    info_ = io::readRunFolderInfo(dir_);
+    io::RunFolderInfo info = io::readRunFolderInfo(dir_);
     const std::string file = io::particlesFile(dir_);
     if (!file.empty()) {
       try {
@@ -105,18 +116,26 @@ class RunData {
       }
     }
     sequences_ = io::scanObjSequences(dir_);
-  }
-
-  const io::RunFolderInfo& info() const { return info_; }
-  bool running() const { return info_.status == "running"; }
-  bool hasParticles() const { return reader_ && reader_->steps() > 0; }
-
-  /// Frames available: the most of the particle steps and the OBJ sequences' frames.
-  int frames() const {
+    // Frames available: the most of the particle steps and the OBJ sequences' frames.
     int n = reader_ ? reader_->steps() : 0;
     for (const auto& s : sequences_)
       if (!s.frames.empty()) n = std::max(n, s.frames.rbegin()->first + 1);
-    return n;
+    std::lock_guard<std::mutex> lock(mutex_);
+    info_ = std::move(info);
+    frames_ = n;
+  }
+
+  io::RunFolderInfo info() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return info_;
+  }
+  bool running() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return info_.status == "running";
+  }
+  int frames() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return frames_;
   }
 
   /// Particles of frame k (an empty frame when the file has no such step).
@@ -136,7 +155,7 @@ class RunData {
       LoadedMesh m;
       m.name = s.name;
       m.body = s.body;
-      m.colour = colourOf(s);
+      m.colour = colourOf(s);  // info_ is written only by this thread (rescan)
       const TriMesh mesh = io::readObj(it->second, /*allow_empty=*/true);
       m.vertex_colours = !mesh.colours.empty();
       flattenMesh(mesh, m.vertices);
@@ -145,8 +164,20 @@ class RunData {
     return out;
   }
 
-  /// Domain box: run.json's, else the bounds of the particles and meshes of frame 0.
-  std::pair<Eigen::Vector3f, Eigen::Vector3f> bounds() const {
+  /// Domain box: run.json's, else the bounds of the particles and meshes of frame 0 (at the start).
+  std::pair<Eigen::Vector3f, Eigen::Vector3f> bounds() const { return bounds_; }
+
+  /// Particle radius for the sprites: half the spacing (unit: m).
+  float particleRadius(const ParticleFrame& f) const {
+    if (info_.particle_spacing > 0) return static_cast<float>(0.5 * info_.particle_spacing);
+    // Without run.json: the spacing of n particles filling their bounding box.
+    const auto [lo, hi] = bounds_;
+    const float volume = std::max((hi - lo).prod(), 1e-9f);
+    return 0.5f * std::cbrt(volume / static_cast<float>(std::max<std::size_t>(f.size(), 1)));
+  }
+
+ private:
+  std::pair<Eigen::Vector3f, Eigen::Vector3f> computeBounds() const {
     if (info_.has_domain) return {info_.domain_min, info_.domain_max};
     Eigen::Vector3f lo = Eigen::Vector3f::Constant(std::numeric_limits<float>::max()), hi = -lo;
     const ParticleFrame p = particles(0);
@@ -163,16 +194,6 @@ class RunData {
     return {lo, hi};
   }
 
-  /// Particle radius for the sprites: half the spacing (unit: m).
-  float particleRadius(const ParticleFrame& f) const {
-    if (info_.particle_spacing > 0) return static_cast<float>(0.5 * info_.particle_spacing);
-    // Without run.json: the spacing of n particles filling their bounding box.
-    const auto [lo, hi] = bounds();
-    const float volume = std::max((hi - lo).prod(), 1e-9f);
-    return 0.5f * std::cbrt(volume / static_cast<float>(std::max<std::size_t>(f.size(), 1)));
-  }
-
- private:
   /// A sequence's colour: its body's or phase's colour from run.json, else a neutral grey.
   Eigen::Vector3f colourOf(const io::ObjSequence& s) const {
     const std::string key = s.name.substr(s.cloth ? 6 : s.body ? 5 : 6);
@@ -186,9 +207,102 @@ class RunData {
   }
 
   std::string dir_;
+  mutable std::mutex mutex_;  // guards info_ and frames_ (written by rescan, read by the drawing thread)
   io::RunFolderInfo info_;
+  int frames_ = 0;
+  std::pair<Eigen::Vector3f, Eigen::Vector3f> bounds_;
   std::unique_ptr<io::H5PartReader> reader_;
   std::vector<io::ObjSequence> sequences_;
+};
+
+/// One frame read by the loader: particles and the meshes of the layers asked for.
+struct LoadedFrame {
+  int k = 0;
+  std::array<bool, 2> layers{false, false};  ///< surfaces, bodies read
+  ParticleFrame particles;
+  std::vector<LoadedMesh> meshes;
+  float radius = 0.005f;                     ///< sprite radius (unit: m)
+  std::string error;                         ///< the frame could not be read (still being written)
+};
+
+/// The loader thread: reads the newest requested frame and re-scans a running run's folder twice a
+/// second; the drawing thread asks (request) and collects (take) without waiting.
+class FrameLoader {
+ public:
+  explicit FrameLoader(RunData& run) : run_(run), thread_([this] { loop(); }) {}
+  ~FrameLoader() {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      stop_ = true;
+    }
+    cv_.notify_all();
+    thread_.join();
+  }
+  FrameLoader(const FrameLoader&) = delete;
+  FrameLoader& operator=(const FrameLoader&) = delete;
+
+  /// Asks for frame k with these layers (a newer request replaces one not yet started).
+  void request(int k, std::array<bool, 2> layers) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (pending_ && want_k_ == k && want_layers_ == layers) return;
+    want_k_ = k;
+    want_layers_ = layers;
+    pending_ = true;
+    cv_.notify_all();
+  }
+  /// The frame loaded since the last call, if any.
+  std::unique_ptr<LoadedFrame> take() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return std::move(ready_);
+  }
+
+ private:
+  void loop() {
+    auto last_scan = std::chrono::steady_clock::now();
+    std::unique_lock<std::mutex> lock(mutex_);
+    while (!stop_) {
+      cv_.wait_for(lock, std::chrono::milliseconds(100), [this] { return stop_ || pending_; });
+      if (stop_) break;
+      const auto now = std::chrono::steady_clock::now();
+      const bool scan = now - last_scan > std::chrono::milliseconds(500) && run_.running();
+      if (!pending_ && !scan) continue;
+      const bool load = pending_;
+      const int k = want_k_;
+      const std::array<bool, 2> layers = want_layers_;
+      pending_ = false;
+      lock.unlock();
+      // Off the drawing thread: the folder scan, the HDF5 step, the OBJ parse.
+      if (scan) {
+        run_.rescan();
+        last_scan = now;
+      }
+      std::unique_ptr<LoadedFrame> f;
+      if (load) {
+        f = std::make_unique<LoadedFrame>();
+        f->k = k;
+        f->layers = layers;
+        try {
+          f->particles = run_.particles(k);
+          // Hidden layers are not read (a surface OBJ of 50k particles takes longer than the particles).
+          f->meshes = run_.meshes(k, layers[0], layers[1]);
+          f->radius = run_.particleRadius(f->particles);
+        } catch (const std::exception& e) {
+          f->error = e.what();
+        }
+      }
+      lock.lock();
+      if (f) ready_ = std::move(f);
+    }
+  }
+
+  RunData& run_;
+  std::mutex mutex_;
+  std::condition_variable cv_;
+  bool stop_ = false, pending_ = false;
+  int want_k_ = 0;
+  std::array<bool, 2> want_layers_{false, false};
+  std::unique_ptr<LoadedFrame> ready_;
+  std::thread thread_;  // last: starts after the members it uses
 };
 
 // -----------------------------------------------------------------------------------------------
@@ -393,6 +507,20 @@ class Viewer {
     glfwSetScrollCallback(window_, [](GLFWwindow* w, double, double dy) {
       auto* self = static_cast<Viewer*>(glfwGetWindowUserPointer(w));
       self->scroll_ += static_cast<float>(dy);
+      self->input_seen_ = true;
+    });
+    // Any input marks the live window for redrawing (it otherwise redraws only for a new frame).
+    glfwSetCursorPosCallback(window_, [](GLFWwindow* w, double, double) {
+      static_cast<Viewer*>(glfwGetWindowUserPointer(w))->input_seen_ = true;
+    });
+    glfwSetMouseButtonCallback(window_, [](GLFWwindow* w, int, int, int) {
+      static_cast<Viewer*>(glfwGetWindowUserPointer(w))->input_seen_ = true;
+    });
+    glfwSetKeyCallback(window_, [](GLFWwindow* w, int, int, int, int) {
+      static_cast<Viewer*>(glfwGetWindowUserPointer(w))->input_seen_ = true;
+    });
+    glfwSetWindowSizeCallback(window_, [](GLFWwindow* w, int, int) {
+      static_cast<Viewer*>(glfwGetWindowUserPointer(w))->input_seen_ = true;
     });
 
     // ImGui with its GLFW and OpenGL 3 backends.
@@ -492,9 +620,11 @@ class Viewer {
     frame_ = first;
     load(frame_);
     if (opt_.benchmark > 0) playing_ = true;
-    double last = glfwGetTime(), last_scan = last, accumulator = 0;
+    FrameLoader loader(*run_);
+    double last = glfwGetTime(), accumulator = 0;
     const double t0 = last;
     long drawn = 0;
+    int known_frames = run_->frames();
     while (!glfwWindowShouldClose(window_)) {
       glfwPollEvents();
       const double now = glfwGetTime();
@@ -508,14 +638,18 @@ class Viewer {
         }
       }
       last = now;
-      // A run still being written: look for new frames twice a second.
-      if (run_->running() && now - last_scan > 0.5) {
-        last_scan = now;
-        const int before = run_->frames();
-        run_->rescan();
-        if (follow_ && run_->frames() > before) frame_ = run_->frames() - 1;
+      // A run still being written (the loader re-scans it): follow new frames.
+      if (const int n = run_->frames(); n > known_frames) {
+        if (follow_) frame_ = n - 1;
+        known_frames = n;
       }
-      if (frame_ != loaded_ || loaded_layers_ != std::array<bool, 2>{layers_.surfaces, layers_.bodies}) load(frame_);
+      // Ask the loader for the frame to show; upload whatever it has finished meanwhile.
+      const std::array<bool, 2> want{layers_.surfaces, layers_.bodies};
+      if (frame_ != loaded_ || loaded_layers_ != want) loader.request(frame_, want);
+      if (std::unique_ptr<LoadedFrame> f = loader.take()) {
+        apply(std::move(*f));
+        ++shown_;
+      }
 
       int w = 0, h = 0;
       glfwGetFramebufferSize(window_, &w, &h);
@@ -534,6 +668,7 @@ class Viewer {
       if (opt_.benchmark > 0 && now - t0 >= opt_.benchmark) break;
     }
     const double elapsed = glfwGetTime() - t0;
+    shown_rate_ = elapsed > 0 ? static_cast<double>(shown_) / elapsed : 0.0;
     return elapsed > 0 ? static_cast<double>(drawn) / elapsed : 0.0;
   }
 
@@ -543,11 +678,24 @@ class Viewer {
     const double t0 = glfwGetTime();
     long drawn = 0;
     if (mouse_in_) sendCamera(/*reset_depth=*/true);
+    int redraws = 3;  // pictures still to draw (ImGui settles over a few frames after a change)
     while (!glfwWindowShouldClose(window_)) {
-      glfwPollEvents();
+      // Wait for input for up to 1/60 s: the window draws only for a new frame or input, so that on
+      // a machine without a GPU (software OpenGL) it takes no processor time from the simulation
+      // while nothing changes.
+      glfwWaitEventsTimeout(1.0 / 60.0);
       // The newest frame, if it is new: the simulation has published it and never waits for us.
-      if (auto f = live_->mailbox.latest(); f && f != live_frame_) loadLive(std::move(f));
+      if (auto f = live_->mailbox.latest(); f && f != live_frame_) {
+        loadLive(std::move(f));
+        redraws = std::max(redraws, 2);
+      }
+      if (input_seen_) {
+        input_seen_ = false;
+        redraws = std::max(redraws, 3);
+      }
       const bool last = run_done() && (!live_frame_ || live_frame_->finished || live_->mailbox.latest() == live_frame_);
+      if (redraws == 0 && !last) continue;
+      --redraws;
 
       int w = 0, h = 0;
       glfwGetFramebufferSize(window_, &w, &h);
@@ -573,6 +721,7 @@ class Viewer {
     // Closing the window ends the run.
     live_->controls.stop = true;
     const double elapsed = glfwGetTime() - t0;
+    shown_rate_ = elapsed > 0 ? static_cast<double>(samples_total_) / elapsed : 0.0;
     return elapsed > 0 ? static_cast<double>(drawn) / elapsed : 0.0;
   }
 
@@ -638,6 +787,7 @@ class Viewer {
     }
     // Statistics over the last 10 s of frames.
     samples_.push_back({glfwGetTime(), fr.time, hp.servo_seconds, hp.force.norm(), fr.frame, hp.servo_ticks});
+    ++samples_total_;
     while (samples_.size() > 2 && samples_.back().wall - samples_.front().wall > 10.0) samples_.pop_front();
     if (!settings_read_ && live_scene_ && live_scene_->haptics) {
       gain_ = static_cast<float>(hp.gain);
@@ -765,21 +915,33 @@ class Viewer {
     return run_->info().frame_rate > 0 ? run_->info().frame_rate : 30.0;
   }
 
-  /// Reads frame k (particles and meshes) and uploads it.
+  /// Reads frame k (particles and meshes) on this thread and uploads it (screenshots, the first frame).
   void load(int k) {
-    loaded_ = k;
+    LoadedFrame f;
+    f.k = k;
+    f.layers = {layers_.surfaces, layers_.bodies};
     try {
-      current_ = run_->particles(k);
-      // Hidden layers are not read (a surface OBJ of 50k particles takes longer than the particles).
-      meshes_ = run_->meshes(k, layers_.surfaces, layers_.bodies);
-      loaded_layers_ = {layers_.surfaces, layers_.bodies};
-      load_error_.clear();
+      f.particles = run_->particles(k);
+      f.meshes = run_->meshes(k, layers_.surfaces, layers_.bodies);
+      f.radius = run_->particleRadius(f.particles);
     } catch (const std::exception& e) {
-      // A frame still being written: show the message, keep the last good frame on screen.
-      load_error_ = e.what();
+      f.error = e.what();
+    }
+    apply(std::move(f));
+  }
+
+  /// Uploads a loaded frame (a frame still being written: its message, the last good frame stays).
+  void apply(LoadedFrame&& f) {
+    loaded_ = f.k;
+    if (!f.error.empty()) {
+      load_error_ = f.error;
       return;
     }
-    radius_ = run_->particleRadius(current_);
+    current_ = std::move(f.particles);
+    meshes_ = std::move(f.meshes);
+    loaded_layers_ = f.layers;
+    load_error_.clear();
+    radius_ = f.radius;
     uploadParticles();
     for (auto& b : mesh_buffers_) b.destroy();
     mesh_buffers_.assign(meshes_.size(), VertexBuffer{});
@@ -1107,6 +1269,7 @@ class Viewer {
     uint64_t ticks;
   };
   std::deque<Sample> samples_;
+  long samples_total_ = 0;  ///< simulation frames taken from the mailbox
   float gain_ = 1.0f, lowpass_ = 25.0f;
   bool paused_ = false, settings_read_ = false;
   bool grab_down_ = false;
@@ -1124,11 +1287,19 @@ class Viewer {
   float point_scale_ = 1.0f;
   float radius_ = 0.005f;
   int frame_ = 0, loaded_ = -1;
+  long shown_ = 0;  ///< frames loaded and uploaded by the playback loop
+  double shown_rate_ = 0;  ///< ... per second of the last loop (unit: 1/s)
+
+ public:
+  double shownRate() const { return shown_rate_; }
+
+ private:
   std::array<bool, 2> loaded_layers_{false, false};  ///< surfaces, bodies read for the loaded frame
   bool playing_ = false, loop_ = true, follow_ = true;
   double fps_ = 0;
   double mouse_[2] = {0, 0};
   float scroll_ = 0;
+  bool input_seen_ = false;  ///< an input event since the last live redraw
   ParticleFrame current_;
   std::vector<LoadedMesh> meshes_;
   std::string load_error_;
@@ -1177,7 +1348,9 @@ int viewCommand(const ViewOptions& opt) {
       return kExitOk;
     }
     const double fps = viewer.loop(first);
-    if (opt.benchmark > 0) std::cout << "viewer: " << fps << " frames/s over " << opt.benchmark << " s\n";
+    if (opt.benchmark > 0)
+      std::cout << "viewer: " << fps << " frames/s over " << opt.benchmark << " s, " << viewer.shownRate()
+                << " run frames loaded per second\n";
     return kExitOk;
   } catch (const WindowError& e) {
     std::cerr << "view: " << e.what() << "\n";
@@ -1206,7 +1379,8 @@ int liveWindow(const LiveViewOptions& opt, std::shared_ptr<LiveLink> link, std::
     viewer.open(/*visible=*/true);
     const double fps = viewer.liveLoop(run_done, opt.screenshot);
     if (!opt.screenshot.empty()) std::cout << "wrote " << opt.screenshot << "\n";
-    std::cout << "window: " << fps << " frames/s\n";
+    std::cout << "window: " << fps << " pictures/s drawn (only for a new frame or input), " << viewer.shownRate()
+              << " simulation frames/s shown\n";
     return kExitOk;
   } catch (const std::exception& e) {
     std::cerr << "window: " << e.what() << "; going on without it\n";
