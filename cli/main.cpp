@@ -41,6 +41,7 @@ int runWithWindow(sph::app::RunOptions run, bool mouse, const std::string& scree
   const int window = viewer::liveWindow(vo, link, run.mouse, [&] { return done.load(); });
   if (window == 0) link->controls.stop = true;  // the window was closed (or the run ended)
 #else
+  (void)screenshot;
   std::cerr << "window: this sphaptics was built without the viewer; going on without it\n";
 #endif
   sim.join();
