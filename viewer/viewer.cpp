@@ -678,7 +678,7 @@ class Viewer {
     const double t0 = glfwGetTime();
     long drawn = 0;
     if (mouse_in_) sendCamera(/*reset_depth=*/true);
-    int redraws = 3;  // pictures still to draw (ImGui settles over a few frames after a change)
+    int redraws = 3;  // pictures still to draw: one per new frame, three after input (ImGui settles over a few)
     while (!glfwWindowShouldClose(window_)) {
       // Wait for input for up to 1/60 s: the window draws only for a new frame or input, so that on
       // a machine without a GPU (software OpenGL) it takes no processor time from the simulation
@@ -687,7 +687,7 @@ class Viewer {
       // The newest frame, if it is new: the simulation has published it and never waits for us.
       if (auto f = live_->mailbox.latest(); f && f != live_frame_) {
         loadLive(std::move(f));
-        redraws = std::max(redraws, 2);
+        redraws = std::max(redraws, 1);
       }
       if (input_seen_) {
         input_seen_ = false;
