@@ -112,10 +112,19 @@ std::unique_ptr<haptics::BatchSession> makeBatchSession(const Model& model, std:
   return std::make_unique<haptics::BatchSession>(std::move(device), clock, servoConfig(model.spec.haptics), makeGrab(model));
 }
 
-std::unique_ptr<haptics::LiveSession> makeLiveSession(const Model& model, std::shared_ptr<haptics::MouseInput> mouse) {
+std::unique_ptr<haptics::LiveSource> makeLiveSession(const Model& model, std::shared_ptr<haptics::MouseInput> mouse) {
+  const HapticsSpec& h = model.spec.haptics;
+  if (h.backend == HapticBackend::Bridge && !mouse) {
+    haptics::BridgeSettings b;
+    b.bridge_port = static_cast<uint16_t>(h.bridge_port);
+    b.listen_port = static_cast<uint16_t>(h.listen_port);
+    b.timeout = h.bridge_timeout;
+    b.max_force = h.peak_force;
+    return std::make_unique<haptics::BridgeSession>(b, servoConfig(h), makeGrab(model));
+  }
   auto clock = std::make_shared<haptics::SteadyClock>();
   auto device = makeDevice(model.spec, *clock, std::move(mouse));
-  return std::make_unique<haptics::LiveSession>(std::move(device), clock, servoConfig(model.spec.haptics), makeGrab(model));
+  return std::make_unique<haptics::LiveSession>(std::move(device), clock, servoConfig(h), makeGrab(model));
 }
 
 std::unique_ptr<haptics::ReplaySource> makeReplaySource(const Model& model, const haptics::Recording& rec) {

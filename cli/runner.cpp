@@ -3,6 +3,7 @@
 #include "cli/haptics_setup.h"
 
 #include "core/errors.h"
+#include "haptics/command_reader.h"
 #include "io/bodies_writer.h"
 #include "io/cloth_writer.h"
 #include "io/async_writer.h"
@@ -324,7 +325,7 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
     // Haptics: only a scene with a `haptics` section (and a body to hold) gets a session; in batch
     // runs the servo runs in virtual time between steps (haptics/session.h), no thread.
     std::unique_ptr<haptics::BatchSession> haptic;
-    std::unique_ptr<haptics::LiveSession> live;  // --interactive: the servo thread, real time
+    std::unique_ptr<haptics::LiveSource> live;  // --interactive: the servo thread (here or in a bridge), real time
     std::unique_ptr<haptics::ReplaySource> replay;  // sphaptics replay: recorded readings, hashes checked
     haptics::Recording recording;                    // --record
     if (opt.interactive && !sim.stages().on(Stage::Haptics))
@@ -332,8 +333,13 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
     if (opt.mouse && !sim.stages().on(Stage::Haptics))
       throw InputError("--mouse", 0, 0, "needs a scene with a 'haptics' section and a grabbable dynamic body");
     if (!opt.record.empty() && !opt.interactive) throw InputError("--record", 0, 0, "records a live run: add --interactive");
+    if (!opt.record.empty() && !std::ofstream(opt.record, std::ios::app))  // refused now, not after the run
+      throw InputError("--record", 0, 0, "cannot write '" + opt.record + "': " + std::strerror(errno));
     if (opt.replay && !sim.stages().on(Stage::Haptics))
       throw InputError(opt.scene, 0, 0, "the recorded scene has no 'haptics' section (or no dynamic body) any more");
+    if (!opt.interactive && !opt.replay && sim.stages().on(Stage::Haptics) && spec.haptics.backend == HapticBackend::Bridge)
+      throw InputError(spec.source_file, spec.haptics.loc.line, spec.haptics.loc.col,
+                       "'haptics.backend: bridge' talks to a running sphaptics-bridge in real time: run with --interactive");
     if (opt.replay) {
       replay = makeReplaySource(model, *opt.replay);
       sim.setExternalForces(replay.get());
@@ -380,7 +386,7 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
         probes_csv = std::make_unique<io::ProbesCsvWriter>((out_dir / "probes.csv").string(), spec.probes);
         sim.recordProbeSamples(true);
       }
-      if (haptic) {
+      if (haptic || live) {
         haptics_csv = std::make_unique<std::ofstream>(out_dir / "haptics.csv", std::ios::trunc);
         if (!*haptics_csv)
           throw std::runtime_error("cannot write " + (out_dir / "haptics.csv").string() + ": " + std::strerror(errno));
@@ -513,15 +519,17 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
         h.gain = grab->gain();
         if (live) {
           const haptics::LiveStats st = live->stats();
+          const haptics::LiveSettings set = live->controls().settings();
           h.force = mapping.rotation * st.force;
           h.servo_ticks = st.ticks;
           h.servo_seconds = lf->wall;
-          h.lowpass = live->lowpass();
+          h.smoothing = set.smoothing == haptics::Smoothing::RollingAverage ? set.rolling_window : 0;
         } else {
+          const haptics::ServoConfig& c = haptic->servo().config();
           h.force = mapping.rotation * last_force;
           h.servo_ticks = res.haptic_ticks;
           h.servo_seconds = sim.time();
-          h.lowpass = haptic->servo().config().lowpass;
+          h.smoothing = c.smoothing == haptics::Smoothing::RollingAverage ? c.rolling_window : 0;
         }
       }
       opt.live_link->mailbox.publish(std::move(lf));
@@ -532,10 +540,64 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
     double last_log = 0.0;
     const int frames = opt.replay ? opt.replay->frames
                                   : std::max(1, static_cast<int>(std::lround(spec.simulation.duration * spec.simulation.frame_rate)));
+    // Live: the controls (stdin commands when it is a terminal or a pipe, the viewer's panel via
+    // live->controls()) are applied at frame boundaries; the servo's ticks go to haptics.csv.
+    std::unique_ptr<haptics::CommandReader> commands;
+    // The controls handed to opt.live_controls are taken back however the run ends (this guard
+    // goes before `live` does).
+    bool controls_handed = false;
+    struct TakeBack {
+      const RunOptions& opt;
+      bool& handed;
+      ~TakeBack() {
+        if (handed) opt.live_controls(nullptr);
+        handed = false;
+      }
+    } take_back{opt, controls_handed};
+    double paused_seconds = 0.0;  // wall time spent paused (the pacing skips it)
+    auto apply_controls = [&](int frame) {
+      haptics::LiveSettings s;
+      if (live && live->applyControls(sim.time(), s) && !opt.record.empty()) recording.settings.emplace_back(frame, s);
+      if (replay)
+        for (const auto& [at, st] : opt.replay->settings)
+          if (at == frame) replay->applySettings(st);
+    };
+    auto drain_ticks = [&]() {  // the servo's ticks since the last call: haptics.csv and --record
+      if (!live) return;
+      const std::vector<haptics::TickRecord> ticks = live->takeTicks();
+      std::vector<haptics::HapticsRow> rows;
+      rows.reserve(ticks.size());
+      for (const haptics::TickRecord& t : ticks) {
+        if (t.servo) rows.push_back(t.row);
+        if (!opt.record.empty()) recording.ticks.emplace_back(t.tick, t.reading);
+      }
+      if (haptics_csv) {
+        errno = 0;
+        haptics::writeHapticsRows(*haptics_csv, rows);
+        haptics_csv->flush();
+        if (!*haptics_csv)
+          throw std::runtime_error("cannot write " + (out_dir / "haptics.csv").string() + ": " + std::strerror(errno ? errno : EIO));
+      }
+    };
     if (live) {
       live->record(!opt.record.empty());
+      apply_controls(0);
       live->publish(sim.bodies());
       live->start();
+      log("live: device " + live->deviceName());
+      if (opt.live_controls) {
+        opt.live_controls(&live->controls());
+        controls_handed = true;
+      }
+      if (haptics::CommandReader::wanted(STDIN_FILENO)) {
+        commands = std::make_unique<haptics::CommandReader>(live->controls(), STDIN_FILENO, [&opt](const std::string& line) {
+          if (!opt.quiet) std::cerr << line << "\n";
+        });
+        log("live: commands on stdin: gain G, scale S, offset X Y Z, smoothing servo | rolling_average N, pause, resume, quit "
+            "(any of them after 'at T')");
+      }
+    } else if (replay) {
+      apply_controls(0);
     }
     double last_live_log = 0.0;
     uint64_t last_live_ticks = 0;
@@ -543,29 +605,55 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
     publish_live(0, false);
     for (int f = 0; f < frames; ++f) {
       if (g_stop_signal) break;
-      if (opt.live_link) {  // the window's requests: pause (not counted in the pacing), stop, reset, settings
+      if (opt.live_link) {  // the window's requests: stop, reset, pause and settings
         LiveControls& c = opt.live_link->controls;
-        if (c.paused.load()) {
-          const auto p0 = Clock::now();
-          while (c.paused.load() && !c.stop.load() && !c.reset.load() && !g_stop_signal)
-            std::this_thread::sleep_for(std::chrono::milliseconds(10));
-          t_start += Clock::now() - p0;
-        }
         if (c.stop.load() || c.reset.load()) {
           res.stopped_by_window = true;
           break;
         }
-        if (const double g = c.gain.exchange(std::numeric_limits<double>::quiet_NaN()); std::isfinite(g) && g > 0) {
-          if (live) live->setGain(g);
-          if (haptic) haptic->grab().setGain(g);
+        if (live) {
+          // Live: through the session's controls (haptics/live.h), applied at this frame boundary.
+          if (c.paused.load() != live->controls().settings().paused) live->controls().setPaused(c.paused.load());
+          if (const double g = c.gain.exchange(std::numeric_limits<double>::quiet_NaN()); std::isfinite(g) && g >= 0)
+            live->controls().setGain(g);
+          if (const double n = c.smoothing.exchange(std::numeric_limits<double>::quiet_NaN()); std::isfinite(n) && n >= 0)
+            live->controls().setSmoothing(n >= 1 ? haptics::Smoothing::RollingAverage : haptics::Smoothing::Servo,
+                                          std::max(1, static_cast<int>(std::lround(n))));
+        } else {
+          // Batch under a window: pause here (not counted in the pacing); the gain on the grab.
+          if (c.paused.load()) {
+            const auto p0 = Clock::now();
+            while (c.paused.load() && !c.stop.load() && !c.reset.load() && !g_stop_signal)
+              std::this_thread::sleep_for(std::chrono::milliseconds(10));
+            t_start += Clock::now() - p0;
+          }
+          if (c.stop.load() || c.reset.load()) {
+            res.stopped_by_window = true;
+            break;
+          }
+          if (const double g = c.gain.exchange(std::numeric_limits<double>::quiet_NaN()); std::isfinite(g) && g >= 0 && haptic)
+            haptic->grab().setGain(g);
         }
-        if (const double hz = c.lowpass.exchange(std::numeric_limits<double>::quiet_NaN()); std::isfinite(hz) && hz > 0)
-          if (live) live->setLowpass(hz);
+      }
+      if (live) {
+        // quit ends the run as complete; pause holds the simulation (the servo keeps rendering the
+        // last model, refreshed so that the watchdog does not fade it), bounded by the stop signal.
+        if (live->controls().quitRequested()) break;
+        const auto pause_start = Clock::now();
+        while (live->controls().settings().paused && !live->controls().quitRequested() && !g_stop_signal) {
+          live->check();
+          live->publish(sim.bodies());
+          drain_ticks();
+          std::this_thread::sleep_for(std::chrono::milliseconds(20));
+        }
+        paused_seconds += since(pause_start);
+        if (live->controls().quitRequested() || g_stop_signal) break;
+        live->check();  // a device that stopped answering: exit 3
       }
       const FrameReport rep = sim.advanceFrame();
-      if (live && !opt.record.empty()) {  // --record: the readings this frame's steps used, and its hash
-        const auto applied = live->takeApplied();
-        recording.steps.insert(recording.steps.end(), applied.begin(), applied.end());
+      if (live && !opt.record.empty()) {  // --record: the ticks this frame's steps used, and its hash
+        const auto used = live->takeStepTicks();
+        recording.step_ticks.insert(recording.step_ticks.end(), used.begin(), used.end());
         recording.hashes.push_back(sim.stateHash());
       }
       if (replay) {  // replay: every frame's hash as recorded
@@ -577,7 +665,10 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
       }
       if (live) {  // live: the frame's local model; frames no faster than real time; a status line a second
         live->publish(sim.bodies());
-        std::this_thread::sleep_until(t_start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(sim.time())));
+        drain_ticks();
+        apply_controls(f + 1);
+        std::this_thread::sleep_until(t_start + std::chrono::duration_cast<Clock::duration>(
+                                                    std::chrono::duration<double>(sim.time() + paused_seconds)));
         const double wall = since(t_start);
         if (wall - last_live_log >= 1.0 || f + 1 == frames) {
           const haptics::LiveStats st = live->stats();
@@ -591,6 +682,8 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
           last_live_ticks = st.ticks;
           last_live_frames = f + 1;
         }
+      } else if (replay) {
+        apply_controls(f + 1);
       }
       if (haptic) {  // the frame's local model to the servo; the ticks so far to haptics.csv
         haptic->publish(sim.time(), sim.bodies());
@@ -650,24 +743,42 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
       }
     }
     if (live) {
+      commands.reset();
+      if (controls_handed) opt.live_controls(nullptr);
+      controls_handed = false;
       live->stop();
+      drain_ticks();
       const haptics::LiveStats st = live->stats();
       res.haptic_ticks = st.ticks;
       res.servo_p99 = st.period_p99;
       res.servo_overruns = st.overruns;
-      char buf[256];
-      std::snprintf(buf, sizeof buf, "live servo: %llu ticks, period p50 %.3f ms, p99 %.3f ms, max %.3f ms, %llu overruns%s",
-                    static_cast<unsigned long long>(st.ticks), 1e3 * st.period_p50, 1e3 * st.period_p99, 1e3 * st.period_max,
-                    static_cast<unsigned long long>(st.overruns), st.realtime ? " (real-time priority)" : " (no real-time priority)");
+      char buf[320];
+      if (spec.haptics.backend == HapticBackend::Bridge)
+        std::snprintf(buf, sizeof buf,
+                      "live bridge: %llu States received (interval p50 %.3f ms, p99 %.3f ms, max %.3f ms), %llu rejected, "
+                      "bridge servo %.0f Hz, %llu overruns; State age when a model is sent p50 %.1f ms",
+                      static_cast<unsigned long long>(st.ticks), 1e3 * st.period_p50, 1e3 * st.period_p99, 1e3 * st.period_max,
+                      static_cast<unsigned long long>(st.rejected), st.servo_rate, static_cast<unsigned long long>(st.overruns),
+                      1e3 * st.round_trip);
+      else
+        std::snprintf(buf, sizeof buf, "live servo: %llu ticks, period p50 %.3f ms, p99 %.3f ms, max %.3f ms, %llu overruns%s",
+                      static_cast<unsigned long long>(st.ticks), 1e3 * st.period_p50, 1e3 * st.period_p99, 1e3 * st.period_max,
+                      static_cast<unsigned long long>(st.overruns), st.realtime ? " (real-time priority)" : " (no real-time priority)");
       log(buf);
+      if (st.dropped) {
+        const std::string note = std::to_string(st.dropped) + " servo tick record(s) dropped (the ring was full): haptics.csv "
+                                 "and --record miss them";
+        log("warning: " + note);
+        info.notes.push_back(note);
+      }
     }
     if (live && !opt.record.empty()) {  // the recording, for `sphaptics replay`
       recording.scene = spec.source_file;
       recording.sets = opt.sets;
-      recording.frames = res.frames;
+      recording.frames = static_cast<int>(recording.hashes.size());
       haptics::writeRecording(opt.record, recording);
-      log("recorded " + std::to_string(recording.steps.size()) + " steps and " + std::to_string(recording.frames) +
-          " frame hashes to " + opt.record);
+      log("recorded " + std::to_string(recording.ticks.size()) + " servo ticks, " + std::to_string(recording.step_ticks.size()) +
+          " steps and " + std::to_string(recording.frames) + " frame hashes to " + opt.record);
     }
     if (tty) std::cerr << "\n";
     res.loop_seconds = since(t_start);
@@ -717,6 +828,12 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
   } catch (const DeviceError& e) {
     std::cerr << (tty ? "\n" : "") << "device error: " << e.what() << "\n";
     return finish(kExitDevice, "failed", e.what());
+  } catch (const haptics::DeviceError& e) {  // a haptic device that cannot open or stopped answering
+    std::cerr << (tty ? "\n" : "") << "haptic device error: " << e.what() << "\n";
+    return finish(kExitDevice, "failed", std::string("haptic device: ") + e.what());
+  } catch (const haptics::RecordingError& e) {  // --record FILE cannot be written: bad input
+    std::cerr << (tty ? "\n" : "") << "error: " << e.what() << "\n";
+    return finish(kExitBadInput, "failed", e.what());
   } catch (const NumericalError& e) {
     std::cerr << (tty ? "\n" : "") << "error: " << e.what() << "\n";
     return finish(kExitNumerical, "failed", e.what());

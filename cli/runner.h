@@ -33,6 +33,10 @@ struct RunOptions {
   /// The `mouse` device backend (haptics/mouse.h) instead of the scene's: the window (or a test)
   /// feeds this queue; null = the scene's backend.
   std::shared_ptr<haptics::MouseInput> mouse;
+  /// Live runs: called with the session's controls (gain, mapping, smoothing, pause; thread-safe,
+  /// applied at frame boundaries) once it has started, and with nullptr before it stops: the hook
+  /// for an in-process panel (e.g. the viewer's window).
+  std::function<void(haptics::LiveControls*)> live_controls;
 };
 
 /// What a finished run measured (for benchmarks and tests).

@@ -50,7 +50,7 @@ struct LiveHaptics {
   uint64_t servo_ticks = 0;                          ///< servo ticks so far
   double servo_seconds = 0;                          ///< clock time of those ticks (unit: s)
   double gain = 1;                                   ///< force gain in use (unit: 1)
-  double lowpass = 0;                                ///< feed-forward cut-off in use (unit: Hz)
+  int smoothing = 0;                                 ///< rolling-average window in use (unit: frames), 0 = servo smoothing
 };
 
 /// One published frame.
@@ -104,13 +104,16 @@ class LiveMailbox {
   uint64_t published_ = 0;
 };
 
-/// Requests from the window to the simulation thread, read once per frame.
+/// Requests from the window to the simulation thread, read once per frame (a live session passes
+/// pause, gain and smoothing on to its own controls, haptics/live.h).
 struct LiveControls {
   std::atomic<bool> paused{false};  ///< the simulation waits between frames
   std::atomic<bool> reset{false};   ///< end this run and start the scene again
   std::atomic<bool> stop{false};    ///< end the run (window closed)
   std::atomic<double> gain{std::numeric_limits<double>::quiet_NaN()};     ///< new force gain; NaN = unchanged (unit: 1)
-  std::atomic<double> lowpass{std::numeric_limits<double>::quiet_NaN()};  ///< new feed-forward cut-off; NaN = unchanged (unit: Hz)
+  /// New smoothing: the rolling-average window (unit: frames; the paper's method), 0 = the servo's
+  /// own smoothing (haptics/servo.h); NaN = unchanged.
+  std::atomic<double> smoothing{std::numeric_limits<double>::quiet_NaN()};
 };
 
 /// The link between a run and its window.

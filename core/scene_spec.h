@@ -275,7 +275,7 @@ struct ProbesSpec {
 
 // --- Haptics ------------------------------------------------------------------------------------
 
-enum class HapticBackend { Scripted, Simulated };
+enum class HapticBackend { Scripted, Simulated, Bridge };
 enum class HapticSmoothing { Servo, RollingAverage };
 enum class PathSegmentType { Line, Circle, Sine };
 
@@ -341,6 +341,10 @@ struct HapticsSpec {
   double hand_mass = 0.15;                           ///< hand + end effector (unit: kg)
   double hand_stiffness = 300.0;                     ///< grip spring to the scripted target (unit: N/m)
   double hand_damping = 3.0;                         ///< grip damper (unit: N s/m)
+  // Bridge backend: UDP on 127.0.0.1 to a running `sphaptics-bridge` (live runs only).
+  int bridge_port = 47001;                           ///< the bridge listens here for LocalModels (unit: 1)
+  int listen_port = 47002;                           ///< the simulation listens here for States (unit: 1)
+  double bridge_timeout = 1.0;                       ///< no State for this long = device failure, exit 3 (unit: s)
   std::vector<PathSegmentSpec> path;                 ///< scripted path (device frame)
   std::vector<WaypointSpec> waypoints;               ///< scripted waypoints (device frame); used when `path` is empty
   std::vector<ButtonEventSpec> buttons;              ///< button events

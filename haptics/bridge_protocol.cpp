@@ -182,9 +182,10 @@ bool SequenceFilter::accept(uint32_t sequence) {
   return true;
 }
 
-LocalModel sanitize(const LocalModelPacket& p, const DeviceSpec& spec, double stamp) {
+LocalModel sanitize(const LocalModelPacket& p, const DeviceSpec& spec, double stamp, double received) {
   LocalModel m = p.model;
   m.stamp = stamp;
+  m.received = received >= 0 ? std::max(received, stamp) : -1.0;
   m.stiffness = std::clamp(m.stiffness, 0.0, spec.max_stiffness);
   m.damping = std::clamp(m.damping, 0.0, spec.max_damping);
   // Feed-forward within both force limits (the device's and the one the simulation asked for).

@@ -80,7 +80,8 @@ class SequenceFilter {
 };
 
 /// The bridge's guard: stiffness, damping, feed-forward and force limit capped by the device spec;
-/// a ttl capped at 0.1 s.
-LocalModel sanitize(const LocalModelPacket& p, const DeviceSpec& spec, double stamp);
+/// a ttl capped at 0.1 s. `stamp`: the (bridge clock) time of the state the model describes;
+/// `received`: when it arrived (< 0: at `stamp`) (unit: s).
+LocalModel sanitize(const LocalModelPacket& p, const DeviceSpec& spec, double stamp, double received = -1);
 
 }  // namespace sph::haptics::bridge

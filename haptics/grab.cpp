@@ -6,11 +6,23 @@
 namespace sph::haptics {
 
 GrabController::GrabController(Mapping mapping, GrabSettings settings, std::vector<Grabbable> candidates)
-    : mapping_(std::move(mapping)), settings_(settings), candidates_(std::move(candidates)) {}
+    : mapping_(std::move(mapping)), settings_(settings), candidates_(std::move(candidates)) {
+  // K_s = K_d / (g s) (../shared/haptics.md, "Simulation side"), for the gain and scale given here.
+  reference_ = settings_.gain * mapping_.scale;
+  ks_ = settings_.stiffness / reference_;
+}
+
+void GrabController::setMapping(const Mapping& m) {
+  // The target moves by the change of mapping at the current device position: move the spring's
+  // rest offset with it, so that the held body feels no jump.
+  if (held_ >= 0) rest_ += m.toScene(device_x_) - mapping_.toScene(device_x_);
+  mapping_ = m;
+}
 
 void GrabController::update(const DeviceState& device, const std::vector<rigid::BodyState>& states,
                             std::vector<BodyWrench>& out) {
   // The device target in the scene.
+  device_x_ = device.position;
   target_ = mapping_.toScene(device.position);
   const Eigen::Vector3d target_v = mapping_.velocityToScene(device.velocity);
   const bool pressed = (device.buttons & 1u) != 0;
@@ -54,8 +66,10 @@ void GrabController::update(const DeviceState& device, const std::vector<rigid::
 LocalModel GrabController::localModel(double stamp, const std::vector<rigid::BodyState>& states) const {
   LocalModel m;
   m.stamp = stamp;
-  m.stiffness = settings_.stiffness;
-  m.damping = settings_.damping;
+  // Felt stiffness and damping K_d = g s K_s, B_d scaled alike: the gain ("haptic strength") and the
+  // scale set while running act here (K_s on the body stays as it was).
+  m.stiffness = settings_.stiffness * feltFactor();
+  m.damping = settings_.damping * feltFactor();
   m.ttl = settings_.ttl;
   m.coupled = held_ >= 0;
   if (held_ < 0) return m;

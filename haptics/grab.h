@@ -65,11 +65,19 @@ class GrabController {
   LocalModel localModel(double stamp, const std::vector<rigid::BodyState>& states) const;
   /// Index of the held body in Model::bodies, or -1.
   long grabbed() const { return held_ < 0 ? -1 : static_cast<long>(candidates_[static_cast<std::size_t>(held_)].body); }
-  /// The spring on the body (scene, N/m) for the current gain and mapping.
-  double bodyStiffness() const { return settings_.stiffness / (settings_.gain * mapping_.scale); }
-  /// Changed while running (the next step uses them).
+  /// The spring on the body (scene, N/m): K_s = K_d / (g s) for the gain and scale the controller
+  /// was made with; it stays fixed when gain and mapping change while running (the body's coupling
+  /// keeps its tuning, B_s = 2 zeta sqrt(K_s m)), so a new gain or scale changes what the hand feels.
+  double bodyStiffness() const { return ks_; }
+  /// The factor on K_d and B_d (and the feed-forward's gain) since construction: (g s) / (g0 s0).
+  double feltFactor() const { return settings_.gain * mapping_.scale / reference_; }
+  /// Changed while running (the next step uses them). gain >= 0 (0: nothing is felt).
   void setGain(double gain) { settings_.gain = gain; }
-  void setMapping(const Mapping& m) { mapping_ = m; }
+  double gain() const { return settings_.gain; }
+  /// A new mapping; a held body's rest offset moves with the target so that the body is not yanked.
+  void setMapping(const Mapping& m);
+  /// The paper's mode on or off (Smoothing::RollingAverage).
+  void setForceAsFeedForward(bool on) { settings_.force_as_feed_forward = on; }
   const Mapping& mapping() const { return mapping_; }
   /// The target (scene) of the last update.
   const Eigen::Vector3d& target() const { return target_; }
@@ -79,11 +87,13 @@ class GrabController {
     const std::size_t b = candidates_[static_cast<std::size_t>(held_)].body;
     return b < states.size() ? states[b].toWorld(grasp_) : target_;
   }
-  double gain() const { return settings_.gain; }
 
  private:
   Mapping mapping_;
   GrabSettings settings_;
+  double ks_ = 0;          // body spring K_s (unit: N/m), fixed at construction
+  double reference_ = 1;   // g0 s0 at construction (unit: 1)
+  Eigen::Vector3d device_x_ = Eigen::Vector3d::Zero();  // last device position (unit: m)
   std::vector<Grabbable> candidates_;
   long held_ = -1;                                   // index into candidates_
   Eigen::Vector3d grasp_ = Eigen::Vector3d::Zero();  // grasp point, body frame (unit: m)

@@ -6,6 +6,10 @@
 namespace sph::haptics {
 
 static constexpr double kTwoPi = 6.283185307179586;
+static constexpr double kMaxLag = 0.25;  // largest round trip the hold extrapolates over (unit: s)
+
+// When a model reached the servo (its stamp, unless a bridge set the arrival apart).
+static double arrival(const LocalModel& m) { return m.received >= 0 ? m.received : m.stamp; }
 
 Servo::Servo(ServoConfig config, const DeviceSpec& device) : cfg_(config) {
   // The device's spec caps what the simulation or the scene may ask for.
@@ -27,6 +31,13 @@ void Servo::publish(const LocalModel& m) {
   ++pending_seq_;
 }
 
+void Servo::setSmoothing(Smoothing mode, int window) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  pending_smoothing_ = mode;
+  pending_window_ = std::max(1, window);
+  smoothing_changed_ = true;
+}
+
 ServoOutput Servo::step(Device& device) {
   DeviceState s;
   device.read(s);
@@ -45,6 +56,12 @@ ServoOutput Servo::tick(const DeviceState& s) {
   bool fresh = false;
   {
     std::lock_guard<std::mutex> lock(mutex_);
+    // A smoothing mode changed while running (LiveControls): from this tick on.
+    if (smoothing_changed_) {
+      cfg_.smoothing = pending_smoothing_;
+      cfg_.rolling_window = pending_window_;
+      smoothing_changed_ = false;
+    }
     if (pending_seq_ != seen_seq_) {
       seen_seq_ = pending_seq_;
       m0_ = m1_;
@@ -66,14 +83,18 @@ ServoOutput Servo::tick(const DeviceState& s) {
   if (filled_ > 1 && ts_[head_] > ts_[oldest]) v = (xs_[head_] - xs_[oldest]) / (ts_[head_] - ts_[oldest]);
   head_ = (head_ + 1) % n;
 
-  // Watchdog: no model, or the newest older than the watchdog or its ttl, fades the force out.
-  const bool stale = !m1_ || t - m1_->stamp > std::min(cfg_.watchdog, m1_->ttl);
+  // Watchdog: no model, or the newest arrived longer ago than the watchdog or its ttl, fades the
+  // force out (the link's freshness: a model that describes a state one round trip old is fresh
+  // when it has just arrived).
+  const bool stale = !m1_ || t - arrival(*m1_) > std::min(cfg_.watchdog, m1_->ttl);
   if (stale) out.flags |= kStale;
   const double dfade = cfg_.fade > 0 ? T_ / cfg_.fade : 1.0;
   fade_ = stale ? std::max(0.0, fade_ - dfade) : std::min(1.0, fade_ + dfade);
 
   Eigen::Vector3d f = Eigen::Vector3d::Zero();
-  const bool coupled = m1_ && m1_->coupled && cfg_.smoothing == Smoothing::Servo;
+  // Coupled: a body is held and the coupling renders something (a gain of 0 sends K_d = B_d = 0:
+  // no coupling, so no passivity damping either, and nothing is felt).
+  const bool coupled = m1_ && m1_->coupled && cfg_.smoothing == Smoothing::Servo && (m1_->stiffness > 0 || m1_->damping > 0);
   if (coupled) out.flags |= kCoupled;
   if (coupled != was_coupled_) {  // grab or release: the observer starts again
     energy_ = 0;
@@ -90,16 +111,19 @@ ServoOutput Servo::tick(const DeviceState& s) {
     const LocalModel& b = *m1_;
     const LocalModel& a = m0_ ? *m0_ : *m1_;
     const double d = b.stamp - a.stamp;
-    const double u = d > 0 ? std::clamp((t - b.stamp) / d, 0.0, 1.0) : 1.0;
+    const double u = d > 0 ? std::clamp((t - arrival(b)) / d, 0.0, 1.0) : 1.0;
     // Extrapolated until the model expires (a dropped frame must not stall the anchor; the
-    //    watchdog fades the force out after that).
-    const double ahead = std::clamp(t - b.stamp, 0.0, std::min(cfg_.watchdog, b.ttl));
+    //    watchdog fades the force out after that), plus the lag it arrived with (a bridge's round
+    //    trip, at most kMaxLag): the anchor is predicted to now, not to when its state was sent.
+    const double lag = std::clamp(arrival(b) - b.stamp, 0.0, kMaxLag);
+    const double ahead = std::clamp(t - b.stamp, 0.0, std::min(cfg_.watchdog, b.ttl) + lag);
     // The slope of the hold: the anchor's mean velocity over the last frame, (a1 - a0) / (t1 - t0),
     //    exact for steady motion (the body's velocity at the frame's end may differ from its mean).
-    //    Models less than 5 ms apart (a bridge's jittery stamps) give no usable chord: then the
-    //    simulation's own anchor velocity.
+    //    Models less than 5 ms apart, or from a bridge (stamps jittered by the network: measured,
+    //    the chord's noise times the round trip costs more than the chord gains), give no usable
+    //    chord: then the simulation's own anchor velocity.
     const Eigen::Vector3d slope =
-        d > 5e-3 && a.coupled == b.coupled ? Eigen::Vector3d((b.anchor - a.anchor) / d) : b.anchor_velocity;
+        d > 5e-3 && a.coupled == b.coupled && b.received < 0 ? Eigen::Vector3d((b.anchor - a.anchor) / d) : b.anchor_velocity;
     const Eigen::Vector3d predicted = b.anchor + ahead * slope;
     // A new model corrects the old prediction: the jump is blended in over one frame interval, so
     //    the anchor stays continuous (no force step at the frame rate).

@@ -46,7 +46,8 @@ namespace sph::haptics {
 
 /// What the simulation tells the servo once per frame, in the device frame.
 struct LocalModel {
-  double stamp = 0;                                         ///< servo-clock time it was published (unit: s)
+  double stamp = 0;                                         ///< servo-clock time the state it describes was current (unit: s)
+  double received = -1;                                     ///< servo-clock time it reached the servo; < 0: at `stamp` (a bridge sets it: stamp = the State's time, one round trip earlier) (unit: s)
   Eigen::Vector3d anchor = Eigen::Vector3d::Zero();         ///< grasp point mapped to the device (unit: m)
   Eigen::Vector3d anchor_velocity = Eigen::Vector3d::Zero();///< (unit: m/s)
   Eigen::Vector3d feed_forward = Eigen::Vector3d::Zero();   ///< slowly varying load to render (unit: N)
@@ -109,14 +110,15 @@ class Servo {
 
   /// From the simulation thread: a new LocalModel (its stamp set by the caller). Thread-safe.
   void publish(const LocalModel& m);
+  /// From any thread: switch the smoothing mode (and rolling-average window, unit: frames); the
+  /// servo takes it at its next tick.
+  void setSmoothing(Smoothing mode, int window);
   /// From the servo thread: one tick at s.time with the device reading s.
   ServoOutput tick(const DeviceState& s);
   /// Reads the device, ticks, writes the force: one servo period.
   ServoOutput step(Device& device);
 
   const ServoConfig& config() const { return cfg_; }
-  /// Servo thread only: a new feed-forward cut-off (unit: Hz), from the next tick.
-  void setLowpass(double hz) { cfg_.lowpass = hz; }
   uint64_t ticks() const { return ticks_; }
   uint64_t modelsReceived() const { return models_; }
 
@@ -127,6 +129,9 @@ class Servo {
   std::mutex mutex_;
   LocalModel pending_;
   uint64_t pending_seq_ = 0, seen_seq_ = 0;
+  Smoothing pending_smoothing_ = Smoothing::Servo;
+  int pending_window_ = 20;
+  bool smoothing_changed_ = false;
   // First-order hold: the previous and current models.
   std::optional<LocalModel> m0_, m1_;
   std::deque<Eigen::Vector3d> rolling_;  // last N feed-forward forces (rolling average)

@@ -617,7 +617,8 @@ std::vector<KeyDef> buildTable() {
   add(section("haptics", [](SceneSpec& s) { return &s.haptics.loc; })
           .doc("a haptic device that grabs 'grabbable' bodies; the section turns the haptics stage on"));
   add(field<InScene>("haptics.backend", [](auto& s) -> auto& { return s.haptics.backend; })
-          .doc("scripted (the device follows haptics.path) or simulated (a hand mass pulled towards haptics.path)"));
+          .doc("scripted (the device follows haptics.path), simulated (a hand mass pulled towards haptics.path) or bridge "
+               "(UDP on 127.0.0.1 to a running sphaptics-bridge next to the device; run --interactive only)"));
   add(field<InScene>("haptics.scale", [](auto& s) -> auto& { return s.haptics.scale; })
           .unit("1").atLeast(0).doc("workspace mapping x_scene = scale R x_device + offset; 0 = largest domain extent / 0.15 m"));
   add(field<InScene>("haptics.rotation_axis", [](auto& s) -> auto& { return s.haptics.rotation_axis; })
@@ -660,6 +661,12 @@ std::vector<KeyDef> buildTable() {
           .unit("N/m").atLeast(0).doc("simulated backend: grip spring to the scripted target"));
   add(field<InScene>("haptics.hand_damping", [](auto& s) -> auto& { return s.haptics.hand_damping; })
           .unit("N s/m").atLeast(0).doc("simulated backend: grip damper to the scripted target"));
+  add(field<InScene>("haptics.bridge_port", [](auto& s) -> auto& { return s.haptics.bridge_port; })
+          .unit("1").atLeast(1).atMost(65535).doc("bridge backend: UDP port on 127.0.0.1 where sphaptics-bridge listens (its --listen)"));
+  add(field<InScene>("haptics.listen_port", [](auto& s) -> auto& { return s.haptics.listen_port; })
+          .unit("1").atLeast(1).atMost(65535).doc("bridge backend: UDP port on 127.0.0.1 where the simulation listens for device States (the bridge's --send)"));
+  add(field<InScene>("haptics.bridge_timeout", [](auto& s) -> auto& { return s.haptics.bridge_timeout; })
+          .unit("s").greaterThan(0).atMost(60).doc("bridge backend: no State from the bridge for this long is a device failure (exit 3)"));
   add(list<InPath>("haptics.path").defaultNote("[]").doc("scripted hand path, device frame: line, circle or sine segments; the latest started segment rules, its end is held"));
   add(field<InPath>("haptics.path[].type", [](auto& p) -> auto& { return p.type; }).required().doc("segment kind"));
   add(field<InPath>("haptics.path[].start", [](auto& p) -> auto& { return p.start; }).unit("s").atLeast(0).doc("segment start time"));

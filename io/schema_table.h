@@ -88,7 +88,8 @@ struct EnumNames<MotionType> {
 template <>
 struct EnumNames<HapticBackend> {
   static constexpr std::pair<HapticBackend, const char*> values[] = {{HapticBackend::Scripted, "scripted"},
-                                                                       {HapticBackend::Simulated, "simulated"}};
+                                                                       {HapticBackend::Simulated, "simulated"},
+                                                                       {HapticBackend::Bridge, "bridge"}};
 };
 template <>
 struct EnumNames<HapticSmoothing> {

@@ -791,8 +791,8 @@ class Viewer {
     while (samples_.size() > 2 && samples_.back().wall - samples_.front().wall > 10.0) samples_.pop_front();
     if (!settings_read_ && live_scene_ && live_scene_->haptics) {
       gain_ = static_cast<float>(hp.gain);
-      lowpass_ = static_cast<float>(hp.lowpass > 0 ? hp.lowpass : 25.0);
-      settings_read_ = hp.lowpass > 0;
+      smoothing_ = hp.smoothing;
+      settings_read_ = true;
     }
   }
 
@@ -836,9 +836,10 @@ class Viewer {
         for (float v : plot) top = std::max(top, v);
         ImGui::PlotLines("##force", plot.data(), static_cast<int>(plot.size()), 0, label, 0.0f, top * 1.1f, ImVec2(0, 70));
         ImGui::Text("force axis 0 to %.2f N", static_cast<double>(top * 1.1f));
-        if (ImGui::SliderFloat("gain", &gain_, 0.05f, 20.0f, "%.2f", ImGuiSliderFlags_Logarithmic)) live_->controls.gain = gain_;
-        if (ImGui::SliderFloat("smoothing (Hz)", &lowpass_, 1.0f, 200.0f, "%.0f", ImGuiSliderFlags_Logarithmic))
-          live_->controls.lowpass = lowpass_;
+        if (ImGui::SliderFloat("gain", &gain_, 0.0f, 10.0f, "%.2f")) live_->controls.gain = gain_;
+        // The paper's rolling average over N frames, or 0: the servo's own smoothing.
+        if (ImGui::SliderInt("smoothing (frames)", &smoothing_, 0, 60, smoothing_ == 0 ? "servo" : "%d"))
+          live_->controls.smoothing = smoothing_;
         ImGui::SliderFloat("arrow (m/N)", &arrow_scale_, 0.005f, 1.0f, "%.3f", ImGuiSliderFlags_Logarithmic);
       }
     }
@@ -1270,7 +1271,8 @@ class Viewer {
   };
   std::deque<Sample> samples_;
   long samples_total_ = 0;  ///< simulation frames taken from the mailbox
-  float gain_ = 1.0f, lowpass_ = 25.0f;
+  float gain_ = 1.0f;
+  int smoothing_ = 0;  ///< rolling-average window (unit: frames), 0 = the servo's smoothing
   bool paused_ = false, settings_read_ = false;
   bool grab_down_ = false;
   double last_camera_[8] = {0, 0, 0, 0, 0, 0, 0, 0};
