@@ -69,7 +69,10 @@ haptics::Mapping hapticMapping(const SceneSpec& spec) {
 namespace {
 
 // The device backend on `clock`, and the grab controller, of a compiled model's `haptics` section.
-std::unique_ptr<haptics::Device> makeDevice(const HapticsSpec& h, const haptics::Clock& clock) {
+std::unique_ptr<haptics::Device> makeDevice(const SceneSpec& spec, const haptics::Clock& clock,
+                                            std::shared_ptr<haptics::MouseInput> mouse) {
+  const HapticsSpec& h = spec.haptics;
+  if (mouse) return std::make_unique<haptics::MouseDevice>(std::move(mouse), clock, hapticMapping(spec));
   if (h.backend == HapticBackend::Simulated) {
     haptics::SimulatedHand hand;
     hand.mass = h.hand_mass;
@@ -103,15 +106,15 @@ haptics::GrabController makeGrab(const Model& model) {
 
 }  // namespace
 
-std::unique_ptr<haptics::BatchSession> makeBatchSession(const Model& model) {
+std::unique_ptr<haptics::BatchSession> makeBatchSession(const Model& model, std::shared_ptr<haptics::MouseInput> mouse) {
   auto clock = std::make_shared<haptics::VirtualClock>();
-  auto device = makeDevice(model.spec.haptics, *clock);
+  auto device = makeDevice(model.spec, *clock, std::move(mouse));
   return std::make_unique<haptics::BatchSession>(std::move(device), clock, servoConfig(model.spec.haptics), makeGrab(model));
 }
 
-std::unique_ptr<haptics::LiveSource> makeLiveSession(const Model& model) {
+std::unique_ptr<haptics::LiveSource> makeLiveSession(const Model& model, std::shared_ptr<haptics::MouseInput> mouse) {
   const HapticsSpec& h = model.spec.haptics;
-  if (h.backend == HapticBackend::Bridge) {
+  if (h.backend == HapticBackend::Bridge && !mouse) {
     haptics::BridgeSettings b;
     b.bridge_port = static_cast<uint16_t>(h.bridge_port);
     b.listen_port = static_cast<uint16_t>(h.listen_port);
@@ -120,7 +123,7 @@ std::unique_ptr<haptics::LiveSource> makeLiveSession(const Model& model) {
     return std::make_unique<haptics::BridgeSession>(b, servoConfig(h), makeGrab(model));
   }
   auto clock = std::make_shared<haptics::SteadyClock>();
-  auto device = makeDevice(h, *clock);
+  auto device = makeDevice(model.spec, *clock, std::move(mouse));
   return std::make_unique<haptics::LiveSession>(std::move(device), clock, servoConfig(h), makeGrab(model));
 }
 

@@ -9,7 +9,46 @@
 
 #include <CLI/CLI.hpp>
 
+#include <atomic>
+#include <cstdlib>
 #include <iostream>
+#include <thread>
+
+namespace {
+
+/// `run` with a window over it (viewer/): the simulation on a thread publishing frames, the window
+/// on this one (GLFW wants the main thread). Reset ends the run and starts it again; closing the
+/// window stops it. Without a window (no display) the run goes on headless.
+int runWithWindow(sph::app::RunOptions run, bool mouse, const std::string& screenshot) {
+  using namespace sph;
+  auto link = std::make_shared<LiveLink>();
+  run.live_link = link;
+  if (mouse) run.mouse = std::make_shared<haptics::MouseInput>();
+  std::atomic<bool> done{false};
+  std::atomic<int> code{0};
+  std::thread sim([&] {
+    for (;;) {
+      code = app::runScene(run).exit_code;
+      if (!link->controls.reset.exchange(false) || link->controls.stop.load() || code.load() != 0) break;
+      std::cerr << "reset: the scene starts again\n";
+    }
+    done = true;
+  });
+#ifdef SPHAPTICS_HAVE_VIEWER
+  viewer::LiveViewOptions vo;
+  vo.title = run.scene;
+  vo.screenshot = screenshot;
+  const int window = viewer::liveWindow(vo, link, run.mouse, [&] { return done.load(); });
+  if (window == 0) link->controls.stop = true;  // the window was closed (or the run ended)
+#else
+  (void)screenshot;
+  std::cerr << "window: this sphaptics was built without the viewer; going on without it\n";
+#endif
+  sim.join();
+  return code.load();
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
   using namespace sph;
@@ -41,7 +80,18 @@ int main(int argc, char** argv) {
                       "(replay it with `sphaptics replay FILE`)");
   cmd_run->add_flag("--interactive", run.interactive,
                     "Live: the haptic servo on its own thread at its rate against the scene's device, frames paced to "
-                    "real time; prints simulation rate, servo rate, overruns and force");
+                    "real time; prints simulation rate, servo rate, overruns and force. Opens the live window when "
+                    "there is a display and this build has the viewer (see --headless)");
+  bool run_headless = false, run_window = false, run_mouse = false;
+  std::string run_window_screenshot;
+  cmd_run->add_flag("--headless", run_headless, "With --interactive: no window, even with a display");
+  cmd_run->add_flag("--window", run_window,
+                    "Open the live window over the run (also a batch run: frames as fast as the simulation goes)");
+  cmd_run->add_flag("--mouse", run_mouse,
+                    "The mouse is the haptic device (in the window: left button grabs, wheel sets the depth); "
+                    "needs the window and a scene with a haptics section");
+  cmd_run->add_option("--window-screenshot", run_window_screenshot,
+                      "With the window: write its last picture (panel included) as a PNG when the run ends");
 
   // replay
   std::string replay_file;
@@ -128,6 +178,8 @@ int main(int argc, char** argv) {
   cmd_view->add_option("--hide", view.hide, "Layer to switch off: particles, surfaces, bodies, box (repeatable)")
       ->check(CLI::IsMember(viewer::viewLayerNames()))
       ->allow_extra_args(false);
+  cmd_view->add_option("--particle-size", view.particle_size,
+                       "Particle sprite size, relative to half the particle spacing")->capture_default_str();
   cmd_view->add_option("--fps", view.fps, "Playback rate (unit: frames/s; default: the run's frame rate, real time)");
   cmd_view->add_option("--benchmark", view.benchmark,
                        "Play for this long, print the viewer's drawn frames per second, exit (unit: s)");
@@ -150,6 +202,22 @@ int main(int argc, char** argv) {
   if (*cmd_run) {
     run.duration_given = opt_duration->count() > 0;
     if (!maxMemory(run_max_memory, run.max_memory)) return kExitBadInput;
+    if (run_headless && run_window) {
+      std::cerr << "--headless: cannot be combined with --window\n";
+      return kExitBadInput;
+    }
+    const char* display = std::getenv("DISPLAY");
+    const bool have_display = display && *display;
+    const bool window = run_window || (run.interactive && !run_headless && have_display);
+    if (run_mouse && !window) {
+      std::cerr << "--mouse: needs the window (--window, or --interactive with a display and without --headless)\n";
+      return kExitBadInput;
+    }
+    if (!run_window_screenshot.empty() && !window) {
+      std::cerr << "--window-screenshot: needs the window (--window, or --interactive with a display)\n";
+      return kExitBadInput;
+    }
+    if (window) return runWithWindow(run, run_mouse, run_window_screenshot);
     return app::runScene(run).exit_code;
   }
   if (*cmd_replay) {

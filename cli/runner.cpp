@@ -28,6 +28,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <limits>
 #include <memory>
 #include <sstream>
 #include <thread>
@@ -329,6 +330,8 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
     haptics::Recording recording;                    // --record
     if (opt.interactive && !sim.stages().on(Stage::Haptics))
       throw InputError("--interactive", 0, 0, "needs a scene with a 'haptics' section and a dynamic body");
+    if (opt.mouse && !sim.stages().on(Stage::Haptics))
+      throw InputError("--mouse", 0, 0, "needs a scene with a 'haptics' section and a grabbable dynamic body");
     if (!opt.record.empty() && !opt.interactive) throw InputError("--record", 0, 0, "records a live run: add --interactive");
     if (!opt.record.empty() && !std::ofstream(opt.record, std::ios::app))  // refused now, not after the run
       throw InputError("--record", 0, 0, "cannot write '" + opt.record + "': " + std::strerror(errno));
@@ -342,11 +345,11 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
       sim.setExternalForces(replay.get());
       res.haptics = true;
     } else if (opt.interactive) {
-      live = makeLiveSession(model);
+      live = makeLiveSession(model, opt.mouse);
       sim.setExternalForces(live.get());
       res.haptics = true;
     } else if (sim.stages().on(Stage::Haptics)) {
-      haptic = makeBatchSession(model);
+      haptic = makeBatchSession(model, opt.mouse);
       sim.setExternalForces(haptic.get());
       haptic->publish(sim.time(), sim.bodies());
       res.haptics = true;
@@ -467,6 +470,70 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
       res.output_seconds += since(t0);
       if (const std::string err = writer->error(); !err.empty()) throw std::runtime_error("writing output failed: " + err);
     };
+    // --- Live window (RunOptions::live_link): the scene once, then each frame's particles, body
+    // poses, cloth meshes and device, swapped into the mailbox (the simulation never waits for it).
+    Eigen::Vector3d last_force = Eigen::Vector3d::Zero();  // batch: the last servo tick's force (unit: N)
+    const haptics::Mapping mapping = res.haptics ? hapticMapping(spec) : haptics::Mapping{};
+    if (opt.live_link) {
+      auto scene = std::make_shared<LiveScene>();
+      scene->title = opt.scene;
+      scene->domain_min = spec.domain.min.cast<float>();
+      scene->domain_max = spec.domain.max.cast<float>();
+      scene->particle_radius = static_cast<float>(0.5 * model.dx);
+      scene->frame_rate = spec.simulation.frame_rate;
+      for (const rigid::RigidBody& b : model.bodies) {
+        scene->body_names.push_back(b.spec.name);
+        scene->body_meshes.push_back(b.mesh);
+        scene->body_colours.push_back(b.spec.colour.cast<float>());
+      }
+      for (const ClothSpec& c : spec.cloth) scene->cloth_colours.push_back(c.colour.cast<float>());
+      scene->haptics = res.haptics;
+      opt.live_link->mailbox.setScene(scene);
+    }
+    auto publish_live = [&](int frame, bool finished) {
+      if (!opt.live_link) return;
+      auto lf = std::make_shared<LiveFrame>();
+      lf->frame = frame;
+      lf->time = sim.time();
+      lf->wall = since(t_start);
+      lf->finished = finished;
+      lf->particles = sim.readFrame();
+      for (const rigid::BodyState& b : sim.bodies()) {
+        lf->body_positions.push_back(b.x.cast<float>());
+        lf->body_orientations.push_back(b.q.cast<float>());
+      }
+      if (sim.cloth() && model.cloth.nodes() > 0) {
+        std::vector<Eigen::Vector4f> x, v;
+        sim.cloth()->read(x, v);
+        const std::vector<uint32_t> broken = sim.cloth()->readBroken();
+        for (std::size_t c = 0; c < spec.cloth.size(); ++c)
+          lf->cloths.push_back(io::clothMesh(model.cloth, c, spec.cloth[c], x, broken));
+      }
+      // The device: cursor and grasp point from the grab, the force in scene axes (the arrow).
+      const haptics::GrabController* grab = live ? &live->grab() : haptic ? &haptic->grab() : nullptr;
+      if (grab) {
+        LiveHaptics& h = lf->haptics;
+        h.cursor = grab->target();
+        h.held = grab->grabbed();
+        h.grasp = grab->graspWorld(sim.bodies());
+        h.gain = grab->gain();
+        if (live) {
+          const haptics::LiveStats st = live->stats();
+          const haptics::LiveSettings set = live->controls().settings();
+          h.force = mapping.rotation * st.force;
+          h.servo_ticks = st.ticks;
+          h.servo_seconds = lf->wall;
+          h.smoothing = set.smoothing == haptics::Smoothing::RollingAverage ? set.rolling_window : 0;
+        } else {
+          const haptics::ServoConfig& c = haptic->servo().config();
+          h.force = mapping.rotation * last_force;
+          h.servo_ticks = res.haptic_ticks;
+          h.servo_seconds = sim.time();
+          h.smoothing = c.smoothing == haptics::Smoothing::RollingAverage ? c.rolling_window : 0;
+        }
+      }
+      opt.live_link->mailbox.publish(std::move(lf));
+    };
     write_frame(0, false);  // Step#0 / fluid_*_0000.obj: the initial state
     res.output_seconds = 0;
     t_start = Clock::now();
@@ -535,8 +602,39 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
     double last_live_log = 0.0;
     uint64_t last_live_ticks = 0;
     int last_live_frames = 0;
+    publish_live(0, false);
     for (int f = 0; f < frames; ++f) {
       if (g_stop_signal) break;
+      if (opt.live_link) {  // the window's requests: stop, reset, pause and settings
+        LiveControls& c = opt.live_link->controls;
+        if (c.stop.load() || c.reset.load()) {
+          res.stopped_by_window = true;
+          break;
+        }
+        if (live) {
+          // Live: through the session's controls (haptics/live.h), applied at this frame boundary.
+          if (c.paused.load() != live->controls().settings().paused) live->controls().setPaused(c.paused.load());
+          if (const double g = c.gain.exchange(std::numeric_limits<double>::quiet_NaN()); std::isfinite(g) && g >= 0)
+            live->controls().setGain(g);
+          if (const double n = c.smoothing.exchange(std::numeric_limits<double>::quiet_NaN()); std::isfinite(n) && n >= 0)
+            live->controls().setSmoothing(n >= 1 ? haptics::Smoothing::RollingAverage : haptics::Smoothing::Servo,
+                                          std::max(1, static_cast<int>(std::lround(n))));
+        } else {
+          // Batch under a window: pause here (not counted in the pacing); the gain on the grab.
+          if (c.paused.load()) {
+            const auto p0 = Clock::now();
+            while (c.paused.load() && !c.stop.load() && !c.reset.load() && !g_stop_signal)
+              std::this_thread::sleep_for(std::chrono::milliseconds(10));
+            t_start += Clock::now() - p0;
+          }
+          if (c.stop.load() || c.reset.load()) {
+            res.stopped_by_window = true;
+            break;
+          }
+          if (const double g = c.gain.exchange(std::numeric_limits<double>::quiet_NaN()); std::isfinite(g) && g >= 0 && haptic)
+            haptic->grab().setGain(g);
+        }
+      }
       if (live) {
         // quit ends the run as complete; pause holds the simulation (the servo keeps rendering the
         // last model, refreshed so that the watchdog does not fade it), bounded by the stop signal.
@@ -596,6 +694,7 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
         haptic->publish(sim.time(), sim.bodies());
         const auto rows = haptic->takeRows();
         res.haptic_ticks += rows.size();
+        if (!rows.empty()) last_force = rows.back().force;
         if (haptics_csv) {
           errno = 0;  // so that a failed write names its own reason
           haptics::writeHapticsRows(*haptics_csv, rows);
@@ -630,6 +729,7 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
       res.sim_time = sim.time();
       res.particles = sim.numFluid();
       write_frame(f + 1, true);
+      publish_live(f + 1, f + 1 == frames);
       if (on_frame) on_frame(sim, rep);
 
       // Progress: a live line on a terminal, a plain line every 10 s otherwise.
@@ -694,6 +794,11 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
     res.state_hash = sim.stateHash();
     info.particle_steps_per_second = sim.profile().particle_steps / std::max(res.wall_seconds, 1e-9);
 
+    if (res.stopped_by_window) {
+      publish_live(res.frames, true);
+      log("stopped from the window at frame " + std::to_string(res.frames));
+      return finish(kExitOk, "interrupted", "stopped from the window at frame " + std::to_string(res.frames));
+    }
     if (const int sig = g_stop_signal; sig != 0) {
       log(std::string("interrupted by ") + signalName(sig) + " at frame " + std::to_string(res.frames) +
           (h5_written ? ": output kept as particles.h5part.partial" : ""));

@@ -1,10 +1,13 @@
 // The `run` command: scene file -> compiled model -> frames on the device -> output files.
 #pragma once
 
+#include "core/live_frame.h"
 #include "core/simulation.h"
+#include "haptics/mouse.h"
 #include "haptics/record.h"
 
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -24,6 +27,12 @@ struct RunOptions {
   std::string record;                 ///< with interactive: write the device readings per step and a state hash per frame here
   const haptics::Recording* replay = nullptr;  ///< replay this recording (its frames; every hash checked)
   bool interactive = false;           ///< live: the servo on its own thread in real time, frames paced to the wall clock
+  /// A window's link (core/live_frame.h): each frame is published to its mailbox, and its controls
+  /// (pause, reset, stop, gain, smoothing) are read once per frame; null = none.
+  std::shared_ptr<LiveLink> live_link;
+  /// The `mouse` device backend (haptics/mouse.h) instead of the scene's: the window (or a test)
+  /// feeds this queue; null = the scene's backend.
+  std::shared_ptr<haptics::MouseInput> mouse;
   /// Live runs: called with the session's controls (gain, mapping, smoothing, pause; thread-safe,
   /// applied at frame boundaries) once it has started, and with nullptr before it stops: the hook
   /// for an in-process panel (e.g. the viewer's window).
@@ -55,6 +64,7 @@ struct RunResult {
   double servo_p99 = 0;              ///< live: servo period, 99th percentile (unit: s)
   uint64_t servo_overruns = 0;       ///< live: servo periods over 1.5 T
   int replay_frames_checked = 0;     ///< replay: frames whose state hash matched the recording
+  bool stopped_by_window = false;    ///< the live window asked to stop or reset (LiveControls)
 };
 
 /// Surface grid spacing when output.isosurface.spacing is 0, as a fraction of the particle spacing

@@ -49,6 +49,7 @@ class BridgeSession : public LiveSource {
   void publish(const std::vector<rigid::BodyState>& states) override;
   LiveStats stats() const override;
   std::string deviceName() const override;
+  const GrabController& grab() const override { return grab_; }
   void check() override;
 
  protected:

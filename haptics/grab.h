@@ -81,6 +81,12 @@ class GrabController {
   const Mapping& mapping() const { return mapping_; }
   /// The target (scene) of the last update.
   const Eigen::Vector3d& target() const { return target_; }
+  /// The grasp point on the held body in the world for these states (the target when none is held) (unit: m).
+  Eigen::Vector3d graspWorld(const std::vector<rigid::BodyState>& states) const {
+    if (held_ < 0) return target_;
+    const std::size_t b = candidates_[static_cast<std::size_t>(held_)].body;
+    return b < states.size() ? states[b].toWorld(grasp_) : target_;
+  }
 
  private:
   Mapping mapping_;

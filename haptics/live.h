@@ -129,6 +129,8 @@ class LiveSource : public ExternalForceSource {
   virtual LiveStats stats() const = 0;
   /// Names the device in messages ("simulated", "bridge 127.0.0.1:47001").
   virtual std::string deviceName() const = 0;
+  /// Simulation thread only: the grab (the live window draws its cursor, grasp point and held body).
+  virtual const GrabController& grab() const = 0;
   /// Simulation thread: throws DeviceError when the device stopped answering.
   virtual void check() {}
   /// Simulation thread, at a frame boundary at simulation time `time` (unit: s): applies changed
@@ -171,6 +173,8 @@ class LiveSession : public LiveSource {
   void publish(const std::vector<rigid::BodyState>& states) override;
   LiveStats stats() const override;
   std::string deviceName() const override { return device_->spec().name; }
+  /// Simulation thread only: the grab (cursor, grasp point, held body for the live window).
+  const GrabController& grab() const override { return grab_; }
   bool running() const { return running_.load(); }
 
  protected:

@@ -80,6 +80,14 @@ TriMesh readObj(const std::string& path, bool allow_empty) {
   }
   if (m.triangles.empty() && !allow_empty) throw InputError(path, 0, 0, "OBJ mesh has no faces");
   if (normals_per_vertex) m.normals = std::move(normals);
+  // Per-vertex colours (`v x y z r g b`): tinyobjloader gives white to vertices without one, so
+  // an all-white list is taken as no colours.
+  if (attrib.colors.size() == 3 * nv &&
+      std::any_of(attrib.colors.begin(), attrib.colors.end(), [](tinyobj::real_t c) { return c != 1.0f; })) {
+    m.colours.reserve(nv);
+    for (std::size_t i = 0; i < nv; ++i)
+      m.colours.emplace_back(attrib.colors[3 * i], attrib.colors[3 * i + 1], attrib.colors[3 * i + 2]);
+  }
   return m;
 }
 

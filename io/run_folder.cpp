@@ -64,6 +64,11 @@ RunFolderInfo readRunFolderInfo(const std::string& dir) {
       for (const YAML::Node& b : bodies)
         info.bodies.emplace_back(b["name"] ? b["name"].as<std::string>() : std::string(),
                                  vec3(b["colour"], Eigen::Vector3f(0.7f, 0.7f, 0.7f)));
+    // Cloths and their colours.
+    if (const YAML::Node cloths = scene["cloth"]; cloths && cloths.IsSequence())
+      for (const YAML::Node& c : cloths)
+        info.cloths.emplace_back(c["name"] ? c["name"].as<std::string>() : std::string(),
+                                 vec3(c["colour"], Eigen::Vector3f(0.8f, 0.3f, 0.3f)));
   } catch (const YAML::Exception& e) {
     throw InputError(path.string(), e.mark.line + 1, e.mark.column + 1, std::string("unexpected run.json content: ") + e.msg);
   }
@@ -82,10 +87,11 @@ std::vector<ObjSequence> scanObjSequences(const std::string& dir) {
   std::map<std::string, ObjSequence> seqs;
   std::error_code ec;
   for (const auto& entry : fs::directory_iterator(dir, ec)) {
-    // <prefix>_NNNN.obj with prefix fluid_* or body_*, NNNN four or more digits.
+    // <prefix>_NNNN.obj with prefix fluid_*, body_* or cloth_*, NNNN four or more digits.
     const std::string name = entry.path().filename().string();
     if (name.size() < 10 || name.compare(name.size() - 4, 4, ".obj") != 0) continue;
-    const bool body = name.rfind("body_", 0) == 0;
+    const bool cloth = name.rfind("cloth_", 0) == 0;
+    const bool body = cloth || name.rfind("body_", 0) == 0;
     if (!body && name.rfind("fluid_", 0) != 0) continue;
     const std::string stem = name.substr(0, name.size() - 4);
     const std::size_t us = stem.rfind('_');
@@ -96,6 +102,7 @@ std::vector<ObjSequence> scanObjSequences(const std::string& dir) {
     ObjSequence& s = seqs[stem.substr(0, us)];
     s.name = stem.substr(0, us);
     s.body = body;
+    s.cloth = cloth;
     s.frames[std::stoi(digits)] = entry.path().string();
   }
   std::vector<ObjSequence> out;

@@ -20,6 +20,7 @@ struct RunFolderInfo {
   double frame_rate = 0;                 ///< output frames per simulated second; 0 when unknown (unit: 1/s)
   std::vector<std::pair<std::string, Eigen::Vector3f>> phases;  ///< name, linear RGB colour
   std::vector<std::pair<std::string, Eigen::Vector3f>> bodies;  ///< name, linear RGB colour
+  std::vector<std::pair<std::string, Eigen::Vector3f>> cloths;  ///< name, linear RGB colour
 };
 
 /// Reads DIR/run.json. A folder without run.json gives a default RunFolderInfo (status "").
@@ -33,11 +34,12 @@ std::string particlesFile(const std::string& dir);
 /// One OBJ sequence: "fluid_water" or "body_ball", frame index -> file path.
 struct ObjSequence {
   std::string name;           ///< file name without _NNNN.obj
-  bool body = false;          ///< body_* (else fluid_*)
+  bool body = false;          ///< body_* or cloth_* (else fluid_*)
+  bool cloth = false;         ///< cloth_*
   std::map<int, std::string> frames;
 };
 
-/// Every fluid_*_NNNN.obj and body_*_NNNN.obj sequence in DIR, sorted by name.
+/// Every fluid_*_NNNN.obj, body_*_NNNN.obj and cloth_*_NNNN.obj sequence in DIR, sorted by name.
 std::vector<ObjSequence> scanObjSequences(const std::string& dir);
 
 }  // namespace sph::io
