@@ -87,6 +87,38 @@ const char* signalName(int sig) {
 using Clock = std::chrono::steady_clock;
 double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
+// particles.h5part: after the fluid, every rigid body's boundary particles (type rigid, at the
+// body's pose, with its point velocity and colour) and every cloth node (type cloth, the cloth's
+// colour). Their phase is -1, density and pressure 0; ids continue past the fluid's largest (body
+// particles in body order, then the nodes), so they are stable over a run.
+void appendSolids(ParticleFrame& f, const Model& model, Simulation& sim) {
+  int64_t next = 0;
+  for (int64_t id : f.id) next = std::max(next, id + 1);
+  next = std::max<int64_t>(next, static_cast<int64_t>(model.capacity));
+  if (f.type.empty()) f.type.assign(f.size(), kFluid);
+  auto push = [&](const Eigen::Vector3d& x, const Eigen::Vector3d& v, const Eigen::Vector3d& c, int32_t type) {
+    f.x.push_back(float(x.x())), f.y.push_back(float(x.y())), f.z.push_back(float(x.z()));
+    f.vx.push_back(float(v.x())), f.vy.push_back(float(v.y())), f.vz.push_back(float(v.z()));
+    f.density.push_back(0.0f), f.pressure.push_back(0.0f), f.phase.push_back(-1), f.id.push_back(next++);
+    f.r.push_back(float(c.x())), f.g.push_back(float(c.y())), f.b.push_back(float(c.z()));
+    f.type.push_back(type);
+  };
+  for (std::size_t b = 0; b < model.bodies.size(); ++b) {
+    const rigid::BodyState& s = sim.bodies()[b];
+    for (const Eigen::Vector3f& p : model.bodies[b].particles) {
+      const Eigen::Vector3d r = s.q * p.cast<double>();
+      push(s.x + r, s.v + s.w.cross(r), model.bodies[b].spec.colour, kRigid);
+    }
+  }
+  if (sim.cloth()) {
+    std::vector<Eigen::Vector4f> x, v;
+    sim.cloth()->read(x, v);
+    for (std::size_t k = 0; k < x.size(); ++k)
+      push(x[k].head<3>().cast<double>(), v[k].head<3>().cast<double>(),
+           model.spec.cloth[model.cloth.cloth_of[k]].colour, kCloth);
+  }
+}
+
 std::string humanRate(double v) {
   char buf[32];
   if (v >= 1e6) std::snprintf(buf, sizeof buf, "%.2f M", v / 1e6);
@@ -436,7 +468,10 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
         return;
       }
       std::shared_ptr<ParticleFrame> particles;
-      if (h5) particles = std::make_shared<ParticleFrame>(sim.readFrame());
+      if (h5) {
+        particles = std::make_shared<ParticleFrame>(sim.readFrame());
+        appendSolids(*particles, model, sim);  // rigid-body particles and cloth nodes, with their type
+      }
       if (!write_obj) meshes.reset();
       // The surface field of each phase (read back here; summed and written on the writer thread).
       std::shared_ptr<std::vector<DenseGrid>> fields;

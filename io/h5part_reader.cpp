@@ -63,7 +63,7 @@ double H5PartReader::stepTime(int k) const {
   return t;
 }
 
-ParticleFrame H5PartReader::readStep(int k) const {
+ParticleFrame H5PartReader::readStep(int k, bool fluid_only) const {
   QuietHdf5 quiet;
   const std::string name = stepName(k);
   auto fail = [&](const std::string& what) { throw std::runtime_error(path_ + ": " + name + ": " + what); };
@@ -100,6 +100,24 @@ ParticleFrame H5PartReader::readStep(int k) const {
   column("colour_0", H5T_NATIVE_FLOAT, f.r);
   column("colour_1", H5T_NATIVE_FLOAT, f.g);
   column("colour_2", H5T_NATIVE_FLOAT, f.b);
+  // Particle types (written since cloth and bodies joined the file; older files: all fluid).
+  if (H5Lexists(group.get(), "type", H5P_DEFAULT) > 0) column("type", H5T_NATIVE_INT32, f.type);
+  if (fluid_only && !f.type.empty()) {
+    // Keep the fluid entries, in order.
+    std::size_t w = 0;
+    for (std::size_t i = 0; i < f.type.size(); ++i) {
+      if (f.type[i] != kFluid) continue;
+      f.x[w] = f.x[i], f.y[w] = f.y[i], f.z[w] = f.z[i];
+      f.vx[w] = f.vx[i], f.vy[w] = f.vy[i], f.vz[w] = f.vz[i];
+      f.density[w] = f.density[i], f.pressure[w] = f.pressure[i], f.phase[w] = f.phase[i], f.id[w] = f.id[i];
+      f.r[w] = f.r[i], f.g[w] = f.g[i], f.b[w] = f.b[i];
+      ++w;
+    }
+    for (auto* v : {&f.x, &f.y, &f.z, &f.vx, &f.vy, &f.vz, &f.density, &f.pressure, &f.r, &f.g, &f.b}) v->resize(w);
+    f.phase.resize(w);
+    f.id.resize(w);
+    f.type.clear();
+  }
   return f;
 }
 

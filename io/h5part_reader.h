@@ -23,7 +23,9 @@ class H5PartReader {
   int steps() const { return steps_; }
   /// Reads Step#k. Throws std::runtime_error naming the file and step when a field is missing,
   /// has the wrong length or cannot be read.
-  ParticleFrame readStep(int k) const;
+  /// Step k. With `fluid_only` (the default) the entries whose `type` is not fluid (rigid-body
+  /// particles, cloth nodes) are left out; files without a `type` dataset hold only fluid.
+  ParticleFrame readStep(int k, bool fluid_only = true) const;
   /// Simulated time of Step#k (unit: s), from its TimeValue attribute.
   double stepTime(int k) const;
 

@@ -88,6 +88,8 @@ void H5PartWriter::writeStep(const ParticleFrame& frame) {
   const std::size_t sizes[] = {frame.y.size(),       frame.z.size(),     frame.vx.size(),    frame.vy.size(),
                                frame.vz.size(),      frame.density.size(), frame.pressure.size(), frame.phase.size(),
                                frame.id.size(),      frame.r.size(),     frame.g.size(),     frame.b.size()};
+  if (!frame.type.empty() && frame.type.size() != n)
+    fail("particle types have a different length (" + std::to_string(n) + " vs " + std::to_string(frame.type.size()) + ")");
   for (const std::size_t size : sizes)
     if (size != n) fail("particle fields have different lengths (" + std::to_string(n) + " vs " + std::to_string(size) + ")");
 
@@ -133,6 +135,9 @@ void H5PartWriter::writeStep(const ParticleFrame& frame) {
     column("colour_0", f32, H5T_NATIVE_FLOAT, frame.r.data());            // linear RGB in [0, 1]
     column("colour_1", f32, H5T_NATIVE_FLOAT, frame.g.data());
     column("colour_2", f32, H5T_NATIVE_FLOAT, frame.b.data());
+    // ParticleType: 0 fluid, 1 boundary, 2 rigid body, 3 cloth node, 4 soft body (all 0 when not given).
+    const std::vector<int32_t> fluid_only(frame.type.empty() ? n : 0, kFluid);
+    column("type", i32, H5T_NATIVE_INT32, frame.type.empty() ? fluid_only.data() : frame.type.data());
   } catch (...) {
     H5Ldelete(file, step_name.c_str(), H5P_DEFAULT);
     throw;

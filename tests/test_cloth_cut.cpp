@@ -5,6 +5,7 @@
 #include "core/model.h"
 #include "core/simulation.h"
 #include "io/cloth_writer.h"
+#include "io/h5part_reader.h"
 #include "io/scene_loader.h"
 #include "tests/run_binary.h"
 #include "tests/scene_issues.h"
@@ -300,4 +301,48 @@ TEST_CASE("Cloth: the memory estimate counts the cloth nodes", "[cloth][resource
   CHECK(est.cloth_nodes == 101.0 * 101.0);
   CHECK(est.bytes - without >= cloth_bytes);
   CHECK(est.bytes - without <= 20.0 * cloth_bytes);
+}
+
+TEST_CASE("Cloth: particles.h5part holds the rigid-body particles and cloth nodes with their type", "[cloth][io]") {
+  // One frame of scenes/tests/incision_small.yaml written to a folder: the `type` dataset
+  // (ParticleType) has the fluid (0), every rigid body's particles (2: the partition and the blade)
+  // and every cloth node (3), in that order; the reader gives the fluid alone by default and
+  // everything with fluid_only = false; the nodes sit at the skin's rest positions at t = 0.
+  sph::testing::TempDir dir;
+  app::RunOptions o = testing::quietRun("incision_small.yaml");
+  o.write_output = true;
+  o.out = (dir.path / "run").string();
+  o.duration = 1.0 / 30.0;
+  const app::RunResult res = app::runScene(o);
+  REQUIRE(res.exit_code == 0);
+  const SceneSpec spec = io::loadScene(testing::scenePath("incision_small.yaml"));
+  const Compiled comp = compile(spec);
+  std::size_t body_particles = 0;
+  for (const auto& b : comp.model.bodies) body_particles += b.particles.size();
+  const io::H5PartReader reader((dir.path / "run" / "particles.h5part").string());
+  const ParticleFrame all = reader.readStep(0, false), fluid = reader.readStep(0);
+  std::size_t counts[5] = {0, 0, 0, 0, 0};
+  bool ordered = true;
+  for (std::size_t i = 0; i < all.type.size(); ++i) {
+    REQUIRE(all.type[i] >= 0);
+    REQUIRE(all.type[i] <= 4);
+    ++counts[all.type[i]];
+    if (i > 0 && all.type[i] < all.type[i - 1]) ordered = false;
+  }
+  INFO("fluid " << counts[0] << ", rigid " << counts[2] << ", cloth " << counts[3] << " of " << all.size());
+  CHECK(all.size() == comp.initial.size() + body_particles + 17 * 13);
+  CHECK(counts[kFluid] == comp.initial.size());
+  CHECK(counts[kRigid] == body_particles);
+  CHECK(counts[kCloth] == 17u * 13u);
+  CHECK(ordered);
+  CHECK(fluid.size() == comp.initial.size());
+  CHECK(fluid.type.empty());
+  // Node k of the skin at t = 0: its rest position.
+  const std::size_t first_node = all.size() - 17 * 13;
+  double worst = 0;
+  for (std::size_t k = 0; k < 17 * 13; ++k)
+    worst = std::max(worst, double((Eigen::Vector3f(all.x[first_node + k], all.y[first_node + k], all.z[first_node + k]) -
+                                    comp.model.cloth.x0[k].head<3>())
+                                       .norm()));
+  CHECK(worst == 0.0);
 }

@@ -119,10 +119,10 @@ TEST_CASE("H5Part file reads back with consecutive steps, TimeValue and the writ
     CHECK(time == times[s]);  // bitwise: double all the way
     H5Aclose(attr);
 
-    // The 13 datasets, all of length n, with the written values.
+    // The 14 datasets, all of length n, with the written values (type: all fluid when not given).
     H5G_info_t info{};
     H5Gget_info(group, &info);
-    CHECK(info.nlinks == 13);
+    CHECK(info.nlinks == 14);
     const ParticleFrame& f = frames[s];
     const hid_t f32 = H5T_IEEE_F32LE;
     CHECK(readColumn<float>(group, "x", H5T_NATIVE_FLOAT, f32) == f.x);
@@ -138,6 +138,7 @@ TEST_CASE("H5Part file reads back with consecutive steps, TimeValue and the writ
     CHECK(readColumn<float>(group, "colour_2", H5T_NATIVE_FLOAT, f32) == f.b);
     CHECK(readColumn<int32_t>(group, "phase", H5T_NATIVE_INT32, H5T_STD_I32LE) == f.phase);
     CHECK(readColumn<int64_t>(group, "id", H5T_NATIVE_INT64, H5T_STD_I64LE) == f.id);
+    CHECK(readColumn<int32_t>(group, "type", H5T_NATIVE_INT32, H5T_STD_I32LE) == std::vector<int32_t>(f.size(), sph::kFluid));
     H5Gclose(group);
   }
   H5Fclose(file);
