@@ -7,6 +7,7 @@
 #include "haptics/live.h"
 #include "haptics/record.h"
 #include "haptics/udp.h"
+#include "tests/haptics_csv.h"
 #include "tests/run_binary.h"
 #include "tests/temp_dir.h"
 
@@ -36,30 +37,8 @@ namespace {
 const std::filesystem::path kSourceDir = SPHAPTICS_SOURCE_DIR;
 const std::string kDrag = (kSourceDir / "scenes" / "tests" / "haptic_drag.yaml").string();
 
-// One row of haptics.csv: time, x, y, z, ax, ay, az, fx, fy, fz, body, energy, flags.
-struct Tick {
-  double t = 0;
-  Eigen::Vector3d x, a, f;
-  long body = -1;
-  double energy = 0;
-  unsigned flags = 0;
-};
-
-std::vector<Tick> readHaptics(const std::filesystem::path& file) {
-  std::vector<Tick> rows;
-  std::ifstream in(file);
-  std::string line;
-  while (std::getline(in, line)) {
-    if (line.empty() || line[0] == '#' || line.rfind("time", 0) == 0) continue;
-    std::replace(line.begin(), line.end(), ',', ' ');
-    std::istringstream s(line);
-    Tick r;
-    s >> r.t >> r.x.x() >> r.x.y() >> r.x.z() >> r.a.x() >> r.a.y() >> r.a.z() >> r.f.x() >> r.f.y() >> r.f.z() >>
-        r.body >> r.energy >> r.flags;
-    rows.push_back(r);
-  }
-  return rows;
-}
+using sph::testing::readHaptics;
+using sph::testing::Tick;
 
 // Two free UDP ports on 127.0.0.1 (bound, read, released: a small race, fine under ctest -j1).
 std::pair<int, int> freePorts() {

@@ -2,6 +2,7 @@
 // read what the hand feels from haptics.csv; scenes without `haptics` run no haptic stage; scene
 // errors of the section. Scenes: scenes/tests/haptic_drag.yaml, scenes/tests/haptic_hold.yaml.
 #include "cli/runner.h"
+#include "tests/haptics_csv.h"
 #include "tests/run_binary.h"
 #include "tests/scene_issues.h"
 #include "tests/temp_dir.h"
@@ -22,30 +23,8 @@ namespace {
 
 const std::filesystem::path kSourceDir = SPHAPTICS_SOURCE_DIR;
 
-// One row of haptics.csv: time, x, y, z, ax, ay, az, fx, fy, fz, body, energy, flags.
-struct Tick {
-  double t = 0;
-  Eigen::Vector3d x, a, f;
-  long body = -1;
-  double energy = 0;
-  unsigned flags = 0;
-};
-
-std::vector<Tick> readHaptics(const std::filesystem::path& file) {
-  std::vector<Tick> rows;
-  std::ifstream in(file);
-  std::string line;
-  while (std::getline(in, line)) {
-    if (line.empty() || line[0] == '#' || line.rfind("time", 0) == 0) continue;
-    std::replace(line.begin(), line.end(), ',', ' ');
-    std::istringstream s(line);
-    Tick r;
-    s >> r.t >> r.x.x() >> r.x.y() >> r.x.z() >> r.a.x() >> r.a.y() >> r.a.z() >> r.f.x() >> r.f.y() >> r.f.z() >>
-        r.body >> r.energy >> r.flags;
-    rows.push_back(r);
-  }
-  return rows;
-}
+using sph::testing::readHaptics;
+using sph::testing::Tick;
 
 // haptic_drag.yaml at `speed` (unit: m/s in the scene): the mean felt force while the ball is in
 // the blob (device x in [-3, 3] cm: the ball's centre 3.4 to 4.6 dm, the blob 3 to 5 dm).
