@@ -17,6 +17,8 @@
 //     R / dx = 3, 4 and 5 (the tests run 3 and 4): added mass of an accelerated ball, free against
 //     held, Stokes drag and sideways force of a towed ball, each against its closed form, with
 //     the wall time of the run: what accuracy costs. One row per check, solver and resolution.
+//  6. Impact pressure (issue 14, with the accuracy table): the pressure on the far wall during the
+//     dam-break impact with each solver, against the hydrostatic value of the local water height.
 // The tables are printed and written as CSV; scripts/plot_bench.py draws error against seconds.
 #include "cli/analysis.h"
 #include "cli/commands.h"
@@ -218,6 +220,90 @@ int forceChecks(const BenchOptions& opt) {
   return kExitOk;
 }
 
+
+// 6. Impact pressure on the far wall (issue 14): the dam break at one resolution with each solver,
+// a pressure probe on the far wall and a water-height gauge just in front of it, sampled at
+// 1 kHz (DFSPH: every step, its steps being longer). From the front's arrival on: the peak
+// pressure, how many samples read 0 (WCSPH clamps negative pressure of a thin sheet to 0) or dry,
+// and the pressure against the hydrostatic value rho g (h - z) of the local water height h, over
+// the whole impact and over its last 0.1 s. The time runs to T = t sqrt(2 g / a) = 7.5, after the
+// run-up on the wall has fallen back.
+int impactPressure(const BenchOptions& opt, const std::string& scene, const SceneSpec& base) {
+  const BlockSpec& col = base.fluid.blocks.at(0);
+  const double a = col.max.x() - col.min.x();
+  const double g = base.simulation.gravity.norm();
+  const double rho0 = base.fluid.phases.at(0).rest_density;
+  const double tscale = std::sqrt(2.0 * g / a);
+  const double duration = 7.5 / tscale;
+  const double dx = spacingFor(base, static_cast<double>(opt.impact_size));
+  // The sensor: on the far wall (half a spacing in front of it, where the first fluid layer sits),
+  // mid-width, 4 cm up; the gauge 1.5 spacings in front of the wall.
+  const double x_wall = base.domain.max.x(), y_mid = 0.5 * (base.domain.min.y() + base.domain.max.y());
+  const double z_probe = base.domain.min.z() + 0.04;
+  const fs::path csv = fs::path(opt.out) / "impact_pressure.csv";
+  std::ofstream out(csv);
+  out << "# sphaptics " << SPHAPTICS_VERSION << " impact pressure: dam break, probe on the far wall at x = "
+      << x_wall << " - dx/2, z = " << z_probe << " m, 1 kHz; window: from the front's arrival to T = 7.5; "
+      << "hydrostatic = rho0 g (h - z) from a gauge 1.5 dx in front of the wall\n";
+  out << "solver,particles,dx_m,steps,arrival_s,samples,zero_samples,dry_samples,peak_Pa,peak_time_s,mean_Pa,"
+         "mean_hydrostatic_Pa,late_mean_Pa,late_hydrostatic_Pa,wall_s\n";
+  std::printf("\nImpact pressure on the far wall (z = %.3f m), from the front's arrival to t = %.3f s\n", z_probe, duration);
+  std::printf("%-6s %-9s %-6s %-9s %-8s %-6s %-5s %-9s %-8s %-9s %-9s %-9s %-9s %-8s\n", "solver", "particles", "steps",
+              "arrive s", "samples", "zero", "dry", "peak Pa", "at s", "mean Pa", "rho g h", "late Pa", "late rgh",
+              "wall s");
+  for (const char* solver : {"wcsph", "dfsph"}) {
+    RunOptions ro;
+    ro.scene = scene;
+    ro.device = opt.device;
+    ro.quiet = true;
+    ro.write_output = false;
+    ro.sets = {"fluid.particle_spacing=" + fmtd(dx, 9), std::string("fluid.solver=") + solver,
+               "simulation.numerical_errors=warn", "output.isosurface.enabled=false", "probes.rate=1000",
+               "probes.points=[{name: far_wall, position: [" + fmtd(x_wall - 0.5 * dx, 6) + ", " + fmtd(y_mid, 6) +
+                   ", " + fmtd(z_probe, 6) + "]}]",
+               "probes.gauges=[{name: far_depth, position: [" + fmtd(x_wall - 1.5 * dx, 6) + ", " + fmtd(y_mid, 6) +
+                   ", " + fmtd(base.domain.min.z(), 6) + "]}]"};
+    ro.duration = duration;
+    std::vector<ProbeSample> samples;
+    auto collect = [&](Simulation& sim, const FrameReport&) {
+      if (samples.empty()) sim.recordProbeSamples(true);  // from the first frame's end on (the front is far)
+      for (ProbeSample& s : sim.takeProbeSamples()) samples.push_back(std::move(s));
+    };
+    const RunResult r = runScene(ro, collect);
+    if (r.exit_code != 0) throw std::runtime_error("impact run failed: " + r.message);
+    // The window opens at the first wet sample (the front's arrival).
+    double arrival = NAN, peak = 0, peak_t = NAN, sum_p = 0, sum_h = 0, late_p = 0, late_h = 0;
+    int n = 0, zero = 0, dry = 0, n_mean = 0, n_late = 0;
+    for (const ProbeSample& s : samples) {
+      const double p = s.points.at(0).pressure, h = s.heights.at(0);
+      if (std::isnan(arrival)) {
+        if (std::isnan(p)) continue;
+        arrival = s.time;
+      }
+      ++n;
+      if (std::isnan(p)) {
+        ++dry;
+        continue;
+      }
+      if (p <= 0.0) ++zero;
+      if (p > peak) peak = p, peak_t = s.time;
+      const double hydro = rho0 * g * std::max(0.0, h - (z_probe - base.domain.min.z()));
+      sum_p += p, sum_h += hydro, ++n_mean;
+      if (s.time >= duration - 0.1) late_p += p, late_h += hydro, ++n_late;
+    }
+    const double mean_p = n_mean ? sum_p / n_mean : NAN, mean_h = n_mean ? sum_h / n_mean : NAN;
+    const double lp = n_late ? late_p / n_late : NAN, lh = n_late ? late_h / n_late : NAN;
+    out << solver << "," << r.particles << "," << dx << "," << r.profile.steps << "," << arrival << "," << n << ","
+        << zero << "," << dry << "," << peak << "," << peak_t << "," << mean_p << "," << mean_h << "," << lp << ","
+        << lh << "," << r.wall_seconds << "\n";
+    std::printf("%-6s %-9zu %-6llu %-9.3f %-8d %-6d %-5d %-9.0f %-8.3f %-9.0f %-9.0f %-9.0f %-9.0f %-8.1f\n", solver,
+                r.particles, static_cast<unsigned long long>(r.profile.steps), arrival, n, zero, dry, peak, peak_t,
+                mean_p, mean_h, lp, lh, r.wall_seconds);
+    std::fflush(stdout);
+  }
+  std::cout << "wrote " << csv.string() << " (wall times on this machine; a shared machine adds noise)\n";
+  return kExitOk;
+}
 }  // namespace
 
 int benchCommand(const BenchOptions& opt) {
@@ -228,6 +314,7 @@ int benchCommand(const BenchOptions& opt) {
     const std::string scene = sourcePath("scenes/dam_break.yaml");
     const SceneSpec base = io::loadScene(scene);
     std::cout << "benchmark scene: " << scene << "\n";
+    if (opt.impact_only) return impactPressure(opt, scene, base);
 
     // ---- 1. Speed -------------------------------------------------------------------------
     if (!opt.accuracy_only && !opt.iso_only) {
@@ -356,6 +443,7 @@ int benchCommand(const BenchOptions& opt) {
                               (fs::path(opt.out) / "accuracy.png").string();
       if (std::system(cmd.c_str()) != 0)
         std::cerr << "note: plotting failed (needs python3-matplotlib); run: " << cmd << "\n";
+      if (opt.impact) impactPressure(opt, scene, base);  // 6. the wall pressure of both solvers at impact
     }
     // ---- 3. Isosurface cost ----------------------------------------------------------------
     if (opt.iso && !opt.accuracy_only) {

@@ -131,6 +131,12 @@ int main(int argc, char** argv) {
   cmd_bench->add_flag("!--no-forces", bench.forces, "Skip the force checks");
   cmd_bench->add_option("--force-solvers", bench.force_solvers, "fluid.solver values for the force checks (wcsph, dfsph)")
       ->capture_default_str();
+  cmd_bench->add_flag("--impact-only", bench.impact_only,
+                      "Only the impact pressure on the far wall of the dam break (wcsph and dfsph)");
+  cmd_bench->add_flag("!--no-impact", bench.impact, "Skip the impact pressure table");
+  cmd_bench->add_option("--impact-size", bench.impact_size, "Particles of the impact pressure runs")
+      ->check(CLI::Range(1000L, 10000000L))
+      ->capture_default_str();
 
   // compare
   app::CompareOptions compare;

@@ -13,6 +13,7 @@
 #include "tests/run_binary.h"
 #include "tests/scene_issues.h"
 #include "tests/temp_dir.h"
+#include "tests/three_balls.h"
 
 #include <catch2/catch.hpp>
 
@@ -658,33 +659,8 @@ TEST_CASE("Contact: bodies resting on the floor stay put, and a dropped ball bou
 }
 
 TEST_CASE("Coupling: three balls of density 500, 1000 and 4000 kg/m^3 order themselves by density", "[rigid]") {
-  // scenes/tests/three_balls.yaml: balls of radius r = 2.5 cm dropped from 18 cm into water 12 cm
-  // deep (dx = 1.5 cm, a coarse test). After 1.2 s: light above neutral above heavy; the light one
-  // floats at the surface (its centre within r of the water level, 12 cm plus the ~0.6 cm the
-  // submerged balls raise it); the heavy one lies on the floor with at most one particle layer
-  // under it (bottom within 1.5 dx of the floor), carried by floor contact and fluid together
-  // (their sum within 10 % of its weight: it has come to rest).
-  app::RunOptions o;
-  o.scene = (kSourceDir / "scenes" / "tests" / "three_balls.yaml").string();
-  o.quiet = true;
-  o.write_output = false;
-  std::vector<rigid::BodyState> end;
-  double heavy_weight = 0;
-  const app::RunResult r = app::runScene(o, [&](Simulation& sim, const FrameReport&) {
-    end = sim.bodies();
-    heavy_weight = sim.model().bodies[2].mass * 9.81;
-  });
-  REQUIRE(r.exit_code == 0);
-  REQUIRE(end.size() == 3);
-  const double radius = 0.025, dx = 0.015, level = 0.12 + 0.006;
-  INFO("centres z: light " << end[0].x.z() << ", neutral " << end[1].x.z() << ", heavy " << end[2].x.z()
-                           << " m; heavy: fluid " << end[2].fluid_force.z() << " N + contact "
-                           << end[2].contact_force.z() << " N, weight " << heavy_weight << " N");
-  CHECK(end[0].x.z() > end[1].x.z());
-  CHECK(end[1].x.z() > end[2].x.z());
-  CHECK(std::abs(end[0].x.z() - level) < radius);
-  CHECK(end[2].x.z() - radius < 1.5 * dx);
-  CHECK(std::abs(end[2].fluid_force.z() + end[2].contact_force.z() - heavy_weight) < 0.1 * heavy_weight);
+  // The scene and criterion in tests/three_balls.h (shared with the DFSPH test).
+  testing::checkThreeBallsOrder({});
 }
 
 TEST_CASE("Fluid placed inside or against a body is removed at compile time", "[rigid]") {
