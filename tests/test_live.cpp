@@ -21,6 +21,8 @@
 #include <sstream>
 #include <string>
 #include <chrono>
+#include <condition_variable>
+#include <mutex>
 #include <cmath>
 #include <thread>
 #include <vector>
@@ -240,12 +242,42 @@ TEST_CASE("Live window: the mailbox hands the renderer the newest frame, and pub
   CHECK(box.published() == 3);
 }
 
-TEST_CASE("Live window: a renderer that stalls 200 ms per frame does not slow the simulation", "[live]") {
-  // haptic_drag.yaml for 0.3 s (18 frames, about 1.5 s of wall time here), run without a window and
-  // with a renderer stub that takes the newest frame, keeps it for 200 ms ("drawing") and comes
-  // back. The simulation publishes every frame (particles read back, bodies, device) and must keep
-  // 90 % of its frame rate. The machine is shared, so the runs alternate and each side's best of
-  // three is compared (the least disturbed run of each).
+TEST_CASE("Live window: a renderer that stalls does not stop or slow the simulation", "[live]") {
+  // haptic_drag.yaml for 0.3 s (18 frames). Two renderer stubs take the newest frame from the
+  // mailbox and keep it ("drawing"):
+  // 1. One that never comes back while the run lasts: if publishing ever waited for the renderer,
+  //    the run could only end after the stub gives up (60 s). Timing-free: the run must end first,
+  //    with every frame published.
+  // 2. One that keeps each frame 200 ms: the simulation must keep its frame rate. The machine is
+  //    shared (CI runs tests side by side), so the runs alternate and each side's best of three is
+  //    compared with a bound of 0.75: a simulation that waited for such a renderer would run at
+  //    about a third of its rate (measured once with a waiting mailbox: 5.1 against 14.9 frames/s).
+  {
+    app::RunOptions o = sph::testing::quietRun("haptic_drag.yaml");
+    o.duration = 0.3;
+    o.duration_given = true;
+    o.live_link = std::make_shared<LiveLink>();
+    std::mutex m;
+    std::condition_variable cv;
+    bool run_over = false, gave_up = false;
+    std::shared_ptr<const LiveFrame> held;
+    std::thread stub([&, link = o.live_link] {
+      while (!(held = link->mailbox.latest())) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+      std::unique_lock<std::mutex> lock(m);
+      gave_up = !cv.wait_for(lock, std::chrono::seconds(60), [&] { return run_over; });
+    });
+    const app::RunResult r = app::runScene(o);
+    {
+      std::lock_guard<std::mutex> lock(m);
+      run_over = true;
+    }
+    cv.notify_all();
+    stub.join();
+    REQUIRE(r.exit_code == 0);
+    CHECK_FALSE(gave_up);  // the run ended while the renderer still held its first frame
+    CHECK(held != nullptr);
+    CHECK(o.live_link->mailbox.published() == static_cast<uint64_t>(r.frames + 1));  // frame 0 and every frame after
+  }
   int drawn_total = 0;
   auto frames_per_second = [&](bool renderer) {
     app::RunOptions o = sph::testing::quietRun("haptic_drag.yaml");
@@ -271,10 +303,7 @@ TEST_CASE("Live window: a renderer that stalls 200 ms per frame does not slow th
     done = true;
     if (stub.joinable()) stub.join();
     REQUIRE(r.exit_code == 0);
-    if (renderer) {
-      CHECK(o.live_link->mailbox.published() == static_cast<uint64_t>(r.frames + 1));  // frame 0 and every frame after
-      drawn_total += drawn;
-    }
+    if (renderer) drawn_total += drawn;
     return r.frames / r.loop_seconds;
   };
   std::vector<double> base, with;
@@ -286,7 +315,7 @@ TEST_CASE("Live window: a renderer that stalls 200 ms per frame does not slow th
                                       << with[0] << ", " << with[1] << ", " << with[2] << "; frames the renderer took "
                                       << drawn_total);
   CHECK(drawn_total >= 2);
-  CHECK(*std::max_element(with.begin(), with.end()) >= 0.9 * *std::max_element(base.begin(), base.end()));
+  CHECK(*std::max_element(with.begin(), with.end()) >= 0.75 * *std::max_element(base.begin(), base.end()));
 }
 
 TEST_CASE("Live window: under Xvfb the window over a run shows the water, the device cursor and the grasp point",
