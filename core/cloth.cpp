@@ -24,6 +24,22 @@ Eigen::Matrix3d rotation(const ClothSpec& c) {
 
 }  // namespace
 
+Eigen::Vector3d AnchorTrack::offsetAt(double t) const {
+  if (time.empty()) return Eigen::Vector3d::Zero();
+  if (t <= time.front()) return offset.front();
+  if (t >= time.back()) return offset.back();
+  // The segment [t_k, t_k+1) holding t: linear interpolation.
+  const std::size_t k = static_cast<std::size_t>(std::upper_bound(time.begin(), time.end(), t) - time.begin()) - 1;
+  const double s = (t - time[k]) / (time[k + 1] - time[k]);
+  return offset[k] + s * (offset[k + 1] - offset[k]);
+}
+
+Eigen::Vector3d AnchorTrack::velocityAt(double t) const {
+  if (time.size() < 2 || t < time.front() || t >= time.back()) return Eigen::Vector3d::Zero();
+  const std::size_t k = static_cast<std::size_t>(std::upper_bound(time.begin(), time.end(), t) - time.begin()) - 1;
+  return (offset[k + 1] - offset[k]) / (time[k + 1] - time[k]);
+}
+
 std::vector<Eigen::Vector3d> nodePositions(const ClothSpec& c) {
   const int nx = std::max(1, c.resolution_x), ny = std::max(1, c.resolution_y);
   const double sx = spacing(c.width, nx), sy = spacing(c.length, ny);
@@ -141,10 +157,20 @@ ClothModel compileCloths(const std::vector<ClothSpec>& specs, std::vector<InputI
         if (a.type == AnchorType::Box) msg << " (no node lies inside the box)";
         fail(a.loc, msg.str());
       }
+      // Keyframed: the nodes point at a track (w = -(track + 1); stop times are >= 0).
+      float w = std::isinf(a.stop) ? std::numeric_limits<float>::max() : float(a.stop);
+      if (!a.keyframes.empty() && !nodes.empty()) {
+        AnchorTrack track;
+        for (const AnchorKeyframeSpec& key : a.keyframes) {
+          track.time.push_back(key.time);
+          track.offset.push_back(key.offset);
+        }
+        m.tracks.push_back(std::move(track));
+        w = -float(m.tracks.size());
+      }
       for (uint32_t k : nodes) {
         pinned[k] = true;
-        anchor[k] = Eigen::Vector4f(float(a.velocity.x()), float(a.velocity.y()), float(a.velocity.z()),
-                                    std::isinf(a.stop) ? std::numeric_limits<float>::max() : float(a.stop));
+        anchor[k] = Eigen::Vector4f(float(a.velocity.x()), float(a.velocity.y()), float(a.velocity.z()), w);
       }
     }
     for (uint32_t k = 0; k < n; ++k) {
@@ -281,6 +307,11 @@ ClothSim::ClothSim(const ClothModel& model, ClContext& cl, KernelSet& kernels) :
   mass_ = upload(m_.mass);
   drag_ = upload(m_.drag);
   anchor_ = upload(m_.anchor);
+  // Keyframed anchors: placed positions and one (offset, velocity) pair per track (at least one
+  // entry, so that the kernels always get a buffer).
+  x_rest_ = upload(m_.x0);
+  track_host_.assign(2 * std::max<std::size_t>(1, m_.tracks.size()), Eigen::Vector4f::Zero());
+  track_ = upload(track_host_);
   std::vector<uint32_t> is_xpbd(n_);
   for (uint32_t i = 0; i < n_; ++i) is_xpbd[i] = m_.xpbd[m_.cloth_of[i]];
   is_xpbd_ = upload(is_xpbd);
@@ -334,7 +365,10 @@ std::vector<Eigen::Vector3d> ClothSim::step(double t, double dt, const Eigen::Ve
     for (int k = 0; k < last_substeps_; ++k) explicitSubstep(t + k * h, float(h), g4, fext);
   }
   // XPBD cloths: one step of dt, `iterations` coloured Gauss-Seidel sweeps.
-  if (any_xpbd_) xpbdStep(t, float(dt), g4, fext, ns);
+  if (any_xpbd_) {
+    uploadTracks(t + dt);
+    xpbdStep(t, float(dt), g4, fext, ns);
+  }
   last_dt_ = dt;
   if (m_.any_tear) tear();
   if (ns == 0) return J;
@@ -353,11 +387,26 @@ std::vector<Eigen::Vector3d> ClothSim::step(double t, double dt, const Eigen::Ve
   return J;
 }
 
+// Keyframed anchors at the end of a step: offset and velocity per track (double on the host, in
+// scene order), uploaded before the step's kernels (blocking: the host copy is reused).
+void ClothSim::uploadTracks(double t_end) {
+  if (m_.tracks.empty()) return;
+  for (std::size_t k = 0; k < m_.tracks.size(); ++k) {
+    const Eigen::Vector3f o = m_.tracks[k].offsetAt(t_end).cast<float>(), v = m_.tracks[k].velocityAt(t_end).cast<float>();
+    track_host_[2 * k] = Eigen::Vector4f(o.x(), o.y(), o.z(), 0.0f);
+    track_host_[2 * k + 1] = Eigen::Vector4f(v.x(), v.y(), v.z(), 0.0f);
+  }
+  clCall("uploading the anchor tracks", [&] {
+    return cl_.queue().enqueueWriteBuffer(track_, CL_TRUE, 0, track_host_.size() * 16, track_host_.data());
+  });
+}
+
 void ClothSim::explicitSubstep(double t, float dt, const Eigen::Vector4f& g, const cl::Buffer& fext) {
   const int nxt = 1 - cur_;
+  uploadTracks(t + dt);
   const cl_float4 g4{{g.x(), g.y(), g.z(), 0.0f}};
-  k_.call("cloth_explicit_step", n_, 64, n_, dt, float(t), g4, x_[cur_], v_[cur_], mass_, drag_, anchor_, is_xpbd_,
-          row_start_, spring_, other_, prm_, broken_, fext, x_[nxt], v_[nxt]);
+  k_.call("cloth_explicit_step", n_, 64, n_, dt, float(t), g4, x_[cur_], v_[cur_], mass_, drag_, anchor_, x_rest_, track_,
+          is_xpbd_, row_start_, spring_, other_, prm_, broken_, fext, x_[nxt], v_[nxt]);
   // XPBD nodes were copied through unchanged: both halves stay whole.
   cur_ = nxt;
 }
@@ -365,8 +414,8 @@ void ClothSim::explicitSubstep(double t, float dt, const Eigen::Vector4f& g, con
 void ClothSim::xpbdStep(double t, float dt, const Eigen::Vector4f& g, const cl::Buffer& fext, uint32_t n_spheres) {
   const cl_float4 g4{{g.x(), g.y(), g.z(), 0.0f}};
   // Predict x* = x + dt v + dt^2 (g + f/m), remember x, clear the multipliers.
-  k_.call("cloth_xpbd_predict", n_, 64, n_, dt, float(t), g4, x_[cur_], v_[cur_], mass_, drag_, anchor_, is_xpbd_,
-          row_start_, fext, prev_, lambda_);
+  k_.call("cloth_xpbd_predict", n_, 64, n_, dt, float(t), g4, x_[cur_], v_[cur_], mass_, drag_, anchor_, x_rest_,
+          track_, is_xpbd_, row_start_, fext, prev_, lambda_);
   // Coloured Gauss-Seidel: per colour one gather pass, ping-ponging the positions.
   // Balls: the projections of this step add up per node and sphere (shift), from zero.
   if (n_spheres > 0)
@@ -384,7 +433,7 @@ void ClothSim::xpbdStep(double t, float dt, const Eigen::Vector4f& g, const cl::
     if (n_spheres > 0) k_.call("cloth_sphere_project", n_, 64, n_, n_spheres, spheres_, is_xpbd_, x_[cur_], shift_);
   }
   // Velocities from the positions (anchored nodes: their scripted velocity).
-  k_.call("cloth_xpbd_velocity", n_, 64, n_, dt, float(t), x_[cur_], prev_, anchor_, is_xpbd_, v_[cur_]);
+  k_.call("cloth_xpbd_velocity", n_, 64, n_, dt, float(t), x_[cur_], prev_, anchor_, track_, is_xpbd_, v_[cur_]);
 }
 
 std::vector<Eigen::Vector3d> ClothSim::collideSpheres(const std::vector<SphereCollider>& spheres) {

@@ -216,8 +216,17 @@ struct OutputSpec {
   SourceLoc loc;
 };
 
+/// One key of a keyframed cloth anchor: the anchored nodes' displacement from where they were
+/// placed, at `time`. Between keys the offset is linear in time; before the first key it is the
+/// first key's offset, after the last the last key's (held).
+struct AnchorKeyframeSpec {
+  double time = 0.0;                                ///< (unit: s)
+  Eigen::Vector3d offset{0.0, 0.0, 0.0};            ///< displacement from the placed position, world frame (unit: m)
+  SourceLoc loc;
+};
+
 /// One set of anchored (pinned) cloth nodes. Anchored nodes have infinite mass: they follow their
-/// scripted motion (constant velocity) whatever the springs and the fluid do.
+/// scripted motion (constant velocity, or keyframes) whatever the springs and the fluid do.
 struct ClothAnchorSpec {
   AnchorType type = AnchorType::Corners;            ///< corners (all four), edge, node (i, j) or box (min, max)
   ClothEdge edge = ClothEdge::YMax;                 ///< type edge: which edge of the rectangle (cloth frame)
@@ -227,6 +236,7 @@ struct ClothAnchorSpec {
   Eigen::Vector3d max{0.0, 0.0, 0.0};               ///< type box: upper corner, world frame (unit: m)
   Eigen::Vector3d velocity{0.0, 0.0, 0.0};          ///< velocity of the anchored nodes until `stop` (unit: m/s)
   double stop = std::numeric_limits<double>::infinity();  ///< the anchors stop moving at this time (unit: s)
+  std::vector<AnchorKeyframeSpec> keyframes;        ///< instead of velocity: a piecewise-linear path, times strictly increasing
   SourceLoc loc;
 };
 

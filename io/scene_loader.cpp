@@ -732,6 +732,31 @@ class Loader {
 
     checkBodies(spec);
     checkProbes(spec);
+    checkAnchorKeyframes(spec);
+  }
+
+  // Keyframed cloth anchors: keyframes replace velocity / stop (not both), need at least one key,
+  // and their times strictly increase.
+  void checkAnchorKeyframes(const SceneSpec& spec) {
+    for (std::size_t c = 0; c < spec.cloth.size(); ++c)
+      for (std::size_t a = 0; a < spec.cloth[c].anchors.size(); ++a) {
+        const std::string item = indexed(indexed("cloth", c) + ".anchors", a), list = item + ".keyframes";
+        if (!marks_.count(list) || !usable(list)) continue;
+        const auto& keys = spec.cloth[c].anchors[a].keyframes;
+        for (const char* k : {".velocity", ".stop"})
+          if (marks_.count(item + k))
+            issue(item + k, markOf(item + k),
+                  "'" + item + k + "' and '" + list + "' both given: an anchor moves either at a constant velocity or "
+                  "along keyframes, not both");
+        if (keys.empty()) issue(list, markOf(list), "'" + list + "' needs at least 1 key");
+        for (std::size_t k = 1; k < keys.size(); ++k) {
+          const std::string key = indexed(list, k);
+          if (given(key + ".time") && given(indexed(list, k - 1) + ".time") && !(keys[k].time > keys[k - 1].time))
+            issue(key + ".time", markOf(key + ".time"),
+                  "'" + key + ".time' = " + numberText(keys[k].time) + " must be greater than the previous key's time " +
+                      numberText(keys[k - 1].time) + " (keyframe times strictly increase)");
+        }
+      }
   }
 
   // Probes and gauges: names unique across both lists, and made of letters, digits, '_' and '-'
