@@ -12,6 +12,7 @@
 
 #include <Eigen/Core>
 
+#include <algorithm>
 #include <array>
 #include <limits>
 #include <string>
@@ -265,6 +266,15 @@ struct ClothSpec {
   double prestrain = 0.0;                           ///< placed stretched: rest length = placed length / (1 + prestrain) (unit: 1)
   Eigen::Vector3d colour{0.8, 0.3, 0.3};            ///< linear RGB in [0,1]
   std::vector<ClothAnchorSpec> anchors;             ///< pinned nodes
+  std::string mesh;                                 ///< OBJ triangle mesh instead of the rectangle (relative to the scene file; absolute after loading); empty = rectangle
+  SourceLoc mesh_loc;                               ///< where `mesh` was given
+  TriMesh mesh_data;                                ///< the welded mesh in the cloth frame (filled by io::loadScene; not a key)
+  /// Whether the cloth is a triangle mesh (else the rectangle grid).
+  bool isMesh() const { return !mesh_data.triangles.empty(); }
+  /// Its node count: the mesh's vertices, or resolution_x x resolution_y (unit: 1).
+  double nodeCount() const {
+    return isMesh() ? double(mesh_data.positions.size()) : std::max(1.0, double(resolution_x)) * std::max(1.0, double(resolution_y));
+  }
   SourceLoc loc;
 };
 

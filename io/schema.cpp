@@ -547,7 +547,7 @@ std::vector<KeyDef> buildTable() {
 
   // cloth: anchored mass-spring nets (core/cloth.h) ------------------------------------------
   add(list<InCloths>("cloth").defaultNote("[]")
-          .doc("cloths: rectangular mass-spring nets (stretch, shear, bend springs); x_world = position + R(axis, angle) x_cloth"));
+          .doc("cloths: rectangular (or OBJ mesh) mass-spring nets (stretch, shear, bend springs); x_world = position + R(axis, angle) x_cloth"));
   add(field<InCloths>("cloth[].name", [](auto& c) -> auto& { return c.name; })
           .required().doc("unique cloth name (output files cloth_<name>_NNNN.obj)"));
   add(field<InCloths>("cloth[].width", [](auto& c) -> auto& { return c.width; })
@@ -588,6 +588,10 @@ std::vector<KeyDef> buildTable() {
                                              "(skin's natural tension, which makes a cut gape)"));
   add(field<InCloths>("cloth[].colour", [](auto& c) -> auto& { return c.colour; })
           .unit("1").atLeast(0).atMost(1).doc("linear RGB colour, each component in [0, 1]"));
+  add(field<InCloths>("cloth[].mesh", [](auto& c) -> auto& { return c.mesh; })
+          .doc("OBJ triangle mesh (relative to the scene file) instead of the rectangle: nodes at its vertices (placed by "
+               "position / orientation), mass areal_density x a third of the adjacent triangles' area, stretch springs "
+               "along edges, bend springs across interior edges; every edge in at most 2 triangles"));
   add(nestedList<InAnchors>("cloth[].anchors").defaultNote("[]")
           .doc("pinned nodes (infinite mass), moving at a constant velocity or along keyframes"));
   add(field<InAnchors>("cloth[].anchors[].type", [](auto& a) -> auto& { return a.type; })
@@ -595,7 +599,7 @@ std::vector<KeyDef> buildTable() {
   add(field<InAnchors>("cloth[].anchors[].edge", [](auto& a) -> auto& { return a.edge; })
           .doc("type edge: the edge of the rectangle, in the cloth frame"));
   add(field<InAnchors>("cloth[].anchors[].i", [](auto& a) -> auto& { return a.i; })
-          .unit("1").doc("type node: node index along the cloth x axis, 0 .. resolution_x - 1"));
+          .unit("1").doc("type node: node index along the cloth x axis, 0 .. resolution_x - 1 (mesh cloth: the vertex index, 0-based)"));
   add(field<InAnchors>("cloth[].anchors[].j", [](auto& a) -> auto& { return a.j; })
           .unit("1").doc("type node: node index along the cloth y axis, 0 .. resolution_y - 1"));
   add(field<InAnchors>("cloth[].anchors[].min", [](auto& a) -> auto& { return a.min; })
