@@ -8,6 +8,7 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <sstream>
 
 namespace sph::cloth {
@@ -24,7 +25,31 @@ Eigen::Matrix3d rotation(const ClothSpec& c) {
 
 }  // namespace
 
+Eigen::Vector3d AnchorTrack::offsetAt(double t) const {
+  if (time.empty()) return Eigen::Vector3d::Zero();
+  if (t <= time.front()) return offset.front();
+  if (t >= time.back()) return offset.back();
+  // The segment [t_k, t_k+1) holding t: linear interpolation.
+  const std::size_t k = static_cast<std::size_t>(std::upper_bound(time.begin(), time.end(), t) - time.begin()) - 1;
+  const double s = (t - time[k]) / (time[k + 1] - time[k]);
+  return offset[k] + s * (offset[k + 1] - offset[k]);
+}
+
+Eigen::Vector3d AnchorTrack::velocityAt(double t) const {
+  if (time.size() < 2 || t < time.front() || t >= time.back()) return Eigen::Vector3d::Zero();
+  const std::size_t k = static_cast<std::size_t>(std::upper_bound(time.begin(), time.end(), t) - time.begin()) - 1;
+  return (offset[k + 1] - offset[k]) / (time[k + 1] - time[k]);
+}
+
 std::vector<Eigen::Vector3d> nodePositions(const ClothSpec& c) {
+  // A mesh cloth: its vertices, placed like a body (x_world = position + R x_mesh).
+  if (c.isMesh()) {
+    const Eigen::Matrix3d R = rotation(c);
+    std::vector<Eigen::Vector3d> x;
+    x.reserve(c.mesh_data.positions.size());
+    for (const Eigen::Vector3f& p : c.mesh_data.positions) x.push_back(c.position + R * p.cast<double>());
+    return x;
+  }
   const int nx = std::max(1, c.resolution_x), ny = std::max(1, c.resolution_y);
   const double sx = spacing(c.width, nx), sy = spacing(c.length, ny);
   const Eigen::Matrix3d R = rotation(c);
@@ -45,16 +70,23 @@ std::vector<uint32_t> anchoredNodes(const ClothSpec& c, const ClothAnchorSpec& a
   std::vector<uint32_t> out;
   switch (a.type) {
     case AnchorType::Corners:
+      if (c.isMesh()) break;  // rectangle only (compileCloths reports it)
       for (int j : {0, ny - 1})
         for (int i : {0, nx - 1}) out.push_back(id(i, j));
       break;
     case AnchorType::Edge:
+      if (c.isMesh()) break;
       if (a.edge == ClothEdge::XMin || a.edge == ClothEdge::XMax)
         for (int j = 0; j < ny; ++j) out.push_back(id(a.edge == ClothEdge::XMin ? 0 : nx - 1, j));
       else
         for (int i = 0; i < nx; ++i) out.push_back(id(i, a.edge == ClothEdge::YMin ? 0 : ny - 1));
       break;
     case AnchorType::Node:
+      // A mesh cloth: vertex index i.
+      if (c.isMesh()) {
+        if (a.i >= 0 && static_cast<std::size_t>(a.i) < x.size() && a.j == 0) out.push_back(static_cast<uint32_t>(a.i));
+        break;
+      }
       if (a.i >= 0 && a.i < nx && a.j >= 0 && a.j < ny) out.push_back(id(a.i, a.j));
       break;
     case AnchorType::Box:
@@ -81,7 +113,7 @@ std::string nodeBudgetMessage(const ClothSpec& s, int nx, int ny) {
 bool checkNodeBudget(const std::vector<ClothSpec>& specs, std::vector<InputIssue>& issues) {
   double total = 0;
   for (const ClothSpec& s : specs) {
-    total += std::max(1.0, double(s.resolution_x)) * std::max(1.0, double(s.resolution_y));
+    total += s.nodeCount();
     if (total > kMaxNodes) {
       issues.push_back(InputIssue{s.loc.file, s.loc.line, s.loc.col, nodeBudgetMessage(s, s.resolution_x, s.resolution_y)});
       return false;
@@ -102,13 +134,13 @@ ClothModel compileCloths(const std::vector<ClothSpec>& specs, std::vector<InputI
     const ClothSpec& s = specs[c];
     for (std::size_t d = 0; d < c; ++d)
       if (specs[d].name == s.name) fail(s.loc, "duplicate cloth name '" + s.name + "'");
-    if (s.resolution_x < 1 || s.resolution_y < 1) {
+    if (!s.isMesh() && (s.resolution_x < 1 || s.resolution_y < 1)) {
       fail(s.loc, "cloth '" + s.name + "': resolution must be at least 1 x 1 nodes");
       continue;
     }
     const int nx = s.resolution_x, ny = s.resolution_y;
     // Bounded resources: about 400 bytes of tables per node (host and device alike).
-    if (static_cast<double>(nx) * ny + static_cast<double>(m.x0.size()) > kMaxNodes) {
+    if (s.nodeCount() + static_cast<double>(m.x0.size()) > kMaxNodes) {
       fail(s.loc, nodeBudgetMessage(s, nx, ny));
       continue;
     }
@@ -127,8 +159,25 @@ ClothModel compileCloths(const std::vector<ClothSpec>& specs, std::vector<InputI
     m.xpbd.push_back(s.solver == ClothSolver::Xpbd ? 1 : 0);
     m.iterations.push_back(static_cast<uint32_t>(std::max(1, s.iterations)));
 
-    // Nodes: equal masses (areal density x area / nodes); anchored nodes get inverse mass 0.
-    const double node_mass = s.areal_density * s.width * s.length / n;
+    // Nodes: equal masses (areal density x area / nodes); anchored nodes get inverse mass 0. A mesh
+    // cloth: each vertex a third of the area of its triangles (lumped mass), so the masses sum to
+    // areal density x the mesh's area.
+    std::vector<double> node_mass(n, s.areal_density * s.width * s.length / n);
+    if (s.isMesh()) {
+      std::fill(node_mass.begin(), node_mass.end(), 0.0);
+      for (const auto& t : s.mesh_data.triangles) {
+        const double area = 0.5 * (x[t[1]] - x[t[0]]).cross(x[t[2]] - x[t[0]]).norm();
+        for (uint32_t v : t) node_mass[v] += s.areal_density * area / 3.0;
+      }
+      // A vertex in no (non-degenerate) triangle would have no mass.
+      for (uint32_t k = 0; k < n; ++k)
+        if (!(node_mass[k] > 0.0)) {
+          fail(s.mesh_loc, "cloth '" + s.name + "': mesh vertex " + std::to_string(k) +
+                               " is in no triangle of nonzero area (it would have no mass)");
+          std::fill(node_mass.begin(), node_mass.end(), 1.0);
+          break;
+        }
+    }
     std::vector<Eigen::Vector4f> anchor(n, Eigen::Vector4f::Zero());
     std::vector<bool> pinned(n, false);
     for (const ClothAnchorSpec& a : s.anchors) {
@@ -136,20 +185,34 @@ ClothModel compileCloths(const std::vector<ClothSpec>& specs, std::vector<InputI
       if (nodes.empty()) {
         std::ostringstream msg;
         msg << "cloth '" << s.name << "': this anchor pins no node of the cloth";
-        if (a.type == AnchorType::Node)
+        if (s.isMesh() && (a.type == AnchorType::Corners || a.type == AnchorType::Edge))
+          msg << " (corners and edge are for the rectangle: a mesh cloth takes node (vertex i) or box anchors)";
+        else if (a.type == AnchorType::Node && s.isMesh())
+          msg << " (vertex " << a.i << ", j " << a.j << ": a mesh cloth has vertices 0.." << n - 1 << " and j 0)";
+        else if (a.type == AnchorType::Node)
           msg << " (node (" << a.i << ", " << a.j << ") is outside 0.." << nx - 1 << " x 0.." << ny - 1 << ")";
         if (a.type == AnchorType::Box) msg << " (no node lies inside the box)";
         fail(a.loc, msg.str());
       }
+      // Keyframed: the nodes point at a track (w = -(track + 1); stop times are >= 0).
+      float w = std::isinf(a.stop) ? std::numeric_limits<float>::max() : float(a.stop);
+      if (!a.keyframes.empty() && !nodes.empty()) {
+        AnchorTrack track;
+        for (const AnchorKeyframeSpec& key : a.keyframes) {
+          track.time.push_back(key.time);
+          track.offset.push_back(key.offset);
+        }
+        m.tracks.push_back(std::move(track));
+        w = -float(m.tracks.size());
+      }
       for (uint32_t k : nodes) {
         pinned[k] = true;
-        anchor[k] = Eigen::Vector4f(float(a.velocity.x()), float(a.velocity.y()), float(a.velocity.z()),
-                                    std::isinf(a.stop) ? std::numeric_limits<float>::max() : float(a.stop));
+        anchor[k] = Eigen::Vector4f(float(a.velocity.x()), float(a.velocity.y()), float(a.velocity.z()), w);
       }
     }
     for (uint32_t k = 0; k < n; ++k) {
-      m.x0.emplace_back(float(x[k].x()), float(x[k].y()), float(x[k].z()), pinned[k] ? 0.0f : float(1.0 / node_mass));
-      m.mass.push_back(float(node_mass));
+      m.x0.emplace_back(float(x[k].x()), float(x[k].y()), float(x[k].z()), pinned[k] ? 0.0f : float(1.0 / node_mass[k]));
+      m.mass.push_back(float(node_mass[k]));
       m.drag.push_back(float(s.air_damping));
       m.anchor.push_back(anchor[k]);
       m.cloth_of.push_back(static_cast<uint32_t>(c));
@@ -168,7 +231,27 @@ ClothModel compileCloths(const std::vector<ClothSpec>& specs, std::vector<InputI
       m.prm.emplace_back(float(L0), float(k), float(s.damping), float(tear));
       m.kind.push_back(kind);
     };
-    for (int j = 0; j < ny; ++j)
+    // A mesh cloth: stretch springs along its edges, bend springs across each interior edge
+    // (between the two vertices opposite it), in the order of the edges (sorted by their ends).
+    if (s.isMesh()) {
+      auto addNodes = [&](uint32_t a, uint32_t b, double k, SpringKind kind) {
+        if (k <= 0.0) return;
+        const double L0 = (x[a] - x[b]).norm() / (1.0 + s.prestrain);
+        ends.push_back({base + std::min(a, b), base + std::max(a, b)});
+        m.prm.emplace_back(float(L0), float(k), float(s.damping), float(tear));
+        m.kind.push_back(kind);
+      };
+      std::map<std::pair<uint32_t, uint32_t>, std::vector<uint32_t>> opposite;
+      for (const auto& t : s.mesh_data.triangles)
+        for (int e = 0; e < 3; ++e) {
+          const uint32_t a = t[e], b = t[(e + 1) % 3];
+          opposite[{std::min(a, b), std::max(a, b)}].push_back(t[(e + 2) % 3]);
+        }
+      for (const auto& [edge, opp] : opposite) addNodes(edge.first, edge.second, s.stretch_stiffness, kStretch);
+      for (const auto& [edge, opp] : opposite)
+        if (opp.size() == 2 && opp[0] != opp[1]) addNodes(opp[0], opp[1], s.bend_stiffness, kBend);
+    }
+    for (int j = 0; j < ny && !s.isMesh(); ++j)
       for (int i = 0; i < nx; ++i) {
         add(i, j, i + 1, j, s.stretch_stiffness, kStretch);
         add(i, j, i, j + 1, s.stretch_stiffness, kStretch);
@@ -281,6 +364,11 @@ ClothSim::ClothSim(const ClothModel& model, ClContext& cl, KernelSet& kernels) :
   mass_ = upload(m_.mass);
   drag_ = upload(m_.drag);
   anchor_ = upload(m_.anchor);
+  // Keyframed anchors: placed positions and one (offset, velocity) pair per track (at least one
+  // entry, so that the kernels always get a buffer).
+  x_rest_ = upload(m_.x0);
+  track_host_.assign(2 * std::max<std::size_t>(1, m_.tracks.size()), Eigen::Vector4f::Zero());
+  track_ = upload(track_host_);
   std::vector<uint32_t> is_xpbd(n_);
   for (uint32_t i = 0; i < n_; ++i) is_xpbd[i] = m_.xpbd[m_.cloth_of[i]];
   is_xpbd_ = upload(is_xpbd);
@@ -334,7 +422,10 @@ std::vector<Eigen::Vector3d> ClothSim::step(double t, double dt, const Eigen::Ve
     for (int k = 0; k < last_substeps_; ++k) explicitSubstep(t + k * h, float(h), g4, fext);
   }
   // XPBD cloths: one step of dt, `iterations` coloured Gauss-Seidel sweeps.
-  if (any_xpbd_) xpbdStep(t, float(dt), g4, fext, ns);
+  if (any_xpbd_) {
+    uploadTracks(t + dt);
+    xpbdStep(t, float(dt), g4, fext, ns);
+  }
   last_dt_ = dt;
   if (m_.any_tear) tear();
   if (ns == 0) return J;
@@ -353,11 +444,26 @@ std::vector<Eigen::Vector3d> ClothSim::step(double t, double dt, const Eigen::Ve
   return J;
 }
 
+// Keyframed anchors at the end of a step: offset and velocity per track (double on the host, in
+// scene order), uploaded before the step's kernels (blocking: the host copy is reused).
+void ClothSim::uploadTracks(double t_end) {
+  if (m_.tracks.empty()) return;
+  for (std::size_t k = 0; k < m_.tracks.size(); ++k) {
+    const Eigen::Vector3f o = m_.tracks[k].offsetAt(t_end).cast<float>(), v = m_.tracks[k].velocityAt(t_end).cast<float>();
+    track_host_[2 * k] = Eigen::Vector4f(o.x(), o.y(), o.z(), 0.0f);
+    track_host_[2 * k + 1] = Eigen::Vector4f(v.x(), v.y(), v.z(), 0.0f);
+  }
+  clCall("uploading the anchor tracks", [&] {
+    return cl_.queue().enqueueWriteBuffer(track_, CL_TRUE, 0, track_host_.size() * 16, track_host_.data());
+  });
+}
+
 void ClothSim::explicitSubstep(double t, float dt, const Eigen::Vector4f& g, const cl::Buffer& fext) {
   const int nxt = 1 - cur_;
+  uploadTracks(t + dt);
   const cl_float4 g4{{g.x(), g.y(), g.z(), 0.0f}};
-  k_.call("cloth_explicit_step", n_, 64, n_, dt, float(t), g4, x_[cur_], v_[cur_], mass_, drag_, anchor_, is_xpbd_,
-          row_start_, spring_, other_, prm_, broken_, fext, x_[nxt], v_[nxt]);
+  k_.call("cloth_explicit_step", n_, 64, n_, dt, float(t), g4, x_[cur_], v_[cur_], mass_, drag_, anchor_, x_rest_, track_,
+          is_xpbd_, row_start_, spring_, other_, prm_, broken_, fext, x_[nxt], v_[nxt]);
   // XPBD nodes were copied through unchanged: both halves stay whole.
   cur_ = nxt;
 }
@@ -365,8 +471,8 @@ void ClothSim::explicitSubstep(double t, float dt, const Eigen::Vector4f& g, con
 void ClothSim::xpbdStep(double t, float dt, const Eigen::Vector4f& g, const cl::Buffer& fext, uint32_t n_spheres) {
   const cl_float4 g4{{g.x(), g.y(), g.z(), 0.0f}};
   // Predict x* = x + dt v + dt^2 (g + f/m), remember x, clear the multipliers.
-  k_.call("cloth_xpbd_predict", n_, 64, n_, dt, float(t), g4, x_[cur_], v_[cur_], mass_, drag_, anchor_, is_xpbd_,
-          row_start_, fext, prev_, lambda_);
+  k_.call("cloth_xpbd_predict", n_, 64, n_, dt, float(t), g4, x_[cur_], v_[cur_], mass_, drag_, anchor_, x_rest_,
+          track_, is_xpbd_, row_start_, fext, prev_, lambda_);
   // Coloured Gauss-Seidel: per colour one gather pass, ping-ponging the positions.
   // Balls: the projections of this step add up per node and sphere (shift), from zero.
   if (n_spheres > 0)
@@ -384,7 +490,7 @@ void ClothSim::xpbdStep(double t, float dt, const Eigen::Vector4f& g, const cl::
     if (n_spheres > 0) k_.call("cloth_sphere_project", n_, 64, n_, n_spheres, spheres_, is_xpbd_, x_[cur_], shift_);
   }
   // Velocities from the positions (anchored nodes: their scripted velocity).
-  k_.call("cloth_xpbd_velocity", n_, 64, n_, dt, float(t), x_[cur_], prev_, anchor_, is_xpbd_, v_[cur_]);
+  k_.call("cloth_xpbd_velocity", n_, 64, n_, dt, float(t), x_[cur_], prev_, anchor_, track_, is_xpbd_, v_[cur_]);
 }
 
 std::vector<Eigen::Vector3d> ClothSim::collideSpheres(const std::vector<SphereCollider>& spheres) {

@@ -52,6 +52,17 @@ std::vector<Eigen::Vector3d> nodePositions(const ClothSpec& c);
 /// The nodes an anchor pins (indices into nodePositions); empty when it pins none.
 std::vector<uint32_t> anchoredNodes(const ClothSpec& c, const ClothAnchorSpec& a, const std::vector<Eigen::Vector3d>& x);
 
+/// A keyframed anchor's path (scene order of its keys): offset from the placed position.
+struct AnchorTrack {
+  std::vector<double> time;              ///< strictly increasing (unit: s)
+  std::vector<Eigen::Vector3d> offset;   ///< (unit: m)
+  /// Piecewise-linear offset at t, held before the first key and after the last (unit: m).
+  Eigen::Vector3d offsetAt(double t) const;
+  /// Its time derivative at t, right-continuous (the slope of the segment [t_k, t_k+1) holding t);
+  /// zero before the first key and from the last on (unit: m/s).
+  Eigen::Vector3d velocityAt(double t) const;
+};
+
 /// Every cloth of a scene, compiled.
 struct ClothModel {
   // Per cloth (scene order).
@@ -63,7 +74,9 @@ struct ClothModel {
   std::vector<Eigen::Vector4f> x0;       ///< initial position (unit: m); w = inverse mass (unit: 1/kg), 0 = anchored
   std::vector<float> mass;               ///< node mass (also for anchored nodes) (unit: kg)
   std::vector<float> drag;               ///< air damping (unit: 1/s)
-  std::vector<Eigen::Vector4f> anchor;   ///< anchored nodes: velocity (unit: m/s), w = stop time (unit: s)
+  std::vector<Eigen::Vector4f> anchor;   ///< anchored nodes: velocity (unit: m/s), w = stop time (unit: s);
+                                         ///< keyframed: w = -(track + 1), xyz unused
+  std::vector<AnchorTrack> tracks;       ///< keyframed anchors' paths
   std::vector<uint32_t> cloth_of;        ///< cloth index of each node
   // Compressed spring rows (each spring in both ends' rows).
   std::vector<uint32_t> row_start;       ///< (nodes + 1)
@@ -163,6 +176,7 @@ class ClothSim {
   void xpbdStep(double t, float dt, const Eigen::Vector4f& g, const cl::Buffer& fext, uint32_t n_spheres);
   void uploadSpheres(const std::vector<SphereCollider>& spheres);
   void tear();
+  void uploadTracks(double t_end);
 
   const ClothModel& m_;
   ClContext& cl_;
@@ -173,6 +187,8 @@ class ClothSim {
   int last_substeps_ = 0;
   double last_dt_ = 0.0;  // the last step's length (unit: s)
   bool any_explicit_ = false, any_xpbd_ = false;
+  cl::Buffer x_rest_, track_;  // placed positions; tracks at the step's end (offset, velocity) per track
+  std::vector<Eigen::Vector4f> track_host_;
   cl::Buffer x_[2], v_[2], prev_, mass_, drag_, anchor_, row_start_, spring_, other_, ends_, prm_, broken_, slot_,
       lambda_, zero_force_, is_xpbd_, iters_, spheres_, impulse_, impulse_sum_, shift_;
   // Cutters: triangles (3 corners each, body frame), per cutter (first triangle, count) and pose.

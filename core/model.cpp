@@ -254,7 +254,7 @@ ResourceEstimate estimateResources(const SceneSpec& spec, SourceLoc* worst) {
   }
   // Cloths: their nodes (springs, colours and coupling scale with them).
   for (const ClothSpec& c : spec.cloth) {
-    const double n = std::max(1.0, double(c.resolution_x)) * std::max(1.0, double(c.resolution_y));
+    const double n = c.nodeCount();
     e.cloth_nodes += n;
     blame(c.loc, n * kBytesPerClothNode);
   }

@@ -12,6 +12,7 @@
 
 #include <Eigen/Core>
 
+#include <algorithm>
 #include <array>
 #include <limits>
 #include <string>
@@ -216,8 +217,17 @@ struct OutputSpec {
   SourceLoc loc;
 };
 
+/// One key of a keyframed cloth anchor: the anchored nodes' displacement from where they were
+/// placed, at `time`. Between keys the offset is linear in time; before the first key it is the
+/// first key's offset, after the last the last key's (held).
+struct AnchorKeyframeSpec {
+  double time = 0.0;                                ///< (unit: s)
+  Eigen::Vector3d offset{0.0, 0.0, 0.0};            ///< displacement from the placed position, world frame (unit: m)
+  SourceLoc loc;
+};
+
 /// One set of anchored (pinned) cloth nodes. Anchored nodes have infinite mass: they follow their
-/// scripted motion (constant velocity) whatever the springs and the fluid do.
+/// scripted motion (constant velocity, or keyframes) whatever the springs and the fluid do.
 struct ClothAnchorSpec {
   AnchorType type = AnchorType::Corners;            ///< corners (all four), edge, node (i, j) or box (min, max)
   ClothEdge edge = ClothEdge::YMax;                 ///< type edge: which edge of the rectangle (cloth frame)
@@ -227,6 +237,7 @@ struct ClothAnchorSpec {
   Eigen::Vector3d max{0.0, 0.0, 0.0};               ///< type box: upper corner, world frame (unit: m)
   Eigen::Vector3d velocity{0.0, 0.0, 0.0};          ///< velocity of the anchored nodes until `stop` (unit: m/s)
   double stop = std::numeric_limits<double>::infinity();  ///< the anchors stop moving at this time (unit: s)
+  std::vector<AnchorKeyframeSpec> keyframes;        ///< instead of velocity: a piecewise-linear path, times strictly increasing
   SourceLoc loc;
 };
 
@@ -255,6 +266,15 @@ struct ClothSpec {
   double prestrain = 0.0;                           ///< placed stretched: rest length = placed length / (1 + prestrain) (unit: 1)
   Eigen::Vector3d colour{0.8, 0.3, 0.3};            ///< linear RGB in [0,1]
   std::vector<ClothAnchorSpec> anchors;             ///< pinned nodes
+  std::string mesh;                                 ///< OBJ triangle mesh instead of the rectangle (relative to the scene file; absolute after loading); empty = rectangle
+  SourceLoc mesh_loc;                               ///< where `mesh` was given
+  TriMesh mesh_data;                                ///< the welded mesh in the cloth frame (filled by io::loadScene; not a key)
+  /// Whether the cloth is a triangle mesh (else the rectangle grid).
+  bool isMesh() const { return !mesh_data.triangles.empty(); }
+  /// Its node count: the mesh's vertices, or resolution_x x resolution_y (unit: 1).
+  double nodeCount() const {
+    return isMesh() ? double(mesh_data.positions.size()) : std::max(1.0, double(resolution_x)) * std::max(1.0, double(resolution_y));
+  }
   SourceLoc loc;
 };
 

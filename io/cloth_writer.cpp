@@ -28,6 +28,13 @@ TriMesh clothMesh(const cloth::ClothModel& model, std::size_t c, const ClothSpec
     const auto it = spring_of.find({std::min(a, b), std::max(a, b)});
     return it == spring_of.end() || broken.empty() || !broken[it->second];
   };
+  // A mesh cloth: its own triangles, less those along a broken edge.
+  if (spec.isMesh()) {
+    for (const auto& t : spec.mesh_data.triangles)
+      if (whole(base + t[0], base + t[1]) && whole(base + t[1], base + t[2]) && whole(base + t[2], base + t[0]))
+        m.triangles.push_back(t);
+    return m;
+  }
   auto id = [&](int i, int j) { return base + static_cast<uint32_t>(j * nx + i); };
   // Two triangles per cell, counter-clockwise seen from the cloth's +z side, split along (i,j)-(i+1,j+1).
   for (int j = 0; j + 1 < ny; ++j)

@@ -732,6 +732,92 @@ class Loader {
 
     checkBodies(spec);
     checkProbes(spec);
+    checkAnchorKeyframes(spec);
+    for (std::size_t c = 0; c < spec.cloth.size(); ++c) {
+      const std::string mesh_key = indexed("cloth", c) + ".mesh";
+      if (!given(mesh_key) || spec.cloth[c].mesh.empty()) continue;
+      spec.cloth[c].mesh_loc = locAt(mesh_key, markOf(mesh_key));
+      loadClothMesh(spec.cloth[c], mesh_key, "cloth '" + spec.cloth[c].name + "'");
+    }
+  }
+
+  // A cloth's OBJ: found (relative to the scene file), readable, with triangles, and every edge in
+  // at most two triangles (a surface, open or closed).
+  void loadClothMesh(ClothSpec& cloth, const std::string& mesh_key, const std::string& label) {
+    const YAML::Mark mark = markOf(mesh_key);
+    fs::path path(cloth.mesh);
+    if (path.is_relative()) {
+      std::error_code ec;
+      const bool from_command_line = !overrideFor(mesh_key).empty();
+      const fs::path base = from_command_line || anchor_.empty() ? fs::current_path(ec) : anchor_.parent_path();
+      path = base / path;
+    }
+    path = path.lexically_normal();
+    std::error_code ec;
+    if (!fs::is_regular_file(path, ec)) {
+      issue(mesh_key, mark, label + ": mesh file '" + cloth.mesh + "' not found (looked for " + path.string() + ")");
+      return;
+    }
+    if (const auto size = fs::file_size(path, ec); !ec && size > kMaxMeshBytes) {
+      issue(mesh_key, mark, label + ": mesh file '" + cloth.mesh + "' has " + std::to_string(size) +
+                                " bytes, more than the " + std::to_string(kMaxMeshBytes) + " a mesh may have");
+      return;
+    }
+    cloth.mesh = path.string();
+    TriMesh mesh;
+    try {
+      mesh = readObj(path.string());
+    } catch (const InputError& e) {
+      std::string why;
+      for (const InputIssue& i : e.issues()) why += (why.empty() ? "" : "; ") + i.str();
+      issue(mesh_key, mark, label + ": " + why);
+      return;
+    }
+    if (mesh.triangles.empty() || mesh.positions.empty()) {
+      issue(mesh_key, mark, label + ": mesh " + path.string() + " has no triangles");
+      return;
+    }
+    // Faces that do not share indices: weld within a millionth of the size.
+    Eigen::Vector3f lo = mesh.positions[0], hi = mesh.positions[0];
+    for (const auto& p : mesh.positions) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
+    weldVertices(mesh, 1e-6f * (hi - lo).norm());
+    if (mesh.triangles.empty()) {
+      issue(mesh_key, mark, label + ": mesh " + path.string() + " has no triangles (all degenerate)");
+      return;
+    }
+    const EdgeReport edges = checkEdges(mesh);
+    if (edges.nonmanifold) {
+      issue(mesh_key, mark, label + ": mesh " + path.string() + " has " + std::to_string(edges.nonmanifold) +
+                                " non-manifold edge(s) (in 3 or more triangles): a cloth is a surface");
+      return;
+    }
+    mesh.normals.clear();
+    mesh.colours.clear();
+    cloth.mesh_data = std::move(mesh);
+  }
+
+  // Keyframed cloth anchors: keyframes replace velocity / stop (not both), need at least one key,
+  // and their times strictly increase.
+  void checkAnchorKeyframes(const SceneSpec& spec) {
+    for (std::size_t c = 0; c < spec.cloth.size(); ++c)
+      for (std::size_t a = 0; a < spec.cloth[c].anchors.size(); ++a) {
+        const std::string item = indexed(indexed("cloth", c) + ".anchors", a), list = item + ".keyframes";
+        if (!marks_.count(list) || !usable(list)) continue;
+        const auto& keys = spec.cloth[c].anchors[a].keyframes;
+        for (const char* k : {".velocity", ".stop"})
+          if (marks_.count(item + k))
+            issue(item + k, markOf(item + k),
+                  "'" + item + k + "' and '" + list + "' both given: an anchor moves either at a constant velocity or "
+                  "along keyframes, not both");
+        if (keys.empty()) issue(list, markOf(list), "'" + list + "' needs at least 1 key");
+        for (std::size_t k = 1; k < keys.size(); ++k) {
+          const std::string key = indexed(list, k);
+          if (given(key + ".time") && given(indexed(list, k - 1) + ".time") && !(keys[k].time > keys[k - 1].time))
+            issue(key + ".time", markOf(key + ".time"),
+                  "'" + key + ".time' = " + numberText(keys[k].time) + " must be greater than the previous key's time " +
+                      numberText(keys[k - 1].time) + " (keyframe times strictly increase)");
+        }
+      }
   }
 
   // Probes and gauges: names unique across both lists, and made of letters, digits, '_' and '-'

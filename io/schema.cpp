@@ -214,6 +214,21 @@ struct InAnchors {
   static auto& item(S& s, std::size_t i) { return list(s, i).at(nestedItem(i)); }
 };
 
+/// Keyframes of a cloth anchor: a list inside an anchor (index: nested2Index).
+struct InAnchorKeys {
+  using Item = AnchorKeyframeSpec;
+  /// `parent`: the anchor's nestedIndex (count / resize).
+  template <class S>
+  static auto& list(S& s, std::size_t parent) {
+    return s.cloth.at(nestedParent(parent)).anchors.at(nestedItem(parent)).keyframes;
+  }
+  /// `i`: nested2Index of the key.
+  template <class S>
+  static auto& item(S& s, std::size_t i) {
+    return s.cloth.at(nested2Top(i)).anchors.at(nested2Middle(i)).keyframes.at(nestedItem(i));
+  }
+};
+
 struct InProbePoints {
   using Item = PointProbeSpec;
   template <class S>
@@ -288,6 +303,17 @@ Key nestedList(const char* path) {
   key.def.count = [](const SceneSpec& s, std::size_t parent) { return Scope::list(s, parent).size(); };
   key.def.resize = [](SceneSpec& s, std::size_t parent, std::size_t n) { Scope::list(s, parent).resize(n); };
   key.def.item_index = [](std::size_t parent, std::size_t i) { return nestedIndex(parent, i); };
+  key.def.loc = [](SceneSpec& s, std::size_t i) { return &Scope::item(s, i).loc; };
+  return key;
+}
+
+/// A list inside an item of a nested list; its items' keys get nested2Index(parent, i).
+template <class Scope>
+Key nested2List(const char* path) {
+  Key key(path, KeyType::List);
+  key.def.count = [](const SceneSpec& s, std::size_t parent) { return Scope::list(s, parent).size(); };
+  key.def.resize = [](SceneSpec& s, std::size_t parent, std::size_t n) { Scope::list(s, parent).resize(n); };
+  key.def.item_index = [](std::size_t parent, std::size_t i) { return nested2Index(parent, i); };
   key.def.loc = [](SceneSpec& s, std::size_t i) { return &Scope::item(s, i).loc; };
   return key;
 }
@@ -521,7 +547,7 @@ std::vector<KeyDef> buildTable() {
 
   // cloth: anchored mass-spring nets (core/cloth.h) ------------------------------------------
   add(list<InCloths>("cloth").defaultNote("[]")
-          .doc("cloths: rectangular mass-spring nets (stretch, shear, bend springs); x_world = position + R(axis, angle) x_cloth"));
+          .doc("cloths: rectangular (or OBJ mesh) mass-spring nets (stretch, shear, bend springs); x_world = position + R(axis, angle) x_cloth"));
   add(field<InCloths>("cloth[].name", [](auto& c) -> auto& { return c.name; })
           .required().doc("unique cloth name (output files cloth_<name>_NNNN.obj)"));
   add(field<InCloths>("cloth[].width", [](auto& c) -> auto& { return c.width; })
@@ -562,14 +588,18 @@ std::vector<KeyDef> buildTable() {
                                              "(skin's natural tension, which makes a cut gape)"));
   add(field<InCloths>("cloth[].colour", [](auto& c) -> auto& { return c.colour; })
           .unit("1").atLeast(0).atMost(1).doc("linear RGB colour, each component in [0, 1]"));
+  add(field<InCloths>("cloth[].mesh", [](auto& c) -> auto& { return c.mesh; })
+          .doc("OBJ triangle mesh (relative to the scene file) instead of the rectangle: nodes at its vertices (placed by "
+               "position / orientation), mass areal_density x a third of the adjacent triangles' area, stretch springs "
+               "along edges, bend springs across interior edges; every edge in at most 2 triangles"));
   add(nestedList<InAnchors>("cloth[].anchors").defaultNote("[]")
-          .doc("pinned nodes (infinite mass), moving at a constant velocity"));
+          .doc("pinned nodes (infinite mass), moving at a constant velocity or along keyframes"));
   add(field<InAnchors>("cloth[].anchors[].type", [](auto& a) -> auto& { return a.type; })
           .doc("corners (the four corners; the two ends of a chain), edge (one edge), node (i, j) or box (nodes inside min..max)"));
   add(field<InAnchors>("cloth[].anchors[].edge", [](auto& a) -> auto& { return a.edge; })
           .doc("type edge: the edge of the rectangle, in the cloth frame"));
   add(field<InAnchors>("cloth[].anchors[].i", [](auto& a) -> auto& { return a.i; })
-          .unit("1").doc("type node: node index along the cloth x axis, 0 .. resolution_x - 1"));
+          .unit("1").doc("type node: node index along the cloth x axis, 0 .. resolution_x - 1 (mesh cloth: the vertex index, 0-based)"));
   add(field<InAnchors>("cloth[].anchors[].j", [](auto& a) -> auto& { return a.j; })
           .unit("1").doc("type node: node index along the cloth y axis, 0 .. resolution_y - 1"));
   add(field<InAnchors>("cloth[].anchors[].min", [](auto& a) -> auto& { return a.min; })
@@ -580,6 +610,13 @@ std::vector<KeyDef> buildTable() {
           .unit("m/s").doc("velocity of the anchored nodes until stop (0: fixed)"));
   add(field<InAnchors>("cloth[].anchors[].stop", [](auto& a) -> auto& { return a.stop; })
           .unit("s").atLeast(0).allowInfinity().doc("the anchored nodes stop moving at this time; .inf = never"));
+  add(nested2List<InAnchorKeys>("cloth[].anchors[].keyframes").defaultNote("[]")
+          .doc("instead of velocity / stop: at least 1 key; the nodes' offset from their placed position is linear "
+               "in time between keys, held before the first and after the last"));
+  add(field<InAnchorKeys>("cloth[].anchors[].keyframes[].time", [](auto& k) -> auto& { return k.time; })
+          .unit("s").atLeast(0).required().doc("time of this key, strictly greater than the previous key's"));
+  add(field<InAnchorKeys>("cloth[].anchors[].keyframes[].offset", [](auto& k) -> auto& { return k.offset; })
+          .unit("m").required().doc("displacement of the anchored nodes from where they were placed, world frame"));
   // probes: the fluid sampled at points and along vertical gauges -----------------------------
   add(section("probes", [](SceneSpec& s) { return &s.probes.loc; })
           .doc("pressure probes and water-height gauges, sampled into probes.csv (like an experiment's gauges)"));
@@ -743,6 +780,7 @@ std::string defaultText(const KeyDef& key) {
   defaults.rigid_bodies[0].motion.keyframes.resize(1);
   defaults.cloth.resize(1);
   defaults.cloth[0].anchors.resize(1);
+  defaults.cloth[0].anchors[0].keyframes.resize(1);
   defaults.probes.points.resize(1);
   defaults.probes.gauges.resize(1);
   defaults.haptics.path.resize(1);

@@ -217,6 +217,14 @@ struct KeyDef {
 inline std::size_t nestedIndex(std::size_t parent, std::size_t i) { return (parent & 0xffffffffu) | (i << 32); }
 inline std::size_t nestedParent(std::size_t index) { return index & 0xffffffffu; }
 inline std::size_t nestedItem(std::size_t index) { return index >> 32; }
+/// The index passed to the keys of item `i` of a list inside an item of a nested list
+/// (cloth[].anchors[].keyframes[]): `parent` is that item's nestedIndex; the top-level item in
+/// bits 0-15, the nested item in bits 16-31, i in the high 32 (so up to 65536 of each outer level).
+inline std::size_t nested2Index(std::size_t parent, std::size_t i) {
+  return (nestedParent(parent) & 0xffffu) | ((nestedItem(parent) & 0xffffu) << 16) | (i << 32);
+}
+inline std::size_t nested2Top(std::size_t index) { return index & 0xffffu; }
+inline std::size_t nested2Middle(std::size_t index) { return (index >> 16) & 0xffffu; }
 
 /// Every key, parents before their children, in the order of the YAML sections.
 const std::vector<KeyDef>& schemaTable();

@@ -1,7 +1,8 @@
 /* Cloth: mass-spring nets whose nodes are particles (stage: cloth; core/cloth.h has the design).
  *
  * Nodes: x (xyz, w = inverse mass, 0 = anchored), v, mass, air drag, anchor (velocity, w = stop
- * time). Springs: the compressed rows row_start / spring / other (each spring in both ends' rows),
+ * time; w < 0: keyframed, track -w - 1), x_rest (placed position). Tracks (keyframed anchors, host
+ * evaluated for the end of the step): track[2k] = offset from x_rest, track[2k + 1] = velocity. Springs: the compressed rows row_start / spring / other (each spring in both ends' rows),
  * prm[s] = (rest length L0, stiffness k, dashpot c, tear strain), broken[s].
  * Every kernel gathers: a node reads its row and writes only itself (no atomics, deterministic). */
 
@@ -13,13 +14,29 @@ inline float3 cloth_anchor_travel(const float4 a, const float t, const float dt)
 }
 inline float3 cloth_anchor_velocity(const float4 a, const float t) { return t < a.w ? a.xyz : (float3)(0.0f); }
 
+/* Anchored node i at the end of a step of dt from t: constant velocity (travel added to x), or
+ * keyframed (anchor.w < 0): placed position + the track's offset, set absolutely so that no
+ * rounding accumulates (the path is followed exactly at every step end). */
+inline float3 cloth_anchor_x(const uint i, const float3 x, const float t, const float dt, __global const float4* anchor,
+                             __global const float4* x_rest, __global const float4* track) {
+  const float4 a = anchor[i];
+  if (a.w < 0.0f) return x_rest[i].xyz + track[2 * ((uint)(-a.w) - 1)].xyz;
+  return x + cloth_anchor_travel(a, t, dt);
+}
+inline float3 cloth_anchor_v(const uint i, const float t_end, __global const float4* anchor, __global const float4* track) {
+  const float4 a = anchor[i];
+  if (a.w < 0.0f) return track[2 * ((uint)(-a.w) - 1) + 1].xyz;
+  return cloth_anchor_velocity(a, t_end);
+}
+
 /* Explicit mass-spring (the paper's): F_i = m_i g + f_ext + sum_j [k (L - L0) + c (v_j - v_i).u] u,
  * u = (x_j - x_i) / L; symplectic Euler (v first, then x with the new v), the drag implicit so it
  * never limits the step. XPBD nodes are copied through. */
 __kernel void cloth_explicit_step(const uint n, const float dt, const float t, const float4 g,
                                   __global const float4* x_in, __global const float4* v_in,
                                   __global const float* mass, __global const float* drag,
-                                  __global const float4* anchor, __global const uint* is_xpbd,
+                                  __global const float4* anchor, __global const float4* x_rest,
+                                  __global const float4* track, __global const uint* is_xpbd,
                                   __global const uint* row_start, __global const uint* spring,
                                   __global const uint* other, __global const float4* prm,
                                   __global const uint* broken, __global const float4* fext,
@@ -35,8 +52,8 @@ __kernel void cloth_explicit_step(const uint n, const float dt, const float t, c
   }
   /* Anchored nodes follow their script. */
   if (xi4.w == 0.0f) {
-    x_out[i] = (float4)(xi + cloth_anchor_travel(anchor[i], t, dt), 0.0f);
-    v_out[i] = (float4)(cloth_anchor_velocity(anchor[i], t + dt), 0.0f);
+    x_out[i] = (float4)(cloth_anchor_x(i, xi, t, dt, anchor, x_rest, track), 0.0f);
+    v_out[i] = (float4)(cloth_anchor_v(i, t + dt, anchor, track), 0.0f);
     return;
   }
   /* Gravity, external (fluid) force, then the springs of row i in table order. */
@@ -63,6 +80,7 @@ __kernel void cloth_explicit_step(const uint n, const float dt, const float t, c
 __kernel void cloth_xpbd_predict(const uint n, const float dt, const float t, const float4 g,
                                  __global float4* x, __global const float4* v, __global const float* mass,
                                  __global const float* drag, __global const float4* anchor,
+                                 __global const float4* x_rest, __global const float4* track,
                                  __global const uint* is_xpbd, __global const uint* row_start,
                                  __global const float4* fext, __global float4* prev, __global float* lambda) {
   const uint i = get_global_id(0);
@@ -71,7 +89,7 @@ __kernel void cloth_xpbd_predict(const uint n, const float dt, const float t, co
   prev[i] = x4;
   for (uint e = row_start[i]; e < row_start[i + 1]; ++e) lambda[e] = 0.0f;
   if (x4.w == 0.0f) {
-    x[i] = (float4)(x4.xyz + cloth_anchor_travel(anchor[i], t, dt), 0.0f);
+    x[i] = (float4)(cloth_anchor_x(i, x4.xyz, t, dt, anchor, x_rest, track), 0.0f);
     return;
   }
   const float3 vi = (v[i].xyz + dt * (g.xyz + x4.w * fext[i].xyz)) / (1.0f + dt * drag[i]);
@@ -124,12 +142,12 @@ __kernel void cloth_xpbd_colour(const uint n, const float dt, const uint it, con
 /* XPBD, Algorithm 1 line 16: v = (x - prev) / dt; anchored nodes take their scripted velocity. */
 __kernel void cloth_xpbd_velocity(const uint n, const float dt, const float t, __global const float4* x,
                                   __global const float4* prev, __global const float4* anchor,
-                                  __global const uint* is_xpbd, __global float4* v) {
+                                  __global const float4* track, __global const uint* is_xpbd, __global float4* v) {
   const uint i = get_global_id(0);
   if (i >= n || !is_xpbd[i]) return;
   const float4 x4 = x[i];
   if (x4.w == 0.0f)
-    v[i] = (float4)(cloth_anchor_velocity(anchor[i], t + dt), 0.0f);
+    v[i] = (float4)(cloth_anchor_v(i, t + dt, anchor, track), 0.0f);
   else
     v[i] = (float4)((x4.xyz - prev[i].xyz) / dt, 0.0f);
 }
