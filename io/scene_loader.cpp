@@ -741,11 +741,12 @@ class Loader {
     }
   }
 
-  // A cloth's OBJ: found (relative to the scene file), readable, with triangles, and every edge in
-  // at most two triangles (a surface, open or closed).
-  void loadClothMesh(ClothSpec& cloth, const std::string& mesh_key, const std::string& label) {
+  // A mesh file named at `mesh_key`: found (relative to the scene file's folder, or to the working
+  // directory when given with --set), not too big, and read; `file` becomes the absolute path.
+  // False, with the issue reported at the key, when any of that fails.
+  bool readMeshFile(std::string& file, const std::string& mesh_key, const std::string& label, TriMesh& mesh) {
     const YAML::Mark mark = markOf(mesh_key);
-    fs::path path(cloth.mesh);
+    fs::path path(file);
     if (path.is_relative()) {
       std::error_code ec;
       const bool from_command_line = !overrideFor(mesh_key).empty();
@@ -755,24 +756,33 @@ class Loader {
     path = path.lexically_normal();
     std::error_code ec;
     if (!fs::is_regular_file(path, ec)) {
-      issue(mesh_key, mark, label + ": mesh file '" + cloth.mesh + "' not found (looked for " + path.string() + ")");
-      return;
+      issue(mesh_key, mark, label + ": mesh file '" + file + "' not found (looked for " + path.string() + ")");
+      return false;
     }
     if (const auto size = fs::file_size(path, ec); !ec && size > kMaxMeshBytes) {
-      issue(mesh_key, mark, label + ": mesh file '" + cloth.mesh + "' has " + std::to_string(size) +
+      issue(mesh_key, mark, label + ": mesh file '" + file + "' has " + std::to_string(size) +
                                 " bytes, more than the " + std::to_string(kMaxMeshBytes) + " a mesh may have");
-      return;
+      return false;
     }
-    cloth.mesh = path.string();
-    TriMesh mesh;
+    file = path.string();
     try {
       mesh = readObj(path.string());
     } catch (const InputError& e) {
       std::string why;
       for (const InputIssue& i : e.issues()) why += (why.empty() ? "" : "; ") + i.str();
       issue(mesh_key, mark, label + ": " + why);
-      return;
+      return false;
     }
+    return true;
+  }
+
+  // A cloth's OBJ: found (relative to the scene file), readable, with triangles, and every edge in
+  // at most two triangles (a surface, open or closed).
+  void loadClothMesh(ClothSpec& cloth, const std::string& mesh_key, const std::string& label) {
+    const YAML::Mark mark = markOf(mesh_key);
+    TriMesh mesh;
+    if (!readMeshFile(cloth.mesh, mesh_key, label, mesh)) return;
+    const fs::path path(cloth.mesh);  // absolute now
     if (mesh.triangles.empty() || mesh.positions.empty()) {
       issue(mesh_key, mark, label + ": mesh " + path.string() + " has no triangles");
       return;
@@ -982,35 +992,9 @@ class Loader {
 
   void loadBodyMesh(RigidBodySpec& body, const std::string& mesh_key, const std::string& label) {
     const YAML::Mark mark = markOf(mesh_key);
-    // Relative to the scene file's folder (to the working directory when given with --set).
-    fs::path path(body.mesh);
-    if (path.is_relative()) {
-      std::error_code ec;
-      const bool from_command_line = !overrideFor(mesh_key).empty();
-      const fs::path base = from_command_line || anchor_.empty() ? fs::current_path(ec) : anchor_.parent_path();
-      path = base / path;
-    }
-    path = path.lexically_normal();
-    std::error_code ec;
-    if (!fs::is_regular_file(path, ec)) {
-      issue(mesh_key, mark, label + ": mesh file '" + body.mesh + "' not found (looked for " + path.string() + ")");
-      return;
-    }
-    if (const auto size = fs::file_size(path, ec); !ec && size > kMaxMeshBytes) {
-      issue(mesh_key, mark, label + ": mesh file '" + body.mesh + "' has " + std::to_string(size) +
-                                " bytes, more than the " + std::to_string(kMaxMeshBytes) + " a mesh may have");
-      return;
-    }
-    body.mesh = path.string();
     TriMesh mesh;
-    try {
-      mesh = readObj(path.string());
-    } catch (const InputError& e) {
-      std::string why;
-      for (const InputIssue& i : e.issues()) why += (why.empty() ? "" : "; ") + i.str();
-      issue(mesh_key, mark, label + ": " + why);
-      return;
-    }
+    if (!readMeshFile(body.mesh, mesh_key, label, mesh)) return;
+    const fs::path path(body.mesh);  // absolute now
     // OBJ exporters often repeat a vertex for each face: weld within a millionth of the size.
     Eigen::Vector3f lo = mesh.positions[0], hi = mesh.positions[0];
     for (const auto& p : mesh.positions) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
