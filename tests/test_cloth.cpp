@@ -8,6 +8,7 @@
 #include "core/simulation.h"
 #include "io/cloth_writer.h"
 #include "io/scene_loader.h"
+#include "tests/cloth_scenes.h"
 #include "tests/run_binary.h"
 #include "tests/scene_issues.h"
 #include "tests/temp_dir.h"
@@ -25,20 +26,7 @@ namespace {
 
 const double kG = 9.81;
 
-/// A scene with no fluid and one cloth: domain [0, 1]^3, gravity -z.
-SceneSpec clothScene(const ClothSpec& c, double frame_rate, int substeps, double duration) {
-  SceneSpec s;
-  s.domain.min = Eigen::Vector3d::Zero();
-  s.domain.max = Eigen::Vector3d::Ones();
-  s.fluid.particle_spacing = 0.05;
-  s.fluid.phases.resize(1);
-  s.fluid.phases[0].name = "water";
-  s.simulation.frame_rate = frame_rate;
-  s.simulation.substeps = substeps;
-  s.simulation.duration = duration;
-  s.cloth.push_back(c);
-  return s;
-}
+using sph::testing::clothScene;
 
 /// A vertical chain of `masses` free nodes of mass m hung by springs (rest length L0, stiffness k)
 /// from an anchored top node: a cloth one node wide along y, turned so that y points up.

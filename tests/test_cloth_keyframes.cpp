@@ -8,6 +8,7 @@
 #include "core/model.h"
 #include "core/simulation.h"
 #include "io/scene_loader.h"
+#include "tests/cloth_scenes.h"
 #include "tests/run_binary.h"
 #include "tests/scene_issues.h"
 #include "tests/temp_dir.h"
@@ -23,20 +24,7 @@ using namespace sph;
 
 namespace {
 
-/// A scene with no fluid and one cloth: domain [0, 1]^3, gravity -z.
-SceneSpec keyScene(const ClothSpec& c, double frame_rate, int substeps, double duration) {
-  SceneSpec s;
-  s.domain.min = Eigen::Vector3d::Zero();
-  s.domain.max = Eigen::Vector3d::Ones();
-  s.fluid.particle_spacing = 0.05;
-  s.fluid.phases.resize(1);
-  s.fluid.phases[0].name = "water";
-  s.simulation.frame_rate = frame_rate;
-  s.simulation.substeps = substeps;
-  s.simulation.duration = duration;
-  s.cloth.push_back(c);
-  return s;
-}
+using sph::testing::clothScene;
 
 /// A 6 x 4 sheet in the plane z = 0.5, centred at (0.5, 0.5).
 ClothSpec sheet(ClothSolver solver) {
@@ -89,7 +77,7 @@ TEST_CASE("Cloth keyframes: anchored nodes follow the piecewise-linear path at e
     edge.keyframes = keys;
     c.anchors.push_back(edge);
     ClContext cl;
-    const Compiled comp = compile(keyScene(c, 60, 2, 0.25));
+    const Compiled comp = compile(clothScene(c, 60, 2, 0.25));
     Simulation sim(comp.model, comp.initial, cl);
     const std::vector<Eigen::Vector3d> placed = cloth::nodePositions(c);
     double worst = 0, moved = 0;
@@ -120,7 +108,7 @@ TEST_CASE("Cloth keyframes: anchors whose keys stay still equal the static cloth
     ClContext cl;
     std::vector<std::vector<Eigen::Vector4f>> runs;
     for (const ClothSpec& c : {fixed, keyed}) {
-      const Compiled comp = compile(keyScene(c, 60, 2, 0.2));
+      const Compiled comp = compile(clothScene(c, 60, 2, 0.2));
       Simulation sim(comp.model, comp.initial, cl);
       for (int f = 0; f < comp.model.num_frames; ++f) sim.advanceFrame();
       runs.push_back(positions(sim));
