@@ -365,8 +365,14 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
     if (opt.mouse && !sim.stages().on(Stage::Haptics))
       throw InputError("--mouse", 0, 0, "needs a scene with a 'haptics' section and a grabbable dynamic body");
     if (!opt.record.empty() && !opt.interactive) throw InputError("--record", 0, 0, "records a live run: add --interactive");
-    if (!opt.record.empty() && !std::ofstream(opt.record, std::ios::app))  // refused now, not after the run
-      throw InputError("--record", 0, 0, "cannot write '" + opt.record + "': " + std::strerror(errno));
+    if (!opt.record.empty()) {  // refused now, not after the run; the probe leaves no empty file behind
+      const bool existed = fs::exists(opt.record);
+      const bool writable = static_cast<bool>(std::ofstream(opt.record, std::ios::app));
+      const int err = errno;
+      std::error_code ec;
+      if (!existed) fs::remove(opt.record, ec);
+      if (!writable) throw InputError("--record", 0, 0, "cannot write '" + opt.record + "': " + std::strerror(err));
+    }
     if (opt.replay && !sim.stages().on(Stage::Haptics))
       throw InputError(opt.scene, 0, 0, "the recorded scene has no 'haptics' section (or no dynamic body) any more");
     if (!opt.interactive && !opt.replay && sim.stages().on(Stage::Haptics) && spec.haptics.backend == HapticBackend::Bridge)
