@@ -213,6 +213,8 @@ TEST_CASE("the schema defaults are read from core/scene_spec.h", "[io]") {
   d.rigid_bodies.resize(1);
   d.cloth.resize(1);
   d.cloth[0].anchors.resize(1);
+  d.soft_bodies.resize(1);
+  d.soft_bodies[0].anchors.resize(1);
   d.probes.points.resize(1);
   d.probes.gauges.resize(1);
   d.haptics.path.resize(1);
@@ -573,7 +575,15 @@ TEST_CASE("the schema text lists every key with type, default, unit and range", 
       "cloth[].tear_strain", "cloth[].prestrain", "cloth[].colour", "cloth[].mesh", "cloth[].anchors", "cloth[].anchors[].type", "cloth[].anchors[].edge",
       "cloth[].anchors[].i", "cloth[].anchors[].j", "cloth[].anchors[].min", "cloth[].anchors[].max",
       "cloth[].anchors[].velocity", "cloth[].anchors[].stop", "cloth[].anchors[].keyframes",
-      "cloth[].anchors[].keyframes[].time", "cloth[].anchors[].keyframes[].offset", "probes", "probes.rate", "probes.points",
+      "cloth[].anchors[].keyframes[].time", "cloth[].anchors[].keyframes[].offset", "soft_bodies", "soft_bodies[].name",
+      "soft_bodies[].size", "soft_bodies[].position", "soft_bodies[].orientation_axis", "soft_bodies[].orientation_angle",
+      "soft_bodies[].spacing", "soft_bodies[].density", "soft_bodies[].young_modulus", "soft_bodies[].damping",
+      "soft_bodies[].air_damping", "soft_bodies[].solver", "soft_bodies[].iterations", "soft_bodies[].tear_strain",
+      "soft_bodies[].prestrain", "soft_bodies[].colour", "soft_bodies[].mesh", "soft_bodies[].anchors",
+      "soft_bodies[].anchors[].type", "soft_bodies[].anchors[].edge", "soft_bodies[].anchors[].min",
+      "soft_bodies[].anchors[].max", "soft_bodies[].anchors[].velocity", "soft_bodies[].anchors[].stop",
+      "soft_bodies[].anchors[].keyframes", "soft_bodies[].anchors[].keyframes[].time",
+      "soft_bodies[].anchors[].keyframes[].offset", "probes", "probes.rate", "probes.points",
       "probes.points[].name", "probes.points[].position", "probes.gauges", "probes.gauges[].name",
       "probes.gauges[].position", "probes.gauges[].length", "output", "output.directory", "output.particles",
       "output.step_forces",
