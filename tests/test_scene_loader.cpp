@@ -510,7 +510,7 @@ TEST_CASE("bad --set keys and values are InputErrors against '--set'", "[io]") {
   REQUIRE_SET_ISSUE(section, "did you mean 'simulation.cfl'?");
 
   const auto nonsense = issuesOf(yaml, {"zzz=1"});
-  REQUIRE_SET_ISSUE(nonsense, "unknown key 'zzz'", "known keys at the top level: simulation, domain, fluid, rigid_bodies, cloth, probes, output");
+  REQUIRE_SET_ISSUE(nonsense, "unknown key 'zzz'", "known keys at the top level: simulation, domain, fluid, rigid_bodies, cloth, soft_bodies, probes, output");
 
   REQUIRE_SET_ISSUE(issuesOf(yaml, {"simulation.cfl"}), "expected key.path=value");
   REQUIRE_SET_ISSUE(issuesOf(yaml, {"simulation.gravity.x=1"}), "has no sub-keys");
@@ -627,12 +627,13 @@ TEST_CASE("sceneToJson writes every key of the resolved scene", "[io]") {
   const std::string json = sph::io::sceneToJson(s);
   INFO(json);
   // Every key name of the table appears (list items because the scene has one of each but blocks,
-  // bodies and the haptic path, waypoints and buttons).
+  // bodies, cloths, soft bodies and the haptic path, waypoints and buttons).
   for (const auto& key : sph::io::schemaTable()) {
     if (key.path.rfind("fluid.blocks[]", 0) == 0 || key.path.rfind("rigid_bodies[]", 0) == 0 ||
         key.path.rfind("probes.points[]", 0) == 0 || key.path.rfind("probes.gauges[]", 0) == 0 ||
         key.path.rfind("haptics.path[]", 0) == 0 || key.path.rfind("haptics.waypoints[]", 0) == 0 ||
-        key.path.rfind("haptics.buttons[]", 0) == 0 || key.path.rfind("cloth[]", 0) == 0)
+        key.path.rfind("haptics.buttons[]", 0) == 0 || key.path.rfind("cloth[]", 0) == 0 ||
+        key.path.rfind("soft_bodies[]", 0) == 0)
       continue;
     CHECK(json.find("\"" + key.name() + "\":") != std::string::npos);
   }
