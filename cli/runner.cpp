@@ -297,6 +297,7 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
     Compiled compiled = compile(spec, limits);
     const Model& model = compiled.model;
     for (const std::string& note : model.notes) log("note: " + note);
+    for (const std::string& w : model.warnings) log("warning: " + w);
 
     // Isosurface: only when the scene asks for it (output.isosurface).
     const IsosurfaceSpec& iso = spec.output.isosurface;

@@ -768,6 +768,9 @@ Compiled compile(const SceneSpec& spec, const ResourceLimits& limits) {
 
   // --- Cloths: nodes, springs, colours (core/cloth.h) -----------------------------------
   m.cloth = cloth::compileCloths(spec.cloth, issues, spec.soft_bodies, m.dx);
+  for (const ClothSpec& c : spec.cloth)
+    for (const std::string& key : c.unused_keys)
+      m.warnings.push_back(key + " is not used: cloth '" + c.name + "' is a mesh (its vertices and edges set the nodes and springs)");
   if (!issues.empty()) throw InputError(issues);
 
   // --- Device constants ------------------------------------------------------------------

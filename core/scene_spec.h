@@ -269,6 +269,9 @@ struct ClothSpec {
   std::string mesh;                                 ///< OBJ triangle mesh instead of the rectangle (relative to the scene file; absolute after loading); empty = rectangle
   SourceLoc mesh_loc;                               ///< where `mesh` was given
   TriMesh mesh_data;                                ///< the welded mesh in the cloth frame (filled by io::loadScene; not a key)
+  /// Rectangle keys given with `mesh` (width, length, resolution_*, shear_stiffness), which a mesh
+  /// cloth does not use: "file:line:col: key" each (filled by io::loadScene; not a key).
+  std::vector<std::string> unused_keys;
   /// Whether the cloth is a triangle mesh (else the rectangle grid).
   bool isMesh() const { return !mesh_data.triangles.empty(); }
   /// Its node count: the mesh's vertices, or resolution_x x resolution_y (unit: 1).

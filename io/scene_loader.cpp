@@ -738,6 +738,11 @@ class Loader {
       if (!given(mesh_key) || spec.cloth[c].mesh.empty()) continue;
       spec.cloth[c].mesh_loc = locAt(mesh_key, markOf(mesh_key));
       loadClothMesh(spec.cloth[c], mesh_key, "cloth '" + spec.cloth[c].name + "'");
+      // The rectangle's keys mean nothing for a mesh cloth: remembered for a warning.
+      for (const char* k : {".width", ".length", ".resolution_x", ".resolution_y", ".shear_stiffness"}) {
+        const std::string key = indexed("cloth", c) + k;
+        if (marks_.count(key)) spec.cloth[c].unused_keys.push_back(locAt(key, markOf(key)).str() + ": '" + key + "'");
+      }
     }
     // Soft bodies from a mesh: a closed one (the lattice's cells are those inside it).
     for (std::size_t b = 0; b < spec.soft_bodies.size(); ++b) {
