@@ -70,6 +70,7 @@ struct Model {
   double max_steps_per_frame = 1.0e5;
 
   std::vector<std::string> notes;  ///< derived choices worth telling the user (c0, budget, ...)
+  std::vector<std::string> warnings;  ///< scene keys given but not used (validate and run print them)
 };
 
 struct Compiled {

@@ -213,6 +213,8 @@ TEST_CASE("the schema defaults are read from core/scene_spec.h", "[io]") {
   d.rigid_bodies.resize(1);
   d.cloth.resize(1);
   d.cloth[0].anchors.resize(1);
+  d.soft_bodies.resize(1);
+  d.soft_bodies[0].anchors.resize(1);
   d.probes.points.resize(1);
   d.probes.gauges.resize(1);
   d.haptics.path.resize(1);
@@ -508,7 +510,7 @@ TEST_CASE("bad --set keys and values are InputErrors against '--set'", "[io]") {
   REQUIRE_SET_ISSUE(section, "did you mean 'simulation.cfl'?");
 
   const auto nonsense = issuesOf(yaml, {"zzz=1"});
-  REQUIRE_SET_ISSUE(nonsense, "unknown key 'zzz'", "known keys at the top level: simulation, domain, fluid, rigid_bodies, cloth, probes, output");
+  REQUIRE_SET_ISSUE(nonsense, "unknown key 'zzz'", "known keys at the top level: simulation, domain, fluid, rigid_bodies, cloth, soft_bodies, probes, output");
 
   REQUIRE_SET_ISSUE(issuesOf(yaml, {"simulation.cfl"}), "expected key.path=value");
   REQUIRE_SET_ISSUE(issuesOf(yaml, {"simulation.gravity.x=1"}), "has no sub-keys");
@@ -573,7 +575,15 @@ TEST_CASE("the schema text lists every key with type, default, unit and range", 
       "cloth[].tear_strain", "cloth[].prestrain", "cloth[].colour", "cloth[].mesh", "cloth[].anchors", "cloth[].anchors[].type", "cloth[].anchors[].edge",
       "cloth[].anchors[].i", "cloth[].anchors[].j", "cloth[].anchors[].min", "cloth[].anchors[].max",
       "cloth[].anchors[].velocity", "cloth[].anchors[].stop", "cloth[].anchors[].keyframes",
-      "cloth[].anchors[].keyframes[].time", "cloth[].anchors[].keyframes[].offset", "probes", "probes.rate", "probes.points",
+      "cloth[].anchors[].keyframes[].time", "cloth[].anchors[].keyframes[].offset", "soft_bodies", "soft_bodies[].name",
+      "soft_bodies[].size", "soft_bodies[].position", "soft_bodies[].orientation_axis", "soft_bodies[].orientation_angle",
+      "soft_bodies[].spacing", "soft_bodies[].density", "soft_bodies[].young_modulus", "soft_bodies[].damping",
+      "soft_bodies[].air_damping", "soft_bodies[].solver", "soft_bodies[].iterations", "soft_bodies[].tear_strain",
+      "soft_bodies[].prestrain", "soft_bodies[].colour", "soft_bodies[].mesh", "soft_bodies[].anchors",
+      "soft_bodies[].anchors[].type", "soft_bodies[].anchors[].edge", "soft_bodies[].anchors[].min",
+      "soft_bodies[].anchors[].max", "soft_bodies[].anchors[].velocity", "soft_bodies[].anchors[].stop",
+      "soft_bodies[].anchors[].keyframes", "soft_bodies[].anchors[].keyframes[].time",
+      "soft_bodies[].anchors[].keyframes[].offset", "probes", "probes.rate", "probes.points",
       "probes.points[].name", "probes.points[].position", "probes.gauges", "probes.gauges[].name",
       "probes.gauges[].position", "probes.gauges[].length", "output", "output.directory", "output.particles",
       "output.step_forces",
@@ -617,12 +627,13 @@ TEST_CASE("sceneToJson writes every key of the resolved scene", "[io]") {
   const std::string json = sph::io::sceneToJson(s);
   INFO(json);
   // Every key name of the table appears (list items because the scene has one of each but blocks,
-  // bodies and the haptic path, waypoints and buttons).
+  // bodies, cloths, soft bodies and the haptic path, waypoints and buttons).
   for (const auto& key : sph::io::schemaTable()) {
     if (key.path.rfind("fluid.blocks[]", 0) == 0 || key.path.rfind("rigid_bodies[]", 0) == 0 ||
         key.path.rfind("probes.points[]", 0) == 0 || key.path.rfind("probes.gauges[]", 0) == 0 ||
         key.path.rfind("haptics.path[]", 0) == 0 || key.path.rfind("haptics.waypoints[]", 0) == 0 ||
-        key.path.rfind("haptics.buttons[]", 0) == 0 || key.path.rfind("cloth[]", 0) == 0)
+        key.path.rfind("haptics.buttons[]", 0) == 0 || key.path.rfind("cloth[]", 0) == 0 ||
+        key.path.rfind("soft_bodies[]", 0) == 0)
       continue;
     CHECK(json.find("\"" + key.name() + "\":") != std::string::npos);
   }
