@@ -13,11 +13,12 @@
 #   --blend FILE      also save the last frame's scene as a .blend file
 #
 # What it reads from RUN_DIR: every OBJ sequence NAME_%04d.obj (fluid_<phase>_*, body_<name>_*,
-# cloth_*; a fluid surface takes its phase's colour from the OBJ header, or the per-vertex colours
+# cloth_<name>_*, soft_<name>_* (soft bodies' surfaces); a fluid surface takes its phase's colour from the OBJ header, or the per-vertex colours
 # when the file has them), the VDB sequence NAME_%04d.vdb when --volume is given, and run.json for the domain box
 # (camera framing, floor). OBJ files are in simulation coordinates (metres, Z up) and are imported
 # with forward_axis='Y', up_axis='Z' so Blender's world matches the simulation's (and the VDB
-# files, which Blender imports without axis conversion). Debian's Blender has no OpenImageDenoise,
+# files, which Blender imports without axis conversion). Next to the PNGs it writes camera.json
+# (the camera's world -> clip matrix, for tests that look at where things land). Debian's Blender has no OpenImageDenoise,
 # so denoising is off. Per frame the meshes are imported, rendered and removed again, so memory
 # stays flat over long sequences.
 import json

@@ -6,6 +6,7 @@
 #include "cli/runner.h"
 #include "io/png.h"
 #include "tests/run_binary.h"
+#include "tests/soft_run.h"
 #include "tests/temp_dir.h"
 
 #include <catch2/catch.hpp>
@@ -238,4 +239,29 @@ TEST_CASE("render.sh: a Blender render shows a body in its vertex colour where b
   INFO(water.size() << " water pixels, pool rectangle " << pool.transpose());
   CHECK(water.size() > 0.3 * (pool[2] - pool[0]) * (pool[3] - pool[1]));
   CHECK(inside(water, pool, 1.0) == water.size());
+}
+
+// A hand-made folder with a soft body's surface sequence soft_jelly_NNNN.obj (a green cube moving
+// along x, the soft-body exporter's naming): render.sh picks it up and the last frame shows the
+// cube's green inside its projected box (one pixel of margin), filling more than half of it.
+TEST_CASE("render.sh: a soft body's surface sequence is rendered in its colour where it is", "[blender][render]") {
+  if (const std::string why = renderSkipReason(); !why.empty()) {
+    WARN("SKIPPED: " << why);
+    return;
+  }
+  testing::TempDir tmp;
+  testing::writeSoftRun(tmp);
+  const int last = testing::kSoftFrames - 1;
+  render(tmp.path, std::to_string(last) + ":" + std::to_string(last), 160, 120);
+  const io::RgbImage img = io::readPng((tmp.path / "render/frame_0002.png").string());
+  const RenderCamera cam = readCamera(tmp.path / "render/camera.json");
+  checkNotBlank(img);
+  const Eigen::Vector3d c = testing::softCentre(last).cast<double>();
+  const Eigen::Vector3d half = Eigen::Vector3d::Constant(0.5 * testing::kSoftSide);
+  const Eigen::Vector4d box = cam.rect(c - half, c + half);
+  const double area = (box[2] - box[0]) * (box[3] - box[1]);
+  const std::vector<Eigen::Vector2d> green = pixelsOf(img, testing::isSoftGreen);
+  INFO(green.size() << " green pixels, rectangle " << box.transpose() << " (" << area << " px^2)");
+  CHECK(green.size() > 0.5 * area);
+  CHECK(inside(green, box, 1.0) == green.size());
 }
