@@ -391,6 +391,7 @@ struct HapticsSpec {
   double damping = 1.5;                              ///< coupling damping felt at the hand B_d (unit: N s/m)
   double damping_ratio = 0.9;                        ///< scene coupling damper B_s = 2 zeta sqrt(K_s m) (unit: 1)
   double reach = 0.05;                               ///< grab a body whose surface is this close to the target (unit: m)
+  bool hold_orientation = true;                      ///< hold a grabbed body's orientation at the grab (angular spring, not felt)
   double peak_force = 3.0;                           ///< (unit: N)
   double continuous_force = 0.85;                    ///< limit on the 1 s RMS (unit: N)
   double ramp_time = 2.0;                            ///< start-up ramp (unit: s)

@@ -780,6 +780,9 @@ std::vector<KeyDef> buildTable() {
           .unit("1").atLeast(0).doc("damping ratio of the body's coupling spring: B_s = 2 ratio sqrt(K_s m)"));
   add(field<InScene>("haptics.reach", [](auto& s) -> auto& { return s.haptics.reach; })
           .unit("m").greaterThan(0).doc("a button press grabs the nearest grabbable body whose surface is this close to the target"));
+  add(field<InScene>("haptics.hold_orientation", [](auto& s) -> auto& { return s.haptics.hold_orientation; })
+          .doc("hold a grabbed body's orientation at the grab with an angular spring-damper as stiff and damped as the "
+               "grasp coupling; it acts on the body only and is not felt (the device renders force, not torque)"));
   add(field<InScene>("haptics.peak_force", [](auto& s) -> auto& { return s.haptics.peak_force; })
           .unit("N").greaterThan(0).doc("largest force sent to the device (capped by the device's own)"));
   add(field<InScene>("haptics.continuous_force", [](auto& s) -> auto& { return s.haptics.continuous_force; })
