@@ -192,6 +192,10 @@ TowCheck towedBall(const std::string& scene, double dx, const std::vector<std::s
   // (b = L (3 / 4 pi)^(1/3), the corners counted as near as the faces: K too low).
   c.wall_factor_hi = sphereInSphereWallFactor(c.radius / (0.5 * box));
   c.wall_factor_lo = sphereInSphereWallFactor(c.radius / (box * std::cbrt(3.0 / (4.0 * M_PI))));
+  // The same with the no-slip surface dx/2 inside or outside R (the resolution's uncertainty).
+  const double r_lo = c.radius - 0.5 * dx, r_hi = c.radius + 0.5 * dx;
+  c.expected_lo = r_lo / c.radius * sphereInSphereWallFactor(r_lo / (box * std::cbrt(3.0 / (4.0 * M_PI))));
+  c.expected_hi = r_hi / c.radius * sphereInSphereWallFactor(r_hi / (0.5 * box));
   // The second half of the run: the viscous set-up time over the gap to the walls has passed.
   std::vector<const StepForce*> win;
   for (const StepForce& f : log)

@@ -64,6 +64,12 @@ struct TowCheck {
   double stokes = 0;           ///< 6 pi mu R U (unit: N)
   double wall_factor_lo = 0;   ///< Haberman & Sayre 1958 K for a container sphere of the box's volume (unit: 1)
   double wall_factor_hi = 0;   ///< the same for the sphere inscribed in the box (unit: 1)
+  /// The drag over 6 pi mu R U expected at this resolution: the no-slip surface of a sampled ball
+  /// lies within dx/2 of R (its particles sit dx/2 inside the surface, the fluid's first layer
+  /// dx/2 outside), so R_eff in [R - dx/2, R + dx/2]: lo = (R - dx/2) K_lo(R - dx/2) / R,
+  /// hi = (R + dx/2) K_hi(R + dx/2) / R, with the two containers of wall_factor_lo/hi (unit: 1).
+  double expected_lo = 0;
+  double expected_hi = 0;      ///< (unit: 1)
   double side = 0;             ///< largest mean sideways component |F_y|, |F_z| over the window (unit: N)
   double side_noise = 0;       ///< standard error of that mean, from 6 block means (unit: N)
   double wall_seconds = 0;     ///< (unit: s)

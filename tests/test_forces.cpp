@@ -99,3 +99,27 @@ TEST_CASE("Forces: a buoyant block placed flush on the floor is lifted to a gap 
                   << " m (expected " << 0.5 * h << " m)");
   CHECK(std::abs(draft - 0.5 * h) < 0.05 * 0.5 * h);
 }
+
+TEST_CASE("Forces: the Stokes drag of a towed ball matches 6 pi mu R U with the box's wall factor", "[forces]") {
+  // scenes/tests/stokes_tow.yaml: a ball, R = 3 cm, towed at U = 1 cm/s through a closed 20 cm
+  // box of liquid of nu = 0.05 m^2/s (Re = 0.012), laminar viscosity, no-slip ghost velocities at
+  // the body and the walls (fluid.boundary_velocity: auto; Adami, Hu & Adams 2012 eq. 22-23).
+  // Closed form: F = 6 pi mu R U K, K the wall factor of the box, bracketed by Haberman & Sayre's
+  // (1958) sphere in a concentric sphere of the box's volume (K = 2.04) and the one inscribed in
+  // it (2.57). Resolution: the no-slip surface of a ball sampled at R / dx = 3 lies within dx/2
+  // of R (its particles dx/2 inside, the fluid's first layer dx/2 outside), so the expected drag
+  // / 6 pi mu R U is (R_eff / R) K(R_eff) with R_eff in R -+ dx/2: 1.47 .. 3.75 at R / dx = 3
+  // (TowCheck::expected_lo/hi). Measured: 1.54 (0.88 before the ghost velocities; 1.35 with
+  // fluid.boundary_velocity: wall, i.e. below the band: the test sees the no-slip condition).
+  // Halving the coupling force gives 0.77: below. The sideways force is reported, not tested here
+  // (the sphere's surface sampling: 0-14 % of the drag, README).
+  const app::TowCheck c = app::towedBall(scenePath("stokes_tow.yaml"), 0.01);
+  INFO(c.message);
+  REQUIRE(c.exit_code == 0);
+  INFO("R/dx " << c.radius / c.dx << ", Re " << c.reynolds << ": drag " << c.drag << " N = " << c.drag / c.stokes
+               << " x 6 pi mu R U (expected " << c.expected_lo << " .. " << c.expected_hi << "; K " << c.wall_factor_lo
+               << " .. " << c.wall_factor_hi << " at R), sideways " << c.side << " N +- " << c.side_noise << "; "
+               << c.wall_seconds << " s");
+  CHECK(c.drag / c.stokes > c.expected_lo);
+  CHECK(c.drag / c.stokes < c.expected_hi);
+}

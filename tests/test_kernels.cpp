@@ -947,7 +947,8 @@ TEST_CASE("pressure_force equals the brute-force reference (fluid, boundary and 
         srw += (st.density[j] * w) * Vec{rx, ry, rz};
       }
       const double gr = P.gravity[0] * srw.x + P.gravity[1] * srw.y + P.gravity[2] * srw.z;
-      pb[b] = sw > 0 ? std::max(0.0, (spw + gr) / sw) : 0.0;
+      pb[b] = sw > 0 ? (spw + gr) / sw : 0.0;
+      if (P.clamp_negative_pressure) pb[b] = std::max(0.0, pb[b]);  // as the fluid's pressure
       walls_pressed += pb[b] > 0;
       // float sums of positive terms (the extrapolation may cancel: scale by its magnitude)
       const double tol = 1e-5 * (sw > 0 ? (std::abs(spw) + std::abs(gr)) / sw : 0.0) + 1e-30;
