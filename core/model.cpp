@@ -815,6 +815,14 @@ Compiled compile(const SceneSpec& spec, const ResourceLimits& limits) {
   m.stages.set(Stage::DensitySolve, dfsph);
   m.stages.set(Stage::Viscosity, laminar ? m.max_viscosity > 0.0 : fl.artificial_viscosity > 0.0);
   m.stages.set(Stage::ColourDiffusion, fl.colour_diffusion > 0.0);
+  // No-slip ghost velocities (Adami et al. 2012 eq. 22-23) where the fluid-boundary viscous term
+  // is the laminar (physical) one: every boundary particle with the laminar model, the bodies'
+  // with body_viscosity physical (the artificial term stays with the wall's velocity: it is a
+  // numerical viscosity). WCSPH only: DFSPH's viscous pass (dfsph.cl) reads the wall's velocity.
+  const BoundaryVelocity bv = fl.boundary_velocity;
+  if (dfsph || bv == BoundaryVelocity::Wall) m.ghost_velocity_mode = 0;
+  else if (bv == BoundaryVelocity::Ghost || laminar) m.ghost_velocity_mode = 1;
+  else m.ghost_velocity_mode = fl.body_viscosity == BodyViscosity::Physical ? 2u : 0u;
   m.stages.set(Stage::Integrate, true);
   bool moving_bodies = false;
   for (const auto& b : m.bodies) moving_bodies = moving_bodies || b.kind != rigid::BodyKind::Static;
