@@ -82,6 +82,62 @@ std::string fmtd(double v, int prec = 3) {
   return buf;
 }
 
+// 4b. Cloth cost next to the fluid's at the paper's demo size: scenes/balls_on_cloth.yaml (about
+// 49k particles with the boundary: 32k fluid, a 51 x 51 cloth, three balls), `frames` frames from
+// the start, per stage in ms per step and kernel launches per step; the XPBD solve fused into one
+// launch per step (default) and as one launch per colour and sweep. Medians of `repeats` runs.
+int clothCost(const BenchOptions& opt, ClContext& cl) {
+  const std::string scene = sourcePath("scenes/balls_on_cloth.yaml");
+  const Compiled comp = compile(io::loadScene(scene));
+  const fs::path csv = fs::path(opt.out) / "cloth_cost.csv";
+  std::ofstream out(csv);
+  out << "# sphaptics " << SPHAPTICS_VERSION << " cloth cost: " << scene << ", " << comp.initial.size()
+      << " fluid particles, " << comp.model.boundary.size() << " wall and body particles, " << comp.model.cloth.nodes()
+      << " cloth nodes; " << opt.frames << " frame(s), medians of " << opt.repeats << " runs\n";
+  std::string header = "xpbd_solve,steps,ms_per_step,launches_per_step,cloth_launches_per_step";
+  for (int st = 0; st < kNumStages; ++st) header += std::string(",ms_per_step_") + stageName(static_cast<Stage>(st));
+  out << header << "\n";
+  std::printf("\ncloth cost: %s (%zu fluid particles, %zu cloth nodes), %d frame(s), medians of %d runs\n", scene.c_str(),
+              comp.initial.size(), comp.model.cloth.nodes(), opt.frames, opt.repeats);
+  std::printf("%-10s %-6s %-9s %-9s %-9s %-8s %-8s %-8s %-8s\n", "solve", "steps", "ms/step", "launch/st", "cloth l/st",
+              "fluid", "cloth", "coupling", "rigid");
+  for (bool fused : {true, false}) {
+    std::vector<double> total, per_stage[kNumStages];
+    uint64_t steps = 0, launches = 0, cloth_launches = 0;
+    for (int r = 0; r < opt.repeats; ++r) {
+      Simulation sim(comp.model, comp.initial, cl);
+      if (!fused) sim.cloth()->setFusedMaxNodes(0);
+      for (int f = 0; f < opt.frames; ++f) sim.advanceFrame();
+      const Profile& p = sim.profile();
+      steps = p.steps;
+      total.push_back(1e3 * p.total() / double(p.steps));
+      for (int st = 0; st < kNumStages; ++st) per_stage[st].push_back(1e3 * p.seconds[st] / double(p.steps));
+      launches = cloth_launches = 0;
+      for (const auto& [name, count] : sim.dispatchCounts()) {
+        launches += count;
+        if (name.rfind("cloth_", 0) == 0) cloth_launches += count;
+      }
+    }
+    double stage_ms[kNumStages];
+    for (int st = 0; st < kNumStages; ++st) stage_ms[st] = median(per_stage[st]);
+    const double fluid = stage_ms[int(Stage::Grid)] + stage_ms[int(Stage::Density)] + stage_ms[int(Stage::Pressure)] +
+                         stage_ms[int(Stage::Viscosity)] + stage_ms[int(Stage::Integrate)];
+    const char* name = fused ? "fused" : "per_colour";
+    out << name << "," << steps << "," << median(total) << "," << double(launches) / steps << ","
+        << double(cloth_launches) / steps;
+    for (int st = 0; st < kNumStages; ++st) out << "," << stage_ms[st];
+    out << "\n";
+    std::printf("%-10s %-6llu %-9.2f %-9.1f %-9.1f %-8.2f %-8.2f %-8.2f %-8.2f\n", name,
+                static_cast<unsigned long long>(steps), median(total), double(launches) / steps,
+                double(cloth_launches) / steps, fluid, stage_ms[int(Stage::Cloth)], stage_ms[int(Stage::ClothCoupling)],
+                stage_ms[int(Stage::RigidCoupling)]);
+    std::fflush(stdout);
+  }
+  std::cout << "wrote " << csv.string() << " (fluid: grid + density + pressure + viscosity + integrate; wall times on "
+               "this machine)\n";
+  return kExitOk;
+}
+
 // 4. Cloth stability sweep: stiffness x step x solver on a cloth hung by one edge (no fluid).
 int clothSweep(const BenchOptions& opt) {
   fs::create_directories(opt.out);
@@ -159,7 +215,7 @@ int clothSweep(const BenchOptions& opt) {
       }
   std::cout << "wrote " << csv.string() << " (energy gain: largest E(t) - E(0) over the run; drift: E(1 s) - E(0); "
                "both over m g L; steps: time steps, explicit: its substeps)\n";
-  return kExitOk;
+  return clothCost(opt, cl);
 }
 
 // 5. Force checks of bodies in water against resolution (cli/force_checks.h).

@@ -124,7 +124,7 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   cmd_bench->add_flag("--iso-only", bench.iso_only, "Only the isosurface table (off / on / on + OBJ export)");
   cmd_bench->add_flag("!--no-iso", bench.iso, "Skip the isosurface table");
-  cmd_bench->add_flag("--cloth-only", bench.cloth_only, "Only the cloth stability sweep (stiffness x step, xpbd and explicit)");
+  cmd_bench->add_flag("--cloth-only", bench.cloth_only, "Only the cloth benches: the stability sweep (stiffness x step, xpbd and explicit) and the cost on balls_on_cloth (per stage, launches per step)");
   cmd_bench->add_flag("!--no-cloth", bench.cloth, "Skip the cloth stability sweep");
   cmd_bench->add_flag("--forces-only", bench.forces_only,
                       "Only the force checks of bodies in water (added mass, free vs held, Stokes drag) against resolution");

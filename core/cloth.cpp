@@ -610,6 +610,10 @@ ClothSim::ClothSim(const ClothModel& model, ClContext& cl, KernelSet& kernels) :
   broken_ = upload(std::vector<uint32_t>(ns_, 0u));
   slot_ = upload(m_.slot);
   lambda_ = upload(std::vector<float>(m_.spring.size(), 0.0f));
+  // The fused XPBD solve's work-group: as large as the device allows for it, at most 256.
+  fused_local_ = std::min<std::size_t>(256, clCall("querying the cloth solve's work-group size", [&] {
+    return k_["cloth_xpbd_solve"].getWorkGroupInfo<CL_KERNEL_WORK_GROUP_SIZE>(cl_.device());
+  }));
 }
 
 void ClothSim::uploadSpheres(const std::vector<SphereCollider>& spheres) {
@@ -702,7 +706,16 @@ void ClothSim::xpbdStep(double t, float dt, const Eigen::Vector4f& g, const cl::
     clCall("clearing the sphere shifts", [&] {
       return cl_.queue().enqueueFillBuffer(shift_, cl_float4{}, 0, std::size_t(n_spheres) * n_ * 16);
     });
-  for (uint32_t it = 0; it < max_iterations_; ++it) {
+  // Small cloths: every sweep and colour in one launch (one work-group, barriers between the
+  // passes; bitwise equal to the launches below, which it replaces).
+  if (n_ <= fused_max_nodes_) {
+    const cl::Buffer& sph = n_spheres > 0 ? spheres_ : zero_force_;
+    const cl::Buffer& shift = n_spheres > 0 ? shift_ : zero_force_;
+    k_.call("cloth_xpbd_solve", fused_local_, fused_local_, n_, dt, max_iterations_, m_.num_colours, n_spheres, x_[cur_],
+            x_[1 - cur_], prev_, is_xpbd_, iters_, slot_, spring_, other_, prm_, broken_, lambda_, sph, shift);
+    if ((max_iterations_ * m_.num_colours) % 2 == 1) cur_ = 1 - cur_;
+  }
+  for (uint32_t it = 0; it < max_iterations_ && n_ > fused_max_nodes_; ++it) {
     for (uint32_t c = 0; c < m_.num_colours; ++c) {
       const int nxt = 1 - cur_;
       k_.call("cloth_xpbd_colour", n_, 64, n_, dt, it, c, x_[cur_], prev_, is_xpbd_, iters_,

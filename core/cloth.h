@@ -239,6 +239,16 @@ class ClothSim {
   cl::Buffer cut_tri_, cut_range_, cut_pose_;
   uint32_t n_cutters_ = 0;
   std::size_t sphere_capacity_ = 0;
+  std::size_t fused_local_ = 1;  // work-items of the fused XPBD solve (cloth_xpbd_solve)
+  uint32_t fused_max_nodes_ = kFusedMaxNodes;
+
+ public:
+  /// Up to this many nodes (all cloths and soft bodies) the XPBD solve of a step is one launch
+  /// (cloth_xpbd_solve, one work-group); above it, one launch per colour and sweep, which spreads
+  /// over all compute units (unit: 1).
+  static constexpr uint32_t kFusedMaxNodes = 1u << 16;
+  /// Changes that limit (tests: the two paths give bitwise equal results).
+  void setFusedMaxNodes(uint32_t n) { fused_max_nodes_ = n; }
 };
 
 }  // namespace sph::cloth

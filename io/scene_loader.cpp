@@ -747,6 +747,9 @@ class Loader {
     // Soft bodies from a mesh: a closed one (the lattice's cells are those inside it).
     for (std::size_t b = 0; b < spec.soft_bodies.size(); ++b) {
       SoftBodySpec& body = spec.soft_bodies[b];
+      const std::string axis_key = indexed("soft_bodies", b) + ".orientation_axis";
+      if (usable(axis_key) && marks_.count(axis_key) && body.orientation_axis.norm() == 0.0)
+        issue(axis_key, markOf(axis_key), "'" + axis_key + "' must be nonzero");
       const std::string mesh_key = indexed("soft_bodies", b) + ".mesh";
       if (!given(mesh_key) || body.mesh.empty()) continue;
       body.mesh_loc = locAt(mesh_key, markOf(mesh_key));

@@ -281,6 +281,8 @@ TEST_CASE("Cloth: scenes without cloth enqueue no cloth kernel, and with cloth r
   for (const auto& [name, count] : s0.dispatchCounts()) CHECK(name.rfind("cloth_", 0) != 0);
 
   // A 10 x 10 XPBD cloth pinned at its corners, then an explicit one: twice each, bitwise equal.
+  // XPBD: the fused solve (one launch per step, cloth_xpbd_solve) twice, then the per-colour
+  // launches (cloth_xpbd_colour): all three bitwise equal.
   for (ClothSolver solver : {ClothSolver::Xpbd, ClothSolver::Explicit}) {
     ClothSpec c;
     c.name = "sheet";
@@ -290,13 +292,17 @@ TEST_CASE("Cloth: scenes without cloth enqueue no cloth kernel, and with cloth r
     c.anchors.resize(1);
     const Compiled comp = compile(clothScene(c, 60, 2, 0.2));
     std::vector<std::vector<Eigen::Vector4f>> runs;
-    for (int run = 0; run < 2; ++run) {
+    const int n_runs = solver == ClothSolver::Xpbd ? 3 : 2;
+    for (int run = 0; run < n_runs; ++run) {
       Simulation sim(comp.model, comp.initial, cl);
+      if (run == 2) sim.cloth()->setFusedMaxNodes(0);
       for (int f = 0; f < comp.model.num_frames; ++f) sim.advanceFrame();
       runs.push_back(positions(sim));
-      CHECK(sim.dispatchCounts().count(solver == ClothSolver::Xpbd ? "cloth_xpbd_colour" : "cloth_explicit_step"));
+      const char* kernel = solver == ClothSolver::Explicit ? "cloth_explicit_step" : run < 2 ? "cloth_xpbd_solve" : "cloth_xpbd_colour";
+      CHECK(sim.dispatchCounts().count(kernel));
     }
     CHECK(std::memcmp(runs[0].data(), runs[1].data(), runs[0].size() * 16) == 0);
+    if (n_runs == 3) CHECK(std::memcmp(runs[0].data(), runs[2].data(), runs[0].size() * 16) == 0);
     CHECK(runs[0][55].z() < 0.5f);  // its middle sagged
   }
 }

@@ -280,6 +280,8 @@ TEST_CASE("Soft body: bad input is reported at its location, exit 2", "[soft][in
   CHECK(hasIssue(issues, 6, {"size"}));
   issues = issuesOf(dir, head + "    tear_strain: -1\n");
   CHECK(hasIssue(issues, 6, {"tear_strain"}));
+  issues = issuesOf(dir, head + "    orientation_axis: [0, 0, 0]\n");
+  CHECK(hasIssue(issues, 6, {"orientation_axis' must be nonzero"}));
   issues = issuesOf(dir, head + "    mesh: open.obj\n");
   INFO(dump(issues));
   CHECK(hasIssue(issues, 6, {"open.obj", "not closed", "soft bodies need a watertight mesh"}));
