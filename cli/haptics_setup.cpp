@@ -83,6 +83,16 @@ std::unique_ptr<haptics::Device> makeDevice(const SceneSpec& spec, const haptics
   return std::make_unique<haptics::ScriptedDevice>(hapticPath(h), clock);
 }
 
+// The mouse renders nothing, so there is no hand-device loop for the passivity controller to keep
+// stable; and its cursor moves in steps (one per window event), against which the observer's
+// energy (force times the hand's motion relative to the anchor, per tick) drifts negative and the
+// controller adds a damper that pushes the drawn force along the motion (measured: +0.85 N along a
+// 0.5 m/s drag whose true drag is -0.1 N). With the mouse the passivity controller is off.
+haptics::ServoConfig mouseServoConfig(haptics::ServoConfig c, bool mouse) {
+  if (mouse) c.passivity = false;
+  return c;
+}
+
 haptics::GrabController makeGrab(const Model& model) {
   const HapticsSpec& h = model.spec.haptics;
   // Grabbable dynamic bodies, each with a closest-surface-point query on its mesh (body frame).
@@ -109,8 +119,9 @@ haptics::GrabController makeGrab(const Model& model) {
 
 std::unique_ptr<haptics::BatchSession> makeBatchSession(const Model& model, std::shared_ptr<haptics::MouseInput> mouse) {
   auto clock = std::make_shared<haptics::VirtualClock>();
+  const haptics::ServoConfig servo = mouseServoConfig(servoConfig(model.spec.haptics), mouse != nullptr);
   auto device = makeDevice(model.spec, *clock, std::move(mouse));
-  return std::make_unique<haptics::BatchSession>(std::move(device), clock, servoConfig(model.spec.haptics), makeGrab(model));
+  return std::make_unique<haptics::BatchSession>(std::move(device), clock, servo, makeGrab(model));
 }
 
 std::unique_ptr<haptics::LiveSource> makeLiveSession(const Model& model, std::shared_ptr<haptics::MouseInput> mouse) {
@@ -124,8 +135,9 @@ std::unique_ptr<haptics::LiveSource> makeLiveSession(const Model& model, std::sh
     return std::make_unique<haptics::BridgeSession>(b, servoConfig(h), makeGrab(model));
   }
   auto clock = std::make_shared<haptics::SteadyClock>();
+  const haptics::ServoConfig servo = mouseServoConfig(servoConfig(h), mouse != nullptr);
   auto device = makeDevice(model.spec, *clock, std::move(mouse));
-  return std::make_unique<haptics::LiveSession>(std::move(device), clock, servoConfig(h), makeGrab(model));
+  return std::make_unique<haptics::LiveSession>(std::move(device), clock, servo, makeGrab(model));
 }
 
 std::unique_ptr<haptics::ReplaySource> makeReplaySource(const Model& model, const haptics::Recording& rec) {

@@ -29,7 +29,7 @@ int runWithWindow(sph::app::RunOptions run, bool mouse, const std::string& scree
   std::thread sim([&] {
     for (;;) {
       code = app::runScene(run).exit_code;
-      if (!link->controls.reset.exchange(false) || link->controls.stop.load() || code.load() != 0) break;
+      if (!link->requests.reset.exchange(false) || link->requests.stop.load() || code.load() != 0) break;
       std::cerr << "reset: the scene starts again\n";
     }
     done = true;
@@ -39,7 +39,7 @@ int runWithWindow(sph::app::RunOptions run, bool mouse, const std::string& scree
   vo.title = run.scene;
   vo.screenshot = screenshot;
   const int window = viewer::liveWindow(vo, link, run.mouse, [&] { return done.load(); });
-  if (window == 0) link->controls.stop = true;  // the window was closed (or the run ended)
+  if (window == 0) link->requests.stop = true;  // the window was closed (or the run ended)
 #else
   (void)screenshot;
   std::cerr << "window: this sphaptics was built without the viewer; going on without it\n";

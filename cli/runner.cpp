@@ -668,7 +668,7 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
     for (int f = 0; f < frames; ++f) {
       if (g_stop_signal) break;
       if (opt.live_link) {  // the window's requests: stop, reset, pause and settings
-        LiveControls& c = opt.live_link->controls;
+        WindowRequests& c = opt.live_link->requests;
         if (c.stop.load() || c.reset.load()) {
           res.stopped_by_window = true;
           break;

@@ -64,7 +64,7 @@ struct RunResult {
   double servo_p99 = 0;              ///< live: servo period, 99th percentile (unit: s)
   uint64_t servo_overruns = 0;       ///< live: servo periods over 1.5 T
   int replay_frames_checked = 0;     ///< replay: frames whose state hash matched the recording
-  bool stopped_by_window = false;    ///< the live window asked to stop or reset (LiveControls)
+  bool stopped_by_window = false;    ///< the live window asked to stop or reset (WindowRequests)
 };
 
 /// Surface grid spacing when output.isosurface.spacing is 0, as a fraction of the particle spacing

@@ -1,7 +1,7 @@
 // Frames of a running simulation for a live window (`sphaptics run --interactive` with a display).
 //
 //   simulation thread ──publish(shared_ptr<const LiveFrame>)──► LiveMailbox ──latest()──► renderer
-//   renderer ──LiveControls (atomics: pause, reset, stop, gain, smoothing)──► simulation thread
+//   renderer ──WindowRequests (atomics: pause, reset, stop, gain, smoothing)──► simulation thread
 //
 // The mailbox holds only the newest frame: publishing swaps one pointer under a mutex that is held
 // for the swap alone (never while a frame is copied or drawn), so the simulation never waits for
@@ -105,8 +105,8 @@ class LiveMailbox {
 };
 
 /// Requests from the window to the simulation thread, read once per frame (a live session passes
-/// pause, gain and smoothing on to its own controls, haptics/live.h).
-struct LiveControls {
+/// pause, gain and smoothing on to its own controls, haptics::LiveControls in haptics/live.h).
+struct WindowRequests {
   std::atomic<bool> paused{false};  ///< the simulation waits between frames
   std::atomic<bool> reset{false};   ///< end this run and start the scene again
   std::atomic<bool> stop{false};    ///< end the run (window closed)
@@ -119,7 +119,7 @@ struct LiveControls {
 /// The link between a run and its window.
 struct LiveLink {
   LiveMailbox mailbox;
-  LiveControls controls;
+  WindowRequests requests;
 };
 
 }  // namespace sph

@@ -96,7 +96,8 @@ class MouseDevice : public Device {
   double x_ = 0, y_ = 0, depth_ = 1;
   bool pressed_ = false;
   // Recent readings (clock time, scene point) for the velocity: a finite difference over
-  // kVelocityWindow, so that a cursor that jumps once per window event reads as a steady motion.
+  // kVelocityWindow, so that a cursor that jumps once per window event reads as a steady motion;
+  // cleared at each press and release (a new gesture starts at rest).
   std::vector<std::pair<double, Eigen::Vector3d>> history_;
   Eigen::Vector3d v_ = Eigen::Vector3d::Zero();
 

@@ -50,7 +50,7 @@ struct LiveViewOptions {
 
 /// Opens the window over `link` (core/live_frame.h) and draws the newest published frame until the
 /// window is closed or `run_done()` turns true; sends pause / reset / stop / gain / smoothing
-/// through link->controls and, with `mouse`, the cursor as a haptic device (haptics/mouse.h).
+/// through link->requests and, with `mouse`, the cursor as a haptic device (haptics/mouse.h).
 /// Returns 0, or 3 when no window could be opened (the caller then goes on without one).
 /// Prints the window's frame rate at the end.
 int liveWindow(const LiveViewOptions& opt, std::shared_ptr<LiveLink> link, std::shared_ptr<haptics::MouseInput> mouse,

@@ -724,7 +724,7 @@ class Viewer {
       if (last) break;
     }
     // Closing the window ends the run.
-    live_->controls.stop = true;
+    live_->requests.stop = true;
     const double elapsed = glfwGetTime() - t0;
     shown_rate_ = elapsed > 0 ? static_cast<double>(samples_total_) / elapsed : 0.0;
     return elapsed > 0 ? static_cast<double>(drawn) / elapsed : 0.0;
@@ -841,14 +841,14 @@ class Viewer {
         for (float v : plot) top = std::max(top, v);
         ImGui::PlotLines("##force", plot.data(), static_cast<int>(plot.size()), 0, label, 0.0f, top * 1.1f, ImVec2(0, 70));
         ImGui::Text("force axis 0 to %.2f N", static_cast<double>(top * 1.1f));
-        if (ImGui::SliderFloat("gain", &gain_, 0.0f, 10.0f, "%.2f")) live_->controls.gain = gain_;
+        if (ImGui::SliderFloat("gain", &gain_, 0.0f, 10.0f, "%.2f")) live_->requests.gain = gain_;
         // The paper's rolling average over N frames, or 0: the servo's own smoothing.
         if (ImGui::SliderInt("smoothing (frames)", &smoothing_, 0, 60, smoothing_ == 0 ? "servo" : "%d"))
-          live_->controls.smoothing = smoothing_;
+          live_->requests.smoothing = smoothing_;
         ImGui::SliderFloat("arrow (m/N)", &arrow_scale_, 0.005f, 1.0f, "%.3f", ImGuiSliderFlags_Logarithmic);
       }
     }
-    if (ImGui::Checkbox("pause (P)", &paused_)) live_->controls.paused = paused_;
+    if (ImGui::Checkbox("pause (P)", &paused_)) live_->requests.paused = paused_;
     ImGui::SameLine();
     if (ImGui::Button("reset (R)")) requestReset();
 
@@ -876,7 +876,7 @@ class Viewer {
   }
 
   void requestReset() {
-    live_->controls.reset = true;
+    live_->requests.reset = true;
     samples_.clear();
     settings_read_ = false;
   }
@@ -1224,7 +1224,7 @@ class Viewer {
     if (live_) {  // live keys: no timeline
       if (ImGui::IsKeyPressed(GLFW_KEY_P) || ImGui::IsKeyPressed(GLFW_KEY_SPACE)) {
         paused_ = !paused_;
-        live_->controls.paused = paused_;
+        live_->requests.paused = paused_;
       }
       if (ImGui::IsKeyPressed(GLFW_KEY_R)) requestReset();
       if (ImGui::IsKeyPressed(GLFW_KEY_1)) layers_.particles = !layers_.particles;
