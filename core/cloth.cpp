@@ -654,6 +654,12 @@ std::vector<Eigen::Vector3d> ClothSim::step(double t, double dt, const Eigen::Ve
     xpbdStep(t, float(dt), g4, fext, ns);
   }
   last_dt_ = dt;
+  // The domain's closed walls (the fluid's boundary particles do not push the nodes).
+  if (m_.closed_mask != 0) {
+    const cl_float4 lo{{m_.walls_min.x(), m_.walls_min.y(), m_.walls_min.z(), 0.0f}};
+    const cl_float4 hi{{m_.walls_max.x(), m_.walls_max.y(), m_.walls_max.z(), 0.0f}};
+    k_.call("cloth_domain_walls", n_, 64, n_, lo, hi, m_.closed_mask, m_.wall_margin, x_[cur_], v_[cur_]);
+  }
   if (m_.any_tear) tear();
   if (ns == 0) return J;
   // Balls: the XPBD nodes' projections (J = -sum m dx / dt, in node order), then the explicit

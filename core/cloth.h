@@ -124,6 +124,12 @@ struct ClothModel {
   bool any_tear = false;                 ///< some spring can break
   /// Explicit solver: the largest stable step over the explicit cloths (unit: s); inf when none.
   double explicit_dt_limit = 0.0;
+  /// The domain's closed walls, which hold the nodes as they hold the fluid (integrate.cl): a free
+  /// node past one is put back just inside and loses its velocity into it.
+  Eigen::Vector4f walls_min = Eigen::Vector4f::Zero();  ///< (unit: m)
+  Eigen::Vector4f walls_max = Eigen::Vector4f::Zero();  ///< (unit: m)
+  uint32_t closed_mask = 0;                             ///< bit 2a: the wall at min of axis a is closed; 2a + 1: at max
+  float wall_margin = 0.0f;                             ///< how far inside a node is put back (unit: m)
   // Soft bodies: items num_cloths .. are the scene's soft_bodies (in order), nodes and springs like
   // a cloth's. Per soft body, its lattice cells (for the surface mesh): corner nodes (global
   // indices) and the 28 springs among them (global spring ids).

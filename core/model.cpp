@@ -768,6 +768,13 @@ Compiled compile(const SceneSpec& spec, const ResourceLimits& limits) {
 
   // --- Cloths: nodes, springs, colours (core/cloth.h) -----------------------------------
   m.cloth = cloth::compileCloths(spec.cloth, issues, spec.soft_bodies, m.dx);
+  for (int a = 0; a < 3; ++a) {
+    m.cloth.walls_min[a] = static_cast<float>(spec.domain.min[a]);
+    m.cloth.walls_max[a] = static_cast<float>(spec.domain.max[a]);
+  }
+  for (int w = 0; w < 6; ++w)
+    if (spec.domain.closed[static_cast<std::size_t>(w)]) m.cloth.closed_mask |= 1u << w;
+  m.cloth.wall_margin = static_cast<float>(1e-4 * m.dx);
   for (const ClothSpec& c : spec.cloth)
     for (const std::string& key : c.unused_keys)
       m.warnings.push_back(key + " is not used: cloth '" + c.name + "' is a mesh (its vertices and edges set the nodes and springs)");

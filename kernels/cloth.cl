@@ -215,6 +215,26 @@ __kernel void cloth_xpbd_velocity(const uint n, const float dt, const float t, _
     v[i] = (float4)((x4.xyz - prev[i].xyz) / dt, 0.0f);
 }
 
+/* The domain's closed walls (after either solver's step): a free node past one is put back just
+ * inside (margin) and keeps no velocity into the wall, as a fluid particle in integrate.cl. Bit 2a of
+ * mask closes the wall at lo[a], bit 2a + 1 the one at hi[a]. Anchored nodes (w = 0) are scripted. */
+__kernel void cloth_domain_walls(const uint n, const float4 lo, const float4 hi, const uint mask,
+                                 const float margin, __global float4* x, __global float4* v) {
+  const uint i = get_global_id(0);
+  if (i >= n) return;
+  float4 p = x[i];
+  if (p.w == 0.0f) return;
+  float4 u = v[i];
+  if ((mask & 1u) && p.x < lo.x) { p.x = lo.x + margin; u.x = fmax(u.x, 0.0f); }
+  if ((mask & 2u) && p.x > hi.x) { p.x = hi.x - margin; u.x = fmin(u.x, 0.0f); }
+  if ((mask & 4u) && p.y < lo.y) { p.y = lo.y + margin; u.y = fmax(u.y, 0.0f); }
+  if ((mask & 8u) && p.y > hi.y) { p.y = hi.y - margin; u.y = fmin(u.y, 0.0f); }
+  if ((mask & 16u) && p.z < lo.z) { p.z = lo.z + margin; u.z = fmax(u.z, 0.0f); }
+  if ((mask & 32u) && p.z > hi.z) { p.z = hi.z - margin; u.z = fmin(u.z, 0.0f); }
+  x[i] = p;
+  v[i] = u;
+}
+
 /* Tearing: spring s breaks for good when its strain (L - L0) / L0 exceeds its tear strain. One
  * work-item per spring writes only its own flag. */
 __kernel void cloth_tear(const uint ns, __global const float4* x, __global const uint* ends,
