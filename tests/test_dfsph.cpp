@@ -45,10 +45,11 @@ struct TankResult {
   int probes_compared = 0;
 };
 
-TankResult hydrostaticTank(const std::string& solver) {
+TankResult hydrostaticTank(const std::string& solver, std::vector<std::string> sets = {}) {
   const app::Table ref = app::readCsvTable(dataPath("hydrostatic_tank_analytic.csv"));
   const std::vector<double> ref_y_over_H = ref.column("y_over_H"), ref_p_nd = ref.column("p_nd");
-  app::RunOptions o = quietRun("hydrostatic.yaml", {"fluid.solver=" + solver});
+  sets.insert(sets.begin(), "fluid.solver=" + solver);
+  app::RunOptions o = quietRun("hydrostatic.yaml", sets);
   struct Layer {
     double p = 0, above = 0;
     int n = 0;
@@ -425,4 +426,38 @@ TEST_CASE("DFSPH coupling: three balls of density 500, 1000 and 4000 kg/m^3 orde
   const std::string walls = GENERATE(std::string("mirrored"), std::string("single"));
   INFO("fluid.dfsph.walls: " << walls);
   testing::checkThreeBallsOrder({"fluid.solver=dfsph", "fluid.dfsph.walls=" + walls});
+}
+
+TEST_CASE("survey tank", "[.survey]") {
+  const char* w = std::getenv("WALLS");
+  std::vector<std::string> sets{std::string("fluid.dfsph.walls=") + (w ? w : "extrapolated")};
+  if (const char* e = std::getenv("EXTRA")) sets.push_back(e);
+  const TankResult d = hydrostaticTank("dfsph", sets);
+  WARN("exit " << d.exit_code << " layers " << d.compared << " worst " << 100 * d.worst << " % change " << d.worst_change
+               << " Pa (pb " << d.p_bottom << ") probes " << 100 * d.worst_probe << " % it/step " << d.density_iterations_per_step);
+  if (std::getenv("DUMP")) CHECK(false);
+}
+
+TEST_CASE("survey frames", "[.survey]") {
+  const char* w = std::getenv("WALLS");
+  std::vector<std::string> sets{"fluid.solver=dfsph", std::string("fluid.dfsph.walls=") + (w ? w : "extrapolated")};
+  if (const char* e = std::getenv("EXTRA")) sets.push_back(e);
+  app::RunOptions o = quietRun("hydrostatic.yaml", sets);
+  app::runScene(o, [&](Simulation& sim, const FrameReport& rep) {
+    if (sim.time() < 0.7) return;
+    const ParticleFrame f = sim.readFrame();
+    double vmax = 0, vmean = 0, zmin = 1;
+    double lay[4] = {0, 0, 0, 0};
+    int cnt[4] = {0, 0, 0, 0};
+    for (std::size_t i = 0; i < f.size(); ++i) {
+      const double v = std::sqrt(f.vx[i] * f.vx[i] + f.vy[i] * f.vy[i] + f.vz[i] * f.vz[i]);
+      vmax = std::max(vmax, v), vmean += v / f.size(), zmin = std::min<double>(zmin, f.z[i]);
+      if (std::abs(f.x[i] - 0.1) > 0.05) continue;
+      for (int k = 0; k < 4; ++k)
+        if (f.z[i] >= 0.05 * k && f.z[i] < 0.05 * k + 0.01) lay[k] += f.pressure[i], ++cnt[k];
+    }
+    std::printf("t %.2f vmax %.4f vmean %.5f zmin %.4f layers %6.0f %6.0f %6.0f %6.0f it %d err %.5f cross %d\n", sim.time(), vmax,
+                vmean, zmin, lay[0] / cnt[0], lay[1] / cnt[1], lay[2] / cnt[2], lay[3] / cnt[3], rep.density_iterations,
+                rep.density_error, int(rep.wall_crossings));
+  });
 }
