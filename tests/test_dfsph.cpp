@@ -339,9 +339,10 @@ TEST_CASE("DFSPH coupling: a ball pushed into a free blob conserves the total mo
   // As the WCSPH test (test_rigid.cpp): gravity off, no wall within reach. The body receives the
   // reaction to the pressure of both solves (dfsph_finish: p / delta^2 of all pressure that acted
   // this step) and to the viscous force, so the total momentum may drift by rounding only: 1e-3 of
-  // the momentum exchanged, the WCSPH test's tolerance. With both wall variants: the body's
-  // particles weigh the pressure as the walls do (rigid.cl, `mirror` = 2 or 1).
-  const std::string walls = GENERATE(std::string("mirrored"), std::string("single"));
+  // the momentum exchanged, the WCSPH test's tolerance. With every wall variant: the body's
+  // particles weigh the pressure as the walls do (rigid.cl, `mirror` = 2, 1, or -1: both solves'
+  // extrapolated wall pressure).
+  const std::string walls = GENERATE(std::string("mirrored"), std::string("single"), std::string("extrapolated"));
   INFO("fluid.dfsph.walls: " << walls);
   app::RunOptions o = quietRun("push_blob.yaml", {"fluid.solver=dfsph", "fluid.dfsph.walls=" + walls});
   Eigen::Vector3d p0 = Eigen::Vector3d::Constant(NAN);
@@ -446,9 +447,9 @@ TEST_CASE("DFSPH with an inflow, two mixing colours and an isosurface: particles
 }
 
 TEST_CASE("DFSPH coupling: three balls of density 500, 1000 and 4000 kg/m^3 order themselves by density", "[dfsph]") {
-  // The WCSPH test's scene and criterion (tests/three_balls.h), with both wall variants: the bodies'
+  // The WCSPH test's scene and criterion (tests/three_balls.h), with every wall variant: the bodies'
   // particles take the solver's pressure as the walls do.
-  const std::string walls = GENERATE(std::string("mirrored"), std::string("single"));
+  const std::string walls = GENERATE(std::string("mirrored"), std::string("single"), std::string("extrapolated"));
   INFO("fluid.dfsph.walls: " << walls);
   testing::checkThreeBallsOrder({"fluid.solver=dfsph", "fluid.dfsph.walls=" + walls});
 }
