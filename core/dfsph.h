@@ -12,7 +12,9 @@
 // the pressures (accelerations of the pressures; pressures from the residual, projected to p >= 0)
 // until the average error is below its bound (and the least iterations are done) or the most
 // iterations are reached; then the velocities take the pressures. The average is summed in fixed chunks on the device and the
-// chunks in order on the host: bitwise deterministic.
+// chunks in order on the host: bitwise deterministic. With walls: extrapolated each iteration first
+// extrapolates the wall particles' pressure from the fluid's (Adami et al. 2012 eq. 27, pressure.cl
+// boundary_pressure); finish() hands both solves' wall pressure to the rigid coupling.
 #pragma once
 
 #include "core/cl_context.h"
