@@ -15,7 +15,8 @@
 //     (none may grow: the cloth only loses energy to its dashpots), NaN, wall time.
 //  5. Forces on bodies (issue 15): the checks of tests/test_forces.cpp (cli/force_checks.h) at
 //     R / dx = 3, 4 and 5 (the tests run 3 and 4): added mass of an accelerated ball, free against
-//     held, Stokes drag and sideways force of a towed ball, each against its closed form, with
+//     held, added mass of a released ball (mid-water and near the floor, R / dx = 3, 4), Stokes
+//     drag and sideways force of a towed ball (R / dx = 3, 3.75, 4.5), each against its closed form, with
 //     the wall time of the run: what accuracy costs. One row per check, solver and resolution.
 //  6. Impact pressure (issue 14, with the accuracy table): the pressure on the far wall during the
 //     dam-break impact with each solver, against the hydrostatic value of the local water height.
@@ -205,13 +206,27 @@ int forceChecks(const BenchOptions& opt) {
       row("free_over_held", solver, dx, r.radius / dx, r.free_force / r.held_force, 1.0, 1.0, r.wall_seconds);
     }
     for (double dx : {0.01, 0.0075}) {
-      // Stokes drag over 6 pi mu R U, against the box's wall factor K; sideways / drag against 0.
+      // A 500 kg/m^3 ball released mid-water and one spacing above the floor, against the same
+      // ball held: C_m from the momentum over the first 10 ms (cli/force_checks.h).
+      for (const bool floor : {false, true}) {
+        std::vector<std::string> s2 = sets;
+        if (floor) s2.push_back("rigid_bodies[0].position=[0.1, 0.1, " + std::to_string(0.03 + dx) + "]");
+        const ReleaseMassCheck m = releasedBallAddedMass(release, dx, 500.0, 0.01, s2, opt.device);
+        const std::string name = floor ? "release_Cm_floor" : "release_Cm_midwater";
+        if (m.exit_code != 0) std::printf("%s at dx %g (%s): %s\n", name.c_str(), dx, solver.c_str(), m.message.c_str());
+        else row(name, solver, dx, m.radius / dx, m.cm, 0.5, floor ? m.cm_floor : m.cm_confined, m.wall_seconds);
+      }
+    }
+    for (double dx : {0.01, 0.008, 0.2 / 30}) {
+      // Stokes drag over 6 pi mu R U, against the box's wall factor K with the no-slip surface
+      // within R -+ dx/2 (TowCheck::expected_lo/hi); sideways / drag against 0. Spacings that
+      // divide the 20 cm box (else the liquid starts with a gap and rings: no steady drag).
       const TowCheck t = towedBall(tow, dx, sets, opt.device);
       if (t.exit_code != 0) {
         std::printf("Stokes drag at dx %g (%s): %s\n", dx, solver.c_str(), t.message.c_str());
         continue;
       }
-      row("stokes_drag_over_6piMuRU", solver, dx, t.radius / dx, t.drag / t.stokes, t.wall_factor_lo, t.wall_factor_hi,
+      row("stokes_drag_over_6piMuRU", solver, dx, t.radius / dx, t.drag / t.stokes, t.expected_lo, t.expected_hi,
           t.wall_seconds);
       row("sideways_over_drag", solver, dx, t.radius / dx, t.side / t.drag, 0.0, 0.0, t.wall_seconds);
     }

@@ -24,6 +24,7 @@ int validateCommand(const std::vector<std::string>& files, double max_memory, st
       const Compiled c = compile(spec, limits);
       out << f << ": ok (" << c.initial.size() << " fluid particles, " << c.model.boundary.size()
           << " boundary particles, stages: " << c.model.stages.str() << ")\n";
+      for (const std::string& w : c.model.warnings) err << "warning: " << w << "\n";
     } catch (const InputError& e) {
       err << e.what() << "\n";
       code = kExitBadInput;

@@ -31,6 +31,39 @@ struct ReleaseCheck {
 ReleaseCheck releasedBall(const std::string& scene, double dx, double rho_b, double window,
                           const std::vector<std::string>& sets = {}, const std::string& device = "");
 
+/// A buoyant ball released from rest mid-water, against the same ball held throughout
+/// (release_ball.yaml twice, the second with hold_until past the end). Both runs are identical up
+/// to the release (deterministic), so the held run's force, interpolated to the free run's step
+/// times, carries the tank's ringing (the water column's quarter-wave mode, 4 H / c0 ~ 20 Hz,
+/// +-40 % of the buoyancy; it is what hid the first acceleration) and the difference is the force
+/// of the ball's own motion: F_free - F_held = -C_m rho V a (drag negligible in the first steps),
+/// taken in momentum form, int (F_free - F_held) dt = -C_m rho V v(T) over the window T.
+struct ReleaseMassCheck {
+  int exit_code = 0;
+  std::string message;
+  double dx = 0;              ///< (unit: m)
+  double radius = 0;          ///< (unit: m)
+  double cm = 0;              ///< C_m = -int (F_free - F_held) dt / (rho V v(T)) over the window T (unit: 1)
+  double cm_confined = 0;     ///< Lamb's concentric sphere at the nearest wall or surface, as AccelCheck (unit: 1)
+  /// a sphere moving normal to the floor at centre height h, to leading order in (R / h)^3:
+  /// 1/2 + 3/16 (R / h)^3 (Brennen 1982, A review of added mass and fluid inertial forces) (unit: 1)
+  double cm_floor = 0;
+  double a0 = 0;              ///< mean acceleration of the ball over the window: v(T) / T (unit: m/s^2; by momentum,
+                              ///< a0 (m + C_m rho V) = mean F_held - m g: the same check as cm, in the issue's terms)
+  /// the same expected from the held force over the window: (mean F_held - m g) / (m + C_m rho V),
+  /// for C_m from 25 % below 1/2 to 25 % above cm_confined, or cm_floor when the floor is the nearest
+  /// boundary (the range, the tolerance of the added-mass checks) (unit: m/s^2)
+  double a0_expected_lo = 0, a0_expected_hi = 0;
+  double a0_still = 0;        ///< (rho_w - rho_b) g / (rho_b + rho_w / 2): the same in a fluid at rest (unit: m/s^2)
+  double held_over_buoyancy = 0;  ///< mean held force over the window / rho g V: the ringing's phase at the release (unit: 1)
+  double wall_seconds = 0;    ///< both runs (unit: s)
+};
+
+/// Runs `scene` (release_ball.yaml) at spacing dx, ball density rho_b (unit: kg/m^3), free and
+/// held, and fits over `window` seconds after the release.
+ReleaseMassCheck releasedBallAddedMass(const std::string& scene, double dx, double rho_b, double window,
+                                       const std::vector<std::string>& sets = {}, const std::string& device = "");
+
 /// A kinematic ball shaken along x from rest on a keyframed path (scenes/tests/accel_ball.yaml).
 struct AccelCheck {
   int exit_code = 0;
@@ -64,6 +97,12 @@ struct TowCheck {
   double stokes = 0;           ///< 6 pi mu R U (unit: N)
   double wall_factor_lo = 0;   ///< Haberman & Sayre 1958 K for a container sphere of the box's volume (unit: 1)
   double wall_factor_hi = 0;   ///< the same for the sphere inscribed in the box (unit: 1)
+  /// The drag over 6 pi mu R U expected at this resolution: the no-slip surface of a sampled ball
+  /// lies within dx/2 of R (its particles sit dx/2 inside the surface, the fluid's first layer
+  /// dx/2 outside), so R_eff in [R - dx/2, R + dx/2]: lo = (R - dx/2) K_lo(R - dx/2) / R,
+  /// hi = (R + dx/2) K_hi(R + dx/2) / R, with the two containers of wall_factor_lo/hi (unit: 1).
+  double expected_lo = 0;
+  double expected_hi = 0;      ///< (unit: 1)
   double side = 0;             ///< largest mean sideways component |F_y|, |F_z| over the window (unit: N)
   double side_noise = 0;       ///< standard error of that mean, from 6 block means (unit: N)
   double wall_seconds = 0;     ///< (unit: s)

@@ -91,7 +91,7 @@ haptics::GrabController makeGrab(const Model& model) {
     const rigid::RigidBody& body = model.bodies[b];
     if (!body.spec.grabbable || body.kind != rigid::BodyKind::Dynamic) continue;
     auto index = std::make_shared<SurfaceIndex>(body.mesh);
-    candidates.push_back({b, body.mass, [index](const Eigen::Vector3d& p) { return index->nearest(p).point; }});
+    candidates.push_back({b, body.mass, [index](const Eigen::Vector3d& p) { return index->nearest(p).point; }, body.inertia});
   }
   haptics::GrabSettings g;
   g.gain = h.gain;
@@ -101,6 +101,7 @@ haptics::GrabController makeGrab(const Model& model) {
   g.reach = h.reach;
   g.ttl = h.watchdog;
   g.force_as_feed_forward = h.smoothing == HapticSmoothing::RollingAverage;
+  g.hold_orientation = h.hold_orientation;
   return haptics::GrabController(hapticMapping(model.spec), g, std::move(candidates));
 }
 

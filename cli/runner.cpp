@@ -114,8 +114,14 @@ void appendSolids(ParticleFrame& f, const Model& model, Simulation& sim) {
     std::vector<Eigen::Vector4f> x, v;
     sim.cloth()->read(x, v);
     for (std::size_t k = 0; k < x.size(); ++k)
+    {
+      // Cloth nodes (type cloth), then soft-body nodes (type soft), each in its item's colour.
+      const std::size_t item = model.cloth.cloth_of[k];
+      const bool soft = model.cloth.isSoft(item);
       push(x[k].head<3>().cast<double>(), v[k].head<3>().cast<double>(),
-           model.spec.cloth[model.cloth.cloth_of[k]].colour, kCloth);
+           soft ? model.spec.soft_bodies[item - model.cloth.num_cloths].colour : model.spec.cloth[item].colour,
+           soft ? kSoft : kCloth);
+    }
   }
 }
 
@@ -196,7 +202,7 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
   // Output state, so that a failure can mark the run as failed.
   std::unique_ptr<io::H5PartWriter> h5;
   std::unique_ptr<io::BodiesCsvWriter> bodies_csv;
-  std::unique_ptr<io::ClothCsvWriter> cloth_csv;
+  std::unique_ptr<io::ClothCsvWriter> cloth_csv, soft_csv;
   std::unique_ptr<io::StepForcesCsvWriter> forces_csv;
   std::unique_ptr<io::ProbesCsvWriter> probes_csv;
   std::unique_ptr<std::ofstream> haptics_csv;
@@ -223,6 +229,7 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
     if (h5) h5->close();
     if (bodies_csv) bodies_csv->close();
     if (cloth_csv) cloth_csv->close();
+    if (soft_csv) soft_csv->close();
     if (forces_csv) forces_csv->close();
     if (probes_csv) probes_csv->close();
     if (haptics_csv) haptics_csv->close();
@@ -290,6 +297,7 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
     Compiled compiled = compile(spec, limits);
     const Model& model = compiled.model;
     for (const std::string& note : model.notes) log("note: " + note);
+    for (const std::string& w : model.warnings) log("warning: " + w);
 
     // Isosurface: only when the scene asks for it (output.isosurface).
     const IsosurfaceSpec& iso = spec.output.isosurface;
@@ -345,11 +353,13 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
       fs::remove(out_dir / "probes.csv", ec);
       fs::remove(out_dir / "haptics.csv", ec);
       fs::remove(out_dir / "cloth.csv", ec);
+      fs::remove(out_dir / "soft.csv", ec);
       for (const auto& entry : fs::directory_iterator(out_dir, ec)) {  // an earlier run's meshes
         const std::string name = entry.path().filename().string();
         const auto ext = entry.path().extension();
         if ((name.rfind("fluid_", 0) == 0 && (ext == ".obj" || ext == ".vdb")) ||
-            (name.rfind("body_", 0) == 0 && ext == ".obj") || (name.rfind("cloth_", 0) == 0 && ext == ".obj"))
+            (name.rfind("body_", 0) == 0 && ext == ".obj") || (name.rfind("cloth_", 0) == 0 && ext == ".obj") ||
+            (name.rfind("soft_", 0) == 0 && ext == ".obj"))
           fs::remove(entry.path(), ec);
       }
     }
@@ -365,8 +375,14 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
     if (opt.mouse && !sim.stages().on(Stage::Haptics))
       throw InputError("--mouse", 0, 0, "needs a scene with a 'haptics' section and a grabbable dynamic body");
     if (!opt.record.empty() && !opt.interactive) throw InputError("--record", 0, 0, "records a live run: add --interactive");
-    if (!opt.record.empty() && !std::ofstream(opt.record, std::ios::app))  // refused now, not after the run
-      throw InputError("--record", 0, 0, "cannot write '" + opt.record + "': " + std::strerror(errno));
+    if (!opt.record.empty()) {  // refused now, not after the run; the probe leaves no empty file behind
+      const bool existed = fs::exists(opt.record);
+      const bool writable = static_cast<bool>(std::ofstream(opt.record, std::ios::app));
+      const int err = errno;
+      std::error_code ec;
+      if (!existed) fs::remove(opt.record, ec);
+      if (!writable) throw InputError("--record", 0, 0, "cannot write '" + opt.record + "': " + std::strerror(err));
+    }
     if (opt.replay && !sim.stages().on(Stage::Haptics))
       throw InputError(opt.scene, 0, 0, "the recorded scene has no 'haptics' section (or no dynamic body) any more");
     if (!opt.interactive && !opt.replay && sim.stages().on(Stage::Haptics) && spec.haptics.backend == HapticBackend::Bridge)
@@ -409,7 +425,10 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
         h5_written = true;
       }
       if (!model.bodies.empty()) bodies_csv = std::make_unique<io::BodiesCsvWriter>((out_dir / "bodies.csv").string());
-      if (model.cloth.nodes() > 0) cloth_csv = std::make_unique<io::ClothCsvWriter>((out_dir / "cloth.csv").string());
+      if (!model.spec.cloth.empty() && model.cloth.nodes() > 0)
+        cloth_csv = std::make_unique<io::ClothCsvWriter>((out_dir / "cloth.csv").string());
+      if (!model.spec.soft_bodies.empty())
+        soft_csv = std::make_unique<io::ClothCsvWriter>((out_dir / "soft.csv").string(), true);
       if (spec.output.step_forces && !model.bodies.empty()) {
         forces_csv = std::make_unique<io::StepForcesCsvWriter>((out_dir / "forces.csv").string());
         sim.recordStepForces(true);
@@ -451,15 +470,20 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
         io::writeBodyObjs(out_dir.string(), frame, model.bodies, sim.bodies());
       }
       if (forces_csv) forces_csv->write(sim.takeStepForces(), model.bodies);
-      if (cloth_csv) {  // cloths: a row and a mesh each (broken springs' triangles left out)
+      if (cloth_csv || soft_csv) {  // cloths and soft bodies: a row and a mesh each (broken springs left out)
         std::vector<Eigen::Vector4f> x, v;
         sim.cloth()->read(x, v);
         const std::vector<uint32_t> broken = sim.cloth()->readBroken();
         const Eigen::Vector3d g = gravityAt(model.spec.simulation, sim.time());
-        for (std::size_t c = 0; c < model.spec.cloth.size(); ++c) {
+        for (std::size_t c = 0; cloth_csv && c < model.spec.cloth.size(); ++c) {
           const ClothSpec& cs = model.spec.cloth[c];
           cloth_csv->writeRow(sim.time(), cs.name, sim.cloth()->report(c, g));
           io::writeObj((out_dir / io::clothObjName(cs.name, frame)).string(), io::clothMesh(model.cloth, c, cs, x, broken));
+        }
+        for (std::size_t b = 0; soft_csv && b < model.spec.soft_bodies.size(); ++b) {
+          const SoftBodySpec& sb = model.spec.soft_bodies[b];
+          soft_csv->writeRow(sim.time(), sb.name, sim.cloth()->report(model.cloth.num_cloths + b, g));
+          io::writeObj((out_dir / io::softObjName(sb.name, frame)).string(), io::softMesh(model.cloth, b, sb.colour, x, broken));
         }
       }
       if (probes_csv) probes_csv->write(sim.takeProbeSamples());
@@ -522,6 +546,7 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
         scene->body_colours.push_back(b.spec.colour.cast<float>());
       }
       for (const ClothSpec& c : spec.cloth) scene->cloth_colours.push_back(c.colour.cast<float>());
+      for (const SoftBodySpec& b : spec.soft_bodies) scene->cloth_colours.push_back(b.colour.cast<float>());  // drawn like cloths
       scene->haptics = res.haptics;
       opt.live_link->mailbox.setScene(scene);
     }
@@ -543,6 +568,8 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
         const std::vector<uint32_t> broken = sim.cloth()->readBroken();
         for (std::size_t c = 0; c < spec.cloth.size(); ++c)
           lf->cloths.push_back(io::clothMesh(model.cloth, c, spec.cloth[c], x, broken));
+        for (std::size_t b = 0; b < spec.soft_bodies.size(); ++b)
+          lf->cloths.push_back(io::softMesh(model.cloth, b, spec.soft_bodies[b].colour, x, broken));
       }
       // The device: cursor and grasp point from the grab, the force in scene axes (the arrow).
       const haptics::GrabController* grab = live ? &live->grab() : haptic ? &haptic->grab() : nullptr;

@@ -1,6 +1,7 @@
 #include "core/cloth.h"
 
 #include "core/errors.h"
+#include "core/mesh_distance.h"
 
 #include <Eigen/Geometry>
 
@@ -9,6 +10,7 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <memory>
 #include <sstream>
 
 namespace sph::cloth {
@@ -18,12 +20,48 @@ namespace {
 // Grid spacing along one axis of a cloth: extent / (nodes - 1); a single node has none.
 double spacing(double extent, int nodes) { return nodes > 1 ? extent / (nodes - 1) : 0.0; }
 
-Eigen::Matrix3d rotation(const ClothSpec& c) {
+template <class Spec>
+Eigen::Matrix3d rotation(const Spec& c) {
   const Eigen::Vector3d axis = c.orientation_axis.norm() > 0 ? c.orientation_axis.normalized() : Eigen::Vector3d::UnitZ();
   return Eigen::AngleAxisd(c.orientation_angle * M_PI / 180.0, axis).toRotationMatrix();
 }
 
+// Pins `nodes` (global indices) for anchor `a`: constant velocity until its stop time, or its
+// keyframed track (w = -(track + 1); stop times are >= 0).
+void pinNodes(ClothModel& m, const ClothAnchorSpec& a, const std::vector<uint32_t>& nodes, uint32_t base,
+              std::vector<Eigen::Vector4f>& anchor, std::vector<bool>& pinned) {
+  float w = std::isinf(a.stop) ? std::numeric_limits<float>::max() : float(a.stop);
+  if (!a.keyframes.empty() && !nodes.empty()) {
+    AnchorTrack track;
+    for (const AnchorKeyframeSpec& key : a.keyframes) {
+      track.time.push_back(key.time);
+      track.offset.push_back(key.offset);
+    }
+    m.tracks.push_back(std::move(track));
+    w = -float(m.tracks.size());
+  }
+  for (uint32_t k : nodes) {
+    pinned[k - base] = true;
+    anchor[k - base] = Eigen::Vector4f(float(a.velocity.x()), float(a.velocity.y()), float(a.velocity.z()), w);
+  }
+}
+
 }  // namespace
+
+double softNodeBound(const SoftBodySpec& s, double dx) {
+  const double a = s.spacing > 0 ? s.spacing : dx;
+  if (!(a > 0)) return 0.0;
+  Eigen::Vector3d ext = s.size;
+  if (s.isMesh()) {
+    Eigen::Vector3f lo = s.mesh_data.positions[0], hi = lo;
+    for (const auto& p : s.mesh_data.positions) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
+    ext = (hi - lo).cast<double>();
+  }
+  double n = 1.0;
+  for (int d = 0; d < 3; ++d) n *= std::max(1.0, std::ceil(ext[d] / a)) + 1.0;
+  return n;
+}
+
 
 Eigen::Vector3d AnchorTrack::offsetAt(double t) const {
   if (time.empty()) return Eigen::Vector3d::Zero();
@@ -101,7 +139,100 @@ std::vector<uint32_t> anchoredNodes(const ClothSpec& c, const ClothAnchorSpec& a
   return out;
 }
 
+Eigen::Vector3d softSpringStiffness(double E, double a) {
+  // Central springs on a cubic cell: under a uniform strain eps the springs store
+  // W = 1/2 sum k L^2 (n.eps.n)^2, i.e. the stiffness tensor C_ijkl = (1 / a^3) sum k L^2 n_i n_j n_k n_l
+  // over the cell's springs. With k_e per edge (12, L = a), k_f per face diagonal (12, L = a sqrt 2)
+  // and k_b per body diagonal (4, L = a sqrt 3):
+  //   C11 = (4 k_e + 4 k_f + 4/3 k_b) / a,   C12 = C44 = (2 k_f + 4/3 k_b) / a  (Cauchy: central forces).
+  // Isotropy (C11 - C12 = 2 C44) needs 4 k_e = 2 k_f + 8/3 k_b; the solid is then isotropic with
+  // lambda = mu = C44, Poisson ratio 1/4 and E = 5/2 mu (the only isotropic solid a central-force
+  // lattice gives; Ostoja-Starzewski 2002, Appl. Mech. Rev. 55(1), sec. 2). One choice is left:
+  // k_f = k_b = kappa (body diagonals as stiff as face diagonals, so no cell can fold flat through
+  // a diagonal plane), giving E = 25 kappa / (3 a): kappa = 0.12 E a, k_e = 7 kappa / 6 = 0.14 E a.
+  // A spring shared by several cells (an edge by up to 4, a face diagonal by 2) sums their shares,
+  // so a block of cells has exactly this stiffness under any uniform strain, surface cells included.
+  const double kappa = 0.12 * E * a;
+  return Eigen::Vector3d(7.0 / 6.0 * kappa, kappa, kappa);
+}
+
+SoftLattice softLattice(const SoftBodySpec& s, double dx) {
+  SoftLattice L;
+  const double a = s.spacing > 0 ? s.spacing : dx;
+  if (!(a > 0)) return L;
+  // The bounding grid (body frame): a box's extents in whole cells (spacing rounded per axis so
+  // that the box is filled exactly), or cells of `a` over the mesh's bounds, centred on them.
+  Eigen::Vector3d lo;
+  std::array<int, 3>& nc = L.cells_per_axis;
+  if (s.isMesh()) {
+    Eigen::Vector3f mlo = s.mesh_data.positions[0], mhi = mlo;
+    for (const auto& p : s.mesh_data.positions) mlo = mlo.cwiseMin(p), mhi = mhi.cwiseMax(p);
+    const Eigen::Vector3d ext = (mhi - mlo).cast<double>(), centre = 0.5 * (mhi + mlo).cast<double>();
+    for (int d = 0; d < 3; ++d) {
+      nc[d] = std::max(1, static_cast<int>(std::ceil(ext[d] / a)));
+      L.spacing[d] = a;
+    }
+    lo = centre - 0.5 * a * Eigen::Vector3d(nc[0], nc[1], nc[2]);
+  } else {
+    for (int d = 0; d < 3; ++d) {
+      nc[d] = std::max(1, static_cast<int>(std::lround(s.size[d] / a)));
+      L.spacing[d] = s.size[d] / nc[d];
+    }
+    lo = -0.5 * s.size;
+  }
+  // Filled cells: all of a box's; a mesh's whose centre is inside the closed surface.
+  std::unique_ptr<ClosedSurface> surface;
+  if (s.isMesh()) surface = std::make_unique<ClosedSurface>(s.mesh_data);
+  const std::size_t nx = nc[0] + 1, ny = nc[1] + 1, nz = nc[2] + 1;
+  auto node_at = [&](int i, int j, int k) { return (static_cast<std::size_t>(k) * ny + j) * nx + i; };
+  std::vector<int64_t> id(nx * ny * nz, -1);
+  for (int k = 0; k < nc[2]; ++k)
+    for (int j = 0; j < nc[1]; ++j)
+      for (int i = 0; i < nc[0]; ++i) {
+        const Eigen::Vector3d centre = lo + Eigen::Vector3d((i + 0.5) * L.spacing.x(), (j + 0.5) * L.spacing.y(), (k + 0.5) * L.spacing.z());
+        if (surface && !surface->inside(centre)) continue;
+        L.cell_ijk.push_back({i, j, k});
+        for (int c = 0; c < 8; ++c) id[node_at(i + (c & 1), j + (c >> 1 & 1), k + (c >> 2 & 1))] = 0;
+      }
+  // Nodes: the filled cells' corners, numbered in lattice order (x fastest), placed in the world.
+  const Eigen::Matrix3d R = rotation(s);
+  for (std::size_t k = 0; k < nz; ++k)
+    for (std::size_t j = 0; j < ny; ++j)
+      for (std::size_t i = 0; i < nx; ++i) {
+        int64_t& n = id[node_at(int(i), int(j), int(k))];
+        if (n < 0) continue;
+        n = static_cast<int64_t>(L.x.size());
+        const Eigen::Vector3d local = lo + Eigen::Vector3d(i * L.spacing.x(), j * L.spacing.y(), k * L.spacing.z());
+        L.x.push_back(s.position + R * local);
+        L.node_ijk.push_back({int(i), int(j), int(k)});
+      }
+  for (const auto& c : L.cell_ijk) {
+    std::array<uint32_t, 8> corners;
+    for (int q = 0; q < 8; ++q) corners[q] = static_cast<uint32_t>(id[node_at(c[0] + (q & 1), c[1] + (q >> 1 & 1), c[2] + (q >> 2 & 1))]);
+    L.cells.push_back(corners);
+  }
+  return L;
+}
+
 namespace {
+// The nodes of a soft body that an anchor pins (indices into the lattice's nodes): a box (world
+// frame) or a side face of the lattice (edge x_min: the nodes of lattice index i = 0, ...).
+std::vector<uint32_t> softAnchoredNodes(const SoftLattice& L, const ClothAnchorSpec& a) {
+  std::vector<uint32_t> out;
+  if (a.type == AnchorType::Box) {
+    for (std::size_t k = 0; k < L.x.size(); ++k)
+      if ((L.x[k].array() >= a.min.array()).all() && (L.x[k].array() <= a.max.array()).all()) out.push_back(uint32_t(k));
+  } else if (a.type == AnchorType::Edge) {
+    const int axis = (a.edge == ClothEdge::XMin || a.edge == ClothEdge::XMax) ? 0 : 1;
+    const bool at_max = a.edge == ClothEdge::XMax || a.edge == ClothEdge::YMax;
+    int lo = std::numeric_limits<int>::max(), hi = std::numeric_limits<int>::min();
+    for (const auto& ijk : L.node_ijk) lo = std::min(lo, ijk[axis]), hi = std::max(hi, ijk[axis]);
+    for (std::size_t k = 0; k < L.node_ijk.size(); ++k)
+      if (L.node_ijk[k][axis] == (at_max ? hi : lo)) out.push_back(uint32_t(k));
+  }
+  return out;
+}
+
 std::string nodeBudgetMessage(const ClothSpec& s, int nx, int ny) {
   std::ostringstream msg;
   msg << "cloth '" << s.name << "': " << nx << " x " << ny << " nodes (with the cloths before it) is more than the "
@@ -122,7 +253,8 @@ bool checkNodeBudget(const std::vector<ClothSpec>& specs, std::vector<InputIssue
   return true;
 }
 
-ClothModel compileCloths(const std::vector<ClothSpec>& specs, std::vector<InputIssue>& issues) {
+ClothModel compileCloths(const std::vector<ClothSpec>& specs, std::vector<InputIssue>& issues,
+                         const std::vector<SoftBodySpec>& soft, double dx) {
   ClothModel m;
   auto fail = [&](const SourceLoc& loc, const std::string& msg) {
     issues.push_back(InputIssue{loc.file, loc.line, loc.col, msg});
@@ -195,20 +327,7 @@ ClothModel compileCloths(const std::vector<ClothSpec>& specs, std::vector<InputI
         fail(a.loc, msg.str());
       }
       // Keyframed: the nodes point at a track (w = -(track + 1); stop times are >= 0).
-      float w = std::isinf(a.stop) ? std::numeric_limits<float>::max() : float(a.stop);
-      if (!a.keyframes.empty() && !nodes.empty()) {
-        AnchorTrack track;
-        for (const AnchorKeyframeSpec& key : a.keyframes) {
-          track.time.push_back(key.time);
-          track.offset.push_back(key.offset);
-        }
-        m.tracks.push_back(std::move(track));
-        w = -float(m.tracks.size());
-      }
-      for (uint32_t k : nodes) {
-        pinned[k] = true;
-        anchor[k] = Eigen::Vector4f(float(a.velocity.x()), float(a.velocity.y()), float(a.velocity.z()), w);
-      }
+      pinNodes(m, a, nodes, 0, anchor, pinned);
     }
     for (uint32_t k = 0; k < n; ++k) {
       m.x0.emplace_back(float(x[k].x()), float(x[k].y()), float(x[k].z()), pinned[k] ? 0.0f : float(1.0 / node_mass[k]));
@@ -264,6 +383,110 @@ ClothModel compileCloths(const std::vector<ClothSpec>& specs, std::vector<InputI
     m.any_tear = m.any_tear || !std::isinf(s.tear_strain);
   }
 
+  m.num_cloths = m.first_node.size();
+
+  // Soft bodies: lattice nodes and the springs of their cells (softSpringStiffness).
+  for (std::size_t b = 0; b < soft.size(); ++b) {
+    const SoftBodySpec& s = soft[b];
+    const std::string label = "soft body '" + s.name + "'";
+    for (std::size_t d = 0; d < b; ++d)
+      if (soft[d].name == s.name) fail(s.loc, "duplicate soft body name '" + s.name + "'");
+    if (s.prestrain > 0 && s.tear_strain <= s.prestrain) {
+      std::ostringstream msg;
+      msg << label << ": tear_strain " << s.tear_strain << " must exceed prestrain " << s.prestrain
+          << " (every spring would break at once)";
+      fail(s.loc, msg.str());
+    }
+    const double bound = softNodeBound(s, dx);
+    if (bound + static_cast<double>(m.x0.size()) > kMaxNodes) {
+      std::ostringstream msg;
+      msg << label << ": about " << bound << " lattice nodes (with the cloths and soft bodies before it) is more than the "
+          << kMaxNodes << " nodes supported (a larger spacing makes fewer)";
+      fail(s.loc, msg.str());
+      continue;
+    }
+    const SoftLattice L = softLattice(s, dx);
+    if (L.cells.empty()) {
+      fail(s.isMesh() ? s.mesh_loc : s.loc, label + ": no lattice cell's centre is inside the mesh (the spacing is too coarse for it)");
+      continue;
+    }
+    const uint32_t base = static_cast<uint32_t>(m.x0.size());
+    const uint32_t n = static_cast<uint32_t>(L.x.size());
+    m.first_node.push_back(base);
+    m.num_nodes.push_back(n);
+    m.first_spring.push_back(static_cast<uint32_t>(ends.size()));
+    m.xpbd.push_back(s.solver == ClothSolver::Xpbd ? 1 : 0);
+    m.iterations.push_back(static_cast<uint32_t>(std::max(1, s.iterations)));
+
+    // Lumped masses: each cell's mass, density x volume, an eighth to each corner.
+    const double cell_mass = s.density * L.spacing.prod();
+    std::vector<double> node_mass(n, 0.0);
+    for (const auto& cell : L.cells)
+      for (uint32_t q : cell) node_mass[q] += cell_mass / 8.0;
+    // Anchors: a box, or a side face of the lattice (corners and node are the rectangle's).
+    std::vector<Eigen::Vector4f> anchor(n, Eigen::Vector4f::Zero());
+    std::vector<bool> pinned(n, false);
+    for (const ClothAnchorSpec& a : s.anchors) {
+      if (a.type == AnchorType::Corners || a.type == AnchorType::Node) {
+        fail(a.loc, label + ": anchors of type corners and node are for cloth; a soft body takes box (nodes inside "
+                            "min..max) or edge (a side face of its lattice: x_min, x_max, y_min, y_max)");
+        continue;
+      }
+      const std::vector<uint32_t> nodes = softAnchoredNodes(L, a);
+      if (nodes.empty()) fail(a.loc, label + ": this anchor pins no node of the soft body (no node lies inside the box)");
+      pinNodes(m, a, nodes, 0, anchor, pinned);
+    }
+    for (uint32_t k = 0; k < n; ++k) {
+      m.x0.emplace_back(float(L.x[k].x()), float(L.x[k].y()), float(L.x[k].z()), pinned[k] ? 0.0f : float(1.0 / node_mass[k]));
+      m.mass.push_back(float(node_mass[k]));
+      m.drag.push_back(float(s.air_damping));
+      m.anchor.push_back(anchor[k]);
+      m.cloth_of.push_back(static_cast<uint32_t>(m.first_node.size() - 1));
+    }
+
+    // Springs: all 28 pairs of every cell's corners, each pair's stiffness summed over the cells
+    // that share it; in the order of their ends (a fixed order). Rayleigh damping: c = damping x k.
+    const double a_mean = std::cbrt(L.spacing.prod());
+    const Eigen::Vector3d kc = softSpringStiffness(s.young_modulus, a_mean);
+    std::map<std::pair<uint32_t, uint32_t>, std::pair<double, uint32_t>> pairs;
+    for (const auto& cell : L.cells)
+      for (int p = 0; p < 8; ++p)
+        for (int q = p + 1; q < 8; ++q) {
+          const int bits = __builtin_popcount(static_cast<unsigned>(p ^ q));
+          pairs[{std::min(cell[p], cell[q]), std::max(cell[p], cell[q])}].first += kc[bits - 1];
+        }
+    const double tear = std::isinf(s.tear_strain) ? std::numeric_limits<float>::max() : s.tear_strain;
+    for (auto& [pr, kv] : pairs) {
+      kv.second = static_cast<uint32_t>(ends.size());
+      const Eigen::Vector3d d = L.x[pr.second] - L.x[pr.first];
+      const double L0 = d.norm() / (1.0 + s.prestrain);
+      ends.push_back({base + pr.first, base + pr.second});
+      m.prm.emplace_back(float(L0), float(kv.first), float(s.damping * kv.first), float(tear));
+      const auto &ia = L.node_ijk[pr.first], &ib = L.node_ijk[pr.second];
+      const int apart = (ia[0] != ib[0]) + (ia[1] != ib[1]) + (ia[2] != ib[2]);
+      m.kind.push_back(apart == 1 ? kStretch : apart == 2 ? kShear : kBodyDiagonal);
+    }
+    m.num_springs.push_back(static_cast<uint32_t>(ends.size()) - m.first_spring.back());
+    m.any_tear = m.any_tear || !std::isinf(s.tear_strain);
+
+    // The cells, for the surface mesh: corner nodes and their springs (global).
+    ClothModel::SoftCells sc;
+    sc.cells_per_axis = L.cells_per_axis;
+    sc.ijk = L.cell_ijk;
+    for (const auto& cell : L.cells) {
+      std::array<uint32_t, 8> nodes;
+      std::array<uint32_t, 28> springs;
+      int e = 0;
+      for (int p = 0; p < 8; ++p) {
+        nodes[p] = base + cell[p];
+        for (int q = p + 1; q < 8; ++q) springs[e++] = pairs.at({std::min(cell[p], cell[q]), std::max(cell[p], cell[q])}).second;
+      }
+      sc.nodes.push_back(nodes);
+      sc.springs.push_back(springs);
+    }
+    m.soft.push_back(std::move(sc));
+  }
+
   // Compressed rows: count, prefix sum, fill in spring order (a fixed order).
   const std::size_t N = m.x0.size(), S = ends.size();
   m.row_start.assign(N + 1, 0);
@@ -308,8 +531,8 @@ ClothModel compileCloths(const std::vector<ClothSpec>& specs, std::vector<InputI
   // Explicit step limit. Gershgorin on M^-1/2 K M^-1/2 bounds omega_max^2 by the largest row sum
   // sum_j k_ij / m_i + sum_{j free} k_ij / sqrt(m_i m_j) over free nodes i (exact for one mass on
   // a spring to an anchor: k / m); the same bound on the dashpots gives the damping rate d_max.
-  for (std::size_t c = 0; c < specs.size() && c < m.xpbd.size(); ++c) {
-    if (m.xpbd[c]) continue;
+  for (std::size_t c = 0; c < m.xpbd.size(); ++c) {
+    if (m.xpbd[c] || m.num_nodes[c] == 0) continue;
     double w2 = 0.0, d = 0.0;
     for (uint32_t i = m.first_node[c]; i < m.first_node[c] + m.num_nodes[c]; ++i) {
       if (m.x0[i].w() == 0.0f) continue;
@@ -323,7 +546,7 @@ ClothModel compileCloths(const std::vector<ClothSpec>& specs, std::vector<InputI
         rc += p.z() * f;
       }
       w2 = std::max(w2, rk);
-      d = std::max(d, rc + specs[c].air_damping);
+      d = std::max(d, rc + m.drag[i]);
     }
     if (w2 <= 0.0) continue;
     const double w = std::sqrt(w2), xi = d / (2.0 * w);

@@ -32,6 +32,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
+#include <array>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -42,7 +43,7 @@ struct InputIssue;
 
 namespace sph::cloth {
 
-enum SpringKind : uint32_t { kStretch = 0, kShear = 1, kBend = 2 };
+enum SpringKind : uint32_t { kStretch = 0, kShear = 1, kBend = 2, kBodyDiagonal = 3 };  ///< soft bodies: edges, face and body diagonals of a cell: kStretch, kShear, kBodyDiagonal
 constexpr double kMaxNodes = 1e6;  ///< nodes of all cloths of a scene, at most (about 400 MB of tables)
 constexpr uint32_t kNoSlot = 0xffffffffu;
 
@@ -62,6 +63,34 @@ struct AnchorTrack {
   /// zero before the first key and from the last on (unit: m/s).
   Eigen::Vector3d velocityAt(double t) const;
 };
+
+/// A soft body's lattice (see softLattice): cubic cells of `spacing` (per axis: the box's extents
+/// rounded to whole cells), each cell's 8 corners nodes.
+///
+///   corner c of cell (i, j, k) is node (i + (c & 1), j + (c >> 1 & 1), k + (c >> 2 & 1))
+///   its 28 springs are all pairs of its corners: 12 edges (corner bits differ in 1 place),
+///   12 face diagonals (2 places), 4 body diagonals (3 places)
+struct SoftLattice {
+  Eigen::Vector3d spacing = Eigen::Vector3d::Zero();   ///< cell size along the body axes (unit: m)
+  std::array<int, 3> cells_per_axis{{0, 0, 0}};        ///< the bounding grid's cells along each axis (unit: 1)
+  std::vector<Eigen::Vector3d> x;                      ///< node positions, world frame (unit: m)
+  std::vector<std::array<int, 3>> node_ijk;            ///< node lattice indices, 0 .. cells_per_axis
+  std::vector<std::array<uint32_t, 8>> cells;          ///< the corner nodes (indices into x) of every filled cell
+  std::vector<std::array<int, 3>> cell_ijk;            ///< lattice index of every filled cell
+};
+
+/// The lattice of a soft body: a box of `size` split into round(size / spacing) cells per axis
+/// (at least 1), or the cells of a grid of `spacing` over the mesh's bounds whose centres lie inside
+/// the closed mesh (ClosedSurface). `dx`: the fluid's spacing, the default lattice spacing (unit: m).
+SoftLattice softLattice(const SoftBodySpec& s, double dx);
+
+/// A soft body's node count before its lattice is built: the bounding grid's nodes, an upper
+/// bound for a mesh (unit: 1); 0 when it has no spacing.
+double softNodeBound(const SoftBodySpec& s, double dx);
+
+/// Per-cell spring constants of a cubic cell of side a (unit: m) for Young's modulus E (unit: Pa):
+/// (edge, face diagonal, body diagonal) (unit: N/m). See compileCloths for the derivation.
+Eigen::Vector3d softSpringStiffness(double E, double a);
 
 /// Every cloth of a scene, compiled.
 struct ClothModel {
@@ -95,6 +124,19 @@ struct ClothModel {
   bool any_tear = false;                 ///< some spring can break
   /// Explicit solver: the largest stable step over the explicit cloths (unit: s); inf when none.
   double explicit_dt_limit = 0.0;
+  // Soft bodies: items num_cloths .. are the scene's soft_bodies (in order), nodes and springs like
+  // a cloth's. Per soft body, its lattice cells (for the surface mesh): corner nodes (global
+  // indices) and the 28 springs among them (global spring ids).
+  std::size_t num_cloths = 0;
+  struct SoftCells {
+    std::array<int, 3> cells_per_axis{{0, 0, 0}};
+    std::vector<std::array<int, 3>> ijk;
+    std::vector<std::array<uint32_t, 8>> nodes;
+    std::vector<std::array<uint32_t, 28>> springs;
+  };
+  std::vector<SoftCells> soft;
+  std::size_t items() const { return first_node.size(); }
+  bool isSoft(std::size_t item) const { return item >= num_cloths; }
   std::size_t nodes() const { return x0.size(); }
   std::size_t springs() const { return prm.size(); }
 };
@@ -104,9 +146,11 @@ struct ClothModel {
 /// is named as such. Returns whether all fit.
 bool checkNodeBudget(const std::vector<ClothSpec>& specs, std::vector<InputIssue>& issues);
 
-/// Builds the nodes, springs and colours of every cloth; reports bad input (anchors that pin no
+/// Builds the nodes, springs and colours of every cloth, then of every soft body (items after the
+/// cloths; `dx` is their default lattice spacing, unit: m); reports bad input (anchors that pin no
 /// node, duplicate names) into `issues` with the item's location.
-ClothModel compileCloths(const std::vector<ClothSpec>& specs, std::vector<InputIssue>& issues);
+ClothModel compileCloths(const std::vector<ClothSpec>& specs, std::vector<InputIssue>& issues,
+                         const std::vector<SoftBodySpec>& soft = {}, double dx = 0.0);
 
 /// What a cloth looks like at one moment (host copy, double precision sums).
 struct ClothReport {

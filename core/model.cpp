@@ -258,6 +258,12 @@ ResourceEstimate estimateResources(const SceneSpec& spec, SourceLoc* worst) {
     e.cloth_nodes += n;
     blame(c.loc, n * kBytesPerClothNode);
   }
+  // Soft bodies: their lattice nodes (a bound for a mesh), each with about twice a cloth node's springs.
+  for (const SoftBodySpec& b : spec.soft_bodies) {
+    const double n = cloth::softNodeBound(b, dx);
+    e.cloth_nodes += 2.0 * n;
+    blame(b.loc, 2.0 * n * kBytesPerClothNode);
+  }
   e.bytes = (e.fluid_particles + layer_points) * kBytesPerFluidParticle +
             e.boundary_particles * kBytesPerBoundaryParticle + e.body_particles * kBytesPerBodyArea +
             e.grid_cells * kBytesPerGridCell + e.cloth_nodes * kBytesPerClothNode;
@@ -607,7 +613,7 @@ Compiled compile(const SceneSpec& spec, const ResourceLimits& limits) {
 
   // Fluid placed where a cloth is: particles closer than dx to a cloth node (where the contact
   // repulsion would act at once) are removed, as for bodies.
-  if (!spec.cloth.empty() && out.initial.size() > 0) {
+  if ((!spec.cloth.empty() || !spec.soft_bodies.empty()) && out.initial.size() > 0) {
     std::map<std::array<int64_t, 3>, std::vector<Eigen::Vector3d>> nodes;
     auto key = [&](const Eigen::Vector3d& x) {
       return std::array<int64_t, 3>{static_cast<int64_t>(std::floor(x.x() / m.dx)),
@@ -616,6 +622,8 @@ Compiled compile(const SceneSpec& spec, const ResourceLimits& limits) {
     };
     for (const ClothSpec& c : spec.cloth)
       for (const Eigen::Vector3d& x : cloth::nodePositions(c)) nodes[key(x)].push_back(x);
+    for (const SoftBodySpec& b : spec.soft_bodies)
+      for (const Eigen::Vector3d& x : cloth::softLattice(b, m.dx).x) nodes[key(x)].push_back(x);
     HostParticles kept;
     std::size_t removed = 0;
     for (std::size_t i = 0; i < out.initial.size(); ++i) {
@@ -638,7 +646,8 @@ Compiled compile(const SceneSpec& spec, const ResourceLimits& limits) {
                 out.initial.phase[i], static_cast<uint32_t>(kept.size()));
     }
     if (removed > 0) {
-      m.notes.push_back(std::to_string(removed) + " fluid particles within dx of cloth nodes removed");
+      m.notes.push_back(std::to_string(removed) + " fluid particles within dx of cloth nodes removed" +
+                        (spec.soft_bodies.empty() ? "" : " (soft-body nodes included)"));
       out.initial = std::move(kept);
     }
   }
@@ -658,8 +667,8 @@ Compiled compile(const SceneSpec& spec, const ResourceLimits& limits) {
     m.capacity = out.initial.size() + static_cast<std::size_t>(emitted);
     if (!m.emitters.empty()) m.notes.push_back("particle budget: " + std::to_string(m.capacity) + " (automatic)");
   }
-  if (m.capacity == 0 && m.bodies.empty() && spec.cloth.empty())
-    fail(fl.loc, "the scene has no fluid, no rigid bodies and no cloth: no blocks and no inflows");
+  if (m.capacity == 0 && m.bodies.empty() && spec.cloth.empty() && spec.soft_bodies.empty())
+    fail(fl.loc, "the scene has no fluid, no rigid bodies, no cloth and no soft body: no blocks and no inflows");
   if (!issues.empty()) throw InputError(issues);
 
   // --- Speed of sound: 10x the largest expected speed keeps density errors near 1 % --------
@@ -758,7 +767,10 @@ Compiled compile(const SceneSpec& spec, const ResourceLimits& limits) {
   }
 
   // --- Cloths: nodes, springs, colours (core/cloth.h) -----------------------------------
-  m.cloth = cloth::compileCloths(spec.cloth, issues);
+  m.cloth = cloth::compileCloths(spec.cloth, issues, spec.soft_bodies, m.dx);
+  for (const ClothSpec& c : spec.cloth)
+    for (const std::string& key : c.unused_keys)
+      m.warnings.push_back(key + " is not used: cloth '" + c.name + "' is a mesh (its vertices and edges set the nodes and springs)");
   if (!issues.empty()) throw InputError(issues);
 
   // --- Device constants ------------------------------------------------------------------
@@ -803,6 +815,14 @@ Compiled compile(const SceneSpec& spec, const ResourceLimits& limits) {
   m.stages.set(Stage::DensitySolve, dfsph);
   m.stages.set(Stage::Viscosity, laminar ? m.max_viscosity > 0.0 : fl.artificial_viscosity > 0.0);
   m.stages.set(Stage::ColourDiffusion, fl.colour_diffusion > 0.0);
+  // No-slip ghost velocities (Adami et al. 2012 eq. 22-23) where the fluid-boundary viscous term
+  // is the laminar (physical) one: every boundary particle with the laminar model, the bodies'
+  // with body_viscosity physical (the artificial term stays with the wall's velocity: it is a
+  // numerical viscosity). WCSPH only: DFSPH's viscous pass (dfsph.cl) reads the wall's velocity.
+  const BoundaryVelocity bv = fl.boundary_velocity;
+  if (dfsph || bv == BoundaryVelocity::Wall) m.ghost_velocity_mode = 0;
+  else if (bv == BoundaryVelocity::Ghost || laminar) m.ghost_velocity_mode = 1;
+  else m.ghost_velocity_mode = fl.body_viscosity == BodyViscosity::Physical ? 2u : 0u;
   m.stages.set(Stage::Integrate, true);
   bool moving_bodies = false;
   for (const auto& b : m.bodies) moving_bodies = moving_bodies || b.kind != rigid::BodyKind::Static;

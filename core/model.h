@@ -51,6 +51,10 @@ struct Model {
 
   SimParams params{};     ///< device constants (n_fluid, dt and gravity are set per step)
   StageMask stages;
+  /// Boundary particles whose viscous velocity is the no-slip ghost velocity (fluid.boundary_velocity,
+  /// kernels/viscosity.cl boundary_ghost_velocity): 0 none (the wall's own velocity), 1 all, 2 moving
+  /// bodies' particles only.
+  uint32_t ghost_velocity_mode = 0;
   std::string program_options;  ///< OpenCL build options (kernel choice, viscosity model)
 
   /// Static boundary particles (closed walls and static rigid bodies), sorted by grid cell: xyz (unit: m), w = V_b / V0 (Akinci 2012 volume).
@@ -70,6 +74,7 @@ struct Model {
   double max_steps_per_frame = 1.0e5;
 
   std::vector<std::string> notes;  ///< derived choices worth telling the user (c0, budget, ...)
+  std::vector<std::string> warnings;  ///< scene keys given but not used (validate and run print them)
 };
 
 struct Compiled {

@@ -34,6 +34,11 @@ enum class ViscosityModel { Artificial, Laminar };
 /// Viscous coupling of the fluid with moving rigid bodies (Akinci et al. 2012 eq. 11 has its own
 /// coefficient for it): the liquid's real viscosity, or the fluid's own (numerical) model.
 enum class BodyViscosity { Fluid, Physical };
+/// Velocity a boundary particle carries in the viscous term between fluid and boundary: its own
+/// (the wall's or body's) velocity, or the no-slip ghost velocity 2 v_wall - v~ of Adami, Hu &
+/// Adams 2012 (eq. 22-23; kernels/viscosity.cl); auto = ghost wherever the term is the laminar
+/// (physical) one, the wall's velocity for the artificial (numerical) term.
+enum class BoundaryVelocity { Auto, Ghost, Wall };
 enum class TimeStepControl { Subdivide, Warn };
 enum class NumericalPolicy { Warn, Abort };
 enum class NozzleShape { Rectangle, Circle };
@@ -135,6 +140,7 @@ struct FluidSpec {
   ViscosityModel viscosity_model = ViscosityModel::Artificial;
   double artificial_viscosity = 0.05;  ///< Monaghan alpha, used by the artificial model (unit: 1)
   BodyViscosity body_viscosity = BodyViscosity::Fluid;  ///< fluid-body viscous term: the fluid's model, or the phase viscosity (laminar form)
+  BoundaryVelocity boundary_velocity = BoundaryVelocity::Auto;  ///< boundary particles' velocity in the viscous term: no-slip ghost (Adami 2012) or the wall's own
   double colour_diffusion = 0.0;       ///< colour diffusion coefficient; 0 = none (unit: m^2/s)
   bool clamp_negative_pressure = true; ///< clamp p >= 0 (avoids tensile instability at free surfaces)
   long max_particles = 0;              ///< particle budget; 0 = automatic (unit: 1)
@@ -271,12 +277,44 @@ struct ClothSpec {
   std::string mesh;                                 ///< OBJ triangle mesh instead of the rectangle (relative to the scene file; absolute after loading); empty = rectangle
   SourceLoc mesh_loc;                               ///< where `mesh` was given
   TriMesh mesh_data;                                ///< the welded mesh in the cloth frame (filled by io::loadScene; not a key)
+  /// Rectangle keys given with `mesh` (width, length, resolution_*, shear_stiffness), which a mesh
+  /// cloth does not use: "file:line:col: key" each (filled by io::loadScene; not a key).
+  std::vector<std::string> unused_keys;
   /// Whether the cloth is a triangle mesh (else the rectangle grid).
   bool isMesh() const { return !mesh_data.triangles.empty(); }
   /// Its node count: the mesh's vertices, or resolution_x x resolution_y (unit: 1).
   double nodeCount() const {
     return isMesh() ? double(mesh_data.positions.size()) : std::max(1.0, double(resolution_x)) * std::max(1.0, double(resolution_y));
   }
+  SourceLoc loc;
+};
+
+/// A soft body (issue 11): a volumetric lattice of nodes joined by springs, a box (`size`) or a
+/// closed OBJ mesh filled with the lattice; x_world = position + R(axis, angle) x_body. The nodes
+/// are particles like a cloth's (core/cloth.h: the same spring table, solvers, coupling, tearing
+/// and cutting). Springs: the edges, face diagonals and body diagonals of every lattice cell, their
+/// stiffness mapped from young_modulus (core/cloth.h, softSpringStiffness).
+struct SoftBodySpec {
+  std::string name;                                 ///< unique among soft bodies; names the output files
+  Eigen::Vector3d size{0.1, 0.1, 0.02};             ///< box extents along the body axes (unit: m); not used with `mesh`
+  Eigen::Vector3d position{0.0, 0.0, 0.0};          ///< world position of the body centre (unit: m)
+  Eigen::Vector3d orientation_axis{0.0, 0.0, 1.0};  ///< rotation axis (normalised on compile)
+  double orientation_angle = 0.0;                   ///< rotation about the axis (unit: deg)
+  double spacing = 0.0;                             ///< lattice spacing; 0 = the fluid's particle spacing dx (unit: m)
+  double density = 1000.0;                          ///< mass per volume (unit: kg/m^3)
+  double young_modulus = 1.0e5;                     ///< Young's modulus of the material, Poisson ratio 1/4 (unit: Pa)
+  double damping = 0.0;                             ///< stiffness-proportional (Rayleigh) damping: dashpot c = damping x k per spring (unit: s)
+  double air_damping = 0.0;                         ///< drag on every node's velocity, dv/dt = -air_damping v (unit: 1/s)
+  ClothSolver solver = ClothSolver::Xpbd;           ///< xpbd (default, unconditionally stable) or explicit
+  int iterations = 8;                               ///< xpbd: Gauss-Seidel sweeps per step (unit: 1)
+  double tear_strain = std::numeric_limits<double>::infinity();  ///< a spring breaks past this strain (unit: 1)
+  double prestrain = 0.0;                           ///< placed stretched: rest length = placed length / (1 + prestrain) (unit: 1)
+  Eigen::Vector3d colour{0.9, 0.7, 0.6};            ///< linear RGB in [0,1]
+  std::vector<ClothAnchorSpec> anchors;             ///< pinned nodes: box, or edge (a side face of the lattice, body frame)
+  std::string mesh;                                 ///< closed OBJ mesh filled with the lattice (relative to the scene file; absolute after loading); empty = box
+  SourceLoc mesh_loc;                               ///< where `mesh` was given
+  TriMesh mesh_data;                                ///< the welded closed mesh in the body frame (filled by io::loadScene; not a key)
+  bool isMesh() const { return !mesh_data.triangles.empty(); }
   SourceLoc loc;
 };
 
@@ -361,6 +399,7 @@ struct HapticsSpec {
   double damping = 1.5;                              ///< coupling damping felt at the hand B_d (unit: N s/m)
   double damping_ratio = 0.9;                        ///< scene coupling damper B_s = 2 zeta sqrt(K_s m) (unit: 1)
   double reach = 0.05;                               ///< grab a body whose surface is this close to the target (unit: m)
+  bool hold_orientation = true;                      ///< hold a grabbed body's orientation at the grab (angular spring, not felt)
   double peak_force = 3.0;                           ///< (unit: N)
   double continuous_force = 0.85;                    ///< limit on the 1 s RMS (unit: N)
   double ramp_time = 2.0;                            ///< start-up ramp (unit: s)
@@ -391,6 +430,7 @@ struct SceneSpec {
   FluidSpec fluid;
   std::vector<RigidBodySpec> rigid_bodies;
   std::vector<ClothSpec> cloth;
+  std::vector<SoftBodySpec> soft_bodies;
   ProbesSpec probes;
   OutputSpec output;
   HapticsSpec haptics;

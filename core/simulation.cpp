@@ -105,6 +105,7 @@ Simulation::Simulation(const Model& model, const HostParticles& initial, ClConte
   bvel_ = makeBuffer(n_bnd * 16);       // zero for static particles
   bpressure_ = makeBuffer(n_bnd * 4);   // Adami 2012 wall pressure (pressure.cl)
   bmark_ = makeBuffer(n_bnd * 4);       // stamp of the last step a fluid particle saw it
+  if (model_.ghost_velocity_mode) bghost_ = makeBuffer(n_bnd * 16);  // no-slip ghost velocities (viscosity.cl)
   bcell_start_ = makeBuffer((cells + 1) * 4);
   crossings_ = makeBuffer(4);
   max_speed_ = makeBuffer(4);
@@ -251,6 +252,8 @@ void Simulation::step(double dt) {
     computeDensity();                                  // number density, rho, p (S&P 2008, Akinci 2012)
     if (on(Stage::Probes) && probes_->due(time_)) sampleProbes();  // gauges read the state at the step's start
     if (on(Stage::DivergenceSolve)) divergenceSolve(); // DFSPH: factors, divergence-free velocities (B&K 2017 Alg. 2)
+    if (on(Stage::Viscosity) && model_.ghost_velocity_mode)
+      ghostVelocities();                               // no-slip wall velocities 2 v_w - v~ (Adami 2012 eq. 22-23)
     pressureForces();                                  // wall pressure (Adami 2012), -grad p / rho + g (+ viscosity, fused); dfsph: g
     if (on(Stage::Viscosity) && !on(Stage::Pressure))
       viscosityForces();                               // Monaghan or Morris, on its own
@@ -499,7 +502,7 @@ void Simulation::pressureForces() {
   if (n_bnd > 0)
     kernels_.call("boundary_pressure", n_bnd, kLocal, params_, n_bnd, stamp_, bpos_, bmark_, pos_[cur_], density_, pressure_, cell_start_, bpressure_);
   if (on(Stage::Viscosity)) {  // one neighbour loop for both (pressure.cl, pressure_viscosity_force)
-    kernels_.call("pressure_viscosity_force", n_, kLocal, params_, pos_[cur_], vel_[cur_], phase_[cur_], density_, pterm_, snbr_, snbr_count_, bpos_, bvel_, bpressure_, sbnbr_, sbnbr_count_, acc_);
+    kernels_.call("pressure_viscosity_force", n_, kLocal, params_, pos_[cur_], vel_[cur_], phase_[cur_], density_, pterm_, snbr_, snbr_count_, bpos_, viscousBoundaryVelocities(), bpressure_, sbnbr_, sbnbr_count_, acc_);
     return;
   }
   kernels_.call("pressure_force", n_, kLocal, params_, pos_[cur_], phase_[cur_], density_, pterm_, snbr_, snbr_count_, bpos_, bpressure_, sbnbr_, sbnbr_count_, acc_);
@@ -568,7 +571,16 @@ void Simulation::densitySolve() {
 
 void Simulation::viscosityForces() {
   StageTimer timer(*this, Stage::Viscosity);
-  kernels_.call("viscosity_force", n_, kLocal, params_, pos_[cur_], vel_[cur_], phase_[cur_], density_, snbr_, snbr_count_, bpos_, bvel_, sbnbr_, sbnbr_count_, acc_);
+  kernels_.call("viscosity_force", n_, kLocal, params_, pos_[cur_], vel_[cur_], phase_[cur_], density_, snbr_, snbr_count_, bpos_, viscousBoundaryVelocities(), sbnbr_, sbnbr_count_, acc_);
+}
+
+void Simulation::ghostVelocities() {
+  StageTimer timer(*this, Stage::Viscosity);
+  // Every boundary particle the fluid saw this step: 2 v_w minus the fluid's Shepard-interpolated
+  // velocity (kernels/viscosity.cl); the viscous terms between fluid and boundary read these.
+  const uint32_t n_bnd = n_static_ + n_moving_ + n_cloth_;
+  if (n_bnd > 0)
+    kernels_.call("boundary_ghost_velocity", n_bnd, kLocal, params_, n_bnd, stamp_, model_.ghost_velocity_mode, bpos_, bvel_, bmark_, pos_[cur_], vel_[cur_], cell_start_, bghost_);
 }
 
 void Simulation::diffuseColour() {
@@ -643,10 +655,11 @@ void Simulation::gatherBodyForces() {
   StageTimer timer(*this, Stage::RigidCoupling);
   const int viscous = on(Stage::Viscosity) ? 1 : 0;
   // DFSPH: the wall mirrors the fluid's pressure, no contact term, and the viscous reaction uses the
-  // velocities the fluid's viscous forces saw (before the density solve changed them).
+  // velocities the fluid's viscous forces saw (before the density solve changed them). WCSPH: the boundary
+  // velocities of the fluid's viscous pass (the no-slip ghost velocities or the wall's own).
   const int mirror = dfsphWallMode();
   const cl::Buffer& vel = dfsph_ ? dfsph_->viscousVelocities() : vel_[cur_];
-  kernels_.call("rigid_fluid_forces", n_moving_, kLocal, params_, n_moving_, n_static_, bsrc_, bslot_, bvel_, bpressure_, pos_[cur_], vel, phase_[cur_], density_, pterm_, cell_start_, viscous, mirror, bforce_);
+  kernels_.call("rigid_fluid_forces", n_moving_, kLocal, params_, n_moving_, n_static_, bsrc_, bslot_, viscousBoundaryVelocities(), bpressure_, pos_[cur_], vel, phase_[cur_], density_, pterm_, cell_start_, viscous, mirror, bforce_);
   // The per-body reduction is timed on its own (profile.rigid_reduce_seconds).
   clCall("waiting for the body forces", [&] { return cl_.queue().finish(); });
   const auto t_reduce = std::chrono::steady_clock::now();
@@ -807,7 +820,7 @@ void Simulation::gatherClothForces() {
   const int viscous = on(Stage::Viscosity) ? 1 : 0;
   const int mirror = dfsphWallMode();
   const cl::Buffer& vel = dfsph_ ? dfsph_->viscousVelocities() : vel_[cur_];
-  kernels_.call("rigid_fluid_forces", n_cloth_, kLocal, params_, n_cloth_, n_static_ + n_moving_, bsrc_, bslot_, bvel_, bpressure_, pos_[cur_], vel, phase_[cur_], density_, pterm_, cell_start_, viscous, mirror, cloth_force_);
+  kernels_.call("rigid_fluid_forces", n_cloth_, kLocal, params_, n_cloth_, n_static_ + n_moving_, bsrc_, bslot_, viscousBoundaryVelocities(), bpressure_, pos_[cur_], vel, phase_[cur_], density_, pterm_, cell_start_, viscous, mirror, cloth_force_);
 }
 
 FrameReport Simulation::runDiagnostics() {

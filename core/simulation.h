@@ -158,6 +158,10 @@ class Simulation {
   int dfsphWallMode() const;
   double dfsphStepLimit() const;
   void viscosityForces();
+  void ghostVelocities();
+  /// The boundary velocities the viscous terms read: the no-slip ghost velocities when the model
+  /// asks for them (Model::ghost_velocity_mode), else the wall's own (bvel_).
+  const cl::Buffer& viscousBoundaryVelocities() const { return model_.ghost_velocity_mode ? bghost_ : bvel_; }
   void diffuseColour();
   void integrate();
   void integrateBodies(double dt);
@@ -227,6 +231,7 @@ class Simulation {
   cl::Buffer cell_count_, cell_start_, bpos_, bcell_start_, crossings_, diag_, max_speed_;
   // Boundary particles' velocities, wall pressures (Adami 2012) and last-seen stamps, in bpos order.
   cl::Buffer bvel_, bpressure_, bmark_;
+  cl::Buffer bghost_;  ///< no-slip ghost velocities (n_bnd x 4; kernels/viscosity.cl), with ghost_velocity_mode
   uint32_t stamp_ = 0;
   // Verlet lists: rebuilt when particles were added or some particle may have moved skin / 2.
   bool lists_valid_ = false;

@@ -40,6 +40,7 @@ void GrabController::update(const DeviceState& device, const std::vector<rigid::
         held_ = static_cast<long>(c);
         grasp_ = p;
         rest_ = target_ - s.toWorld(p);
+        q_grab_ = s.q;
       }
     }
   }
@@ -61,6 +62,19 @@ void GrabController::update(const DeviceState& device, const std::vector<rigid::
   coupling_ = f;
   out[g.body].force += f;
   out[g.body].torque += r.cross(f);
+
+  // Orientation hold: an angular spring-damper towards the orientation at the grab, as stiff and as
+  // damped as the linear coupling on every axis (tau = I_w (w_n^2 theta_e - 2 zeta w_n w)).
+  if (settings_.hold_orientation) {
+    Eigen::Quaterniond qe = q_grab_ * s.q.conjugate();
+    if (qe.w() < 0) qe.coeffs() = -qe.coeffs();  // the short way round
+    const Eigen::AngleAxisd aa(qe.normalized());
+    const Eigen::Vector3d theta = aa.angle() * aa.axis();
+    const Eigen::Matrix3d R = s.q.toRotationMatrix();
+    const Eigen::Matrix3d inertia_world = R * g.inertia * R.transpose();
+    const double wn = std::sqrt(ks / g.mass);
+    out[g.body].torque += inertia_world * (wn * wn * theta - 2.0 * settings_.damping_ratio * wn * s.w);
+  }
 }
 
 LocalModel GrabController::localModel(double stamp, const std::vector<rigid::BodyState>& states) const {

@@ -10,6 +10,16 @@
 // too; a release ends the coupling and the body goes on with its momentum. The hand feels
 // K_d = g s K_s (g the gain, s the mapping scale): in steady state the felt force is -g F_s, i.e.
 // g times the fluid and contact forces the hand holds the body against. B_s = 2 zeta sqrt(K_s m).
+//
+// Orientation (hold_orientation): a hand holds a tool's orientation too, but the Touch renders a
+// 3-DOF force only, so a grab at one point would let the body swing about it like a pendulum (the
+// painting demo's brush tipped over). While held, an angular spring-damper pulls the body towards
+// its orientation at the grab:
+//     tau = I_w (w_n^2 theta_e - 2 zeta w_n w),   theta_e = axis-angle of q_grab q^-1,
+// I_w = R I R^T the body's world inertia, w_n = sqrt(K_s / m) the linear coupling's natural
+// frequency and zeta its damping ratio: every axis turns back as quickly as the grasp point follows
+// the target, and as stably (the same w_n dt). The torque acts on the body only; the hand does not
+// feel it (no torque is rendered, and the felt force is unchanged).
 #pragma once
 
 #include "core/external_force.h"
@@ -45,6 +55,8 @@ struct GrabSettings {
   /// The paper's mode (Smoothing::RollingAverage): the LocalModel carries the felt force
   /// -g R^T F_s as feed-forward (the servo averages it over frames) instead of the anchor.
   bool force_as_feed_forward = false;
+  /// Hold the held body's orientation at the grab (angular spring-damper, not felt).
+  bool hold_orientation = true;
 };
 
 /// A body the device may grab: its index in Model::bodies, mass, and the closest point of its
@@ -53,6 +65,7 @@ struct Grabbable {
   std::size_t body = 0;
   double mass = 1.0;  ///< (unit: kg)
   std::function<Eigen::Vector3d(const Eigen::Vector3d&)> closest;
+  Eigen::Matrix3d inertia = Eigen::Matrix3d::Identity();  ///< body frame, about the centre of mass (unit: kg m^2)
 };
 
 class GrabController {
@@ -98,6 +111,7 @@ class GrabController {
   long held_ = -1;                                   // index into candidates_
   Eigen::Vector3d grasp_ = Eigen::Vector3d::Zero();  // grasp point, body frame (unit: m)
   Eigen::Vector3d rest_ = Eigen::Vector3d::Zero();   // target - grasp point at the grab, world (unit: m)
+  Eigen::Quaterniond q_grab_ = Eigen::Quaterniond::Identity();  // body -> world at the grab
   Eigen::Vector3d target_ = Eigen::Vector3d::Zero();
   Eigen::Vector3d coupling_ = Eigen::Vector3d::Zero();  // last F_s on the body, scene (unit: N)
   bool was_pressed_ = false;

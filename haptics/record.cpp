@@ -2,6 +2,7 @@
 
 #include <cinttypes>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <map>
 #include <sstream>
@@ -14,7 +15,10 @@ const char* kHeaderV2 = "# sphaptics haptic recording v2";
 }  // namespace
 
 void writeRecording(const std::string& path, const Recording& rec) {
-  std::ofstream out(path, std::ios::trunc);
+  // Written beside the target and renamed at the end, so a failed write never leaves a file that
+  // looks like a complete recording.
+  const std::string tmp = path + ".partial";
+  std::ofstream out(tmp, std::ios::trunc);
   if (!out) throw RecordingError("cannot write the recording " + path);
   out << kHeaderV2 << "\n";
   out << "scene " << rec.scene << "\n";
@@ -46,7 +50,17 @@ void writeRecording(const std::string& path, const Recording& rec) {
     out << buf;
   }
   out << "end " << rec.ticks.size() << " " << rec.step_ticks.size() << " " << rec.hashes.size() << "\n";
-  if (!out) throw RecordingError("cannot write the recording " + path);
+  out.close();
+  std::error_code ec;
+  if (out.fail()) {
+    std::filesystem::remove(tmp, ec);
+    throw RecordingError("cannot write the recording " + path);
+  }
+  std::filesystem::rename(tmp, path, ec);
+  if (ec) {
+    std::filesystem::remove(tmp, ec);
+    throw RecordingError("cannot write the recording " + path + ": " + ec.message());
+  }
 }
 
 Recording readRecording(const std::string& path) {

@@ -1,6 +1,7 @@
 // Cloth output: cloth.csv (one row per cloth per output frame, the conventions of bodies.csv) and
 // each cloth's surface, one OBJ per cloth per frame (cloth_<name>_NNNN.obj, vertex colours, broken
-// springs' triangles removed), picked up by scripts/render.sh like the other OBJ sequences.
+// springs' triangles removed), picked up by scripts/render.sh like the other OBJ sequences. Soft
+// bodies alike: soft.csv (the same columns, a row per soft body) and soft_<name>_NNNN.obj.
 #pragma once
 
 #include "core/cloth.h"
@@ -22,13 +23,21 @@ namespace sph::io {
 TriMesh clothMesh(const cloth::ClothModel& model, std::size_t c, const ClothSpec& spec,
                   const std::vector<Eigen::Vector4f>& x, const std::vector<uint32_t>& broken);
 
+/// The surface of soft body `b` (item model.num_cloths + b) at node positions `x` (all nodes): the
+/// faces of its intact lattice cells (a cell is intact while none of its 28 springs is broken) that
+/// no other intact cell shares, two triangles each, facing out. So the walls of a cut show. Vertices:
+/// the body's nodes, in `colour` (linear RGB).
+TriMesh softMesh(const cloth::ClothModel& model, std::size_t b, const Eigen::Vector3d& colour,
+                 const std::vector<Eigen::Vector4f>& x, const std::vector<uint32_t>& broken);
+
 /// cloth.csv: '#' lines (units, conventions), a header row, then one row per cloth per frame:
 /// time, cloth, energies (kinetic, gravity, elastic, total), largest strain, broken springs, the
 /// force of the springs on the anchored nodes.
 class ClothCsvWriter {
  public:
   /// Creates (truncates) the file. Throws std::runtime_error naming it when it cannot be opened.
-  explicit ClothCsvWriter(const std::string& path);
+  /// `soft`: soft.csv (rows of soft bodies), else cloth.csv.
+  explicit ClothCsvWriter(const std::string& path, bool soft = false);
   void writeRow(double time, const std::string& name, const cloth::ClothReport& r);
   void close();
 
@@ -37,10 +46,13 @@ class ClothCsvWriter {
   std::ofstream out_;
 };
 
-/// The header comment and column row of cloth.csv.
-std::string clothCsvHeader();
+/// The header comment and column row of cloth.csv (`soft`: of soft.csv, column soft_body).
+std::string clothCsvHeader(bool soft = false);
 
 /// "cloth_<name>_<frame, 4 digits>.obj".
 std::string clothObjName(const std::string& name, int frame);
+
+/// "soft_<name>_<frame, 4 digits>.obj".
+std::string softObjName(const std::string& name, int frame);
 
 }  // namespace sph::io

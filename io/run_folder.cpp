@@ -69,6 +69,11 @@ RunFolderInfo readRunFolderInfo(const std::string& dir) {
       for (const YAML::Node& c : cloths)
         info.cloths.emplace_back(c["name"] ? c["name"].as<std::string>() : std::string(),
                                  vec3(c["colour"], Eigen::Vector3f(0.8f, 0.3f, 0.3f)));
+    // Soft bodies and their colours.
+    if (const YAML::Node softs = scene["soft_bodies"]; softs && softs.IsSequence())
+      for (const YAML::Node& b : softs)
+        info.soft_bodies.emplace_back(b["name"] ? b["name"].as<std::string>() : std::string(),
+                                      vec3(b["colour"], Eigen::Vector3f(0.85f, 0.55f, 0.5f)));
   } catch (const YAML::Exception& e) {
     throw InputError(path.string(), e.mark.line + 1, e.mark.column + 1, std::string("unexpected run.json content: ") + e.msg);
   }
@@ -87,11 +92,12 @@ std::vector<ObjSequence> scanObjSequences(const std::string& dir) {
   std::map<std::string, ObjSequence> seqs;
   std::error_code ec;
   for (const auto& entry : fs::directory_iterator(dir, ec)) {
-    // <prefix>_NNNN.obj with prefix fluid_*, body_* or cloth_*, NNNN four or more digits.
+    // <prefix>_NNNN.obj with prefix fluid_*, body_*, cloth_* or soft_*, NNNN four or more digits.
     const std::string name = entry.path().filename().string();
     if (name.size() < 10 || name.compare(name.size() - 4, 4, ".obj") != 0) continue;
     const bool cloth = name.rfind("cloth_", 0) == 0;
-    const bool body = cloth || name.rfind("body_", 0) == 0;
+    const bool soft = name.rfind("soft_", 0) == 0;
+    const bool body = cloth || soft || name.rfind("body_", 0) == 0;
     if (!body && name.rfind("fluid_", 0) != 0) continue;
     const std::string stem = name.substr(0, name.size() - 4);
     const std::size_t us = stem.rfind('_');
@@ -103,6 +109,7 @@ std::vector<ObjSequence> scanObjSequences(const std::string& dir) {
     s.name = stem.substr(0, us);
     s.body = body;
     s.cloth = cloth;
+    s.soft = soft;
     s.frames[std::stoi(digits)] = entry.path().string();
   }
   std::vector<ObjSequence> out;

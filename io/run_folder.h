@@ -1,6 +1,7 @@
 // What an output folder holds, for reading it back (the viewer): run.json's scene (domain box,
 // particle spacing, phase and body colours), the particle file (final or still being written) and
-// the OBJ sequences fluid_<phase>_NNNN.obj and body_<name>_NNNN.obj.
+// the OBJ sequences fluid_<phase>_NNNN.obj, body_<name>_NNNN.obj, cloth_<name>_NNNN.obj and
+// soft_<name>_NNNN.obj (soft bodies' surfaces, in the cloth OBJ's format).
 #pragma once
 
 #include <Eigen/Core>
@@ -21,6 +22,7 @@ struct RunFolderInfo {
   std::vector<std::pair<std::string, Eigen::Vector3f>> phases;  ///< name, linear RGB colour
   std::vector<std::pair<std::string, Eigen::Vector3f>> bodies;  ///< name, linear RGB colour
   std::vector<std::pair<std::string, Eigen::Vector3f>> cloths;  ///< name, linear RGB colour
+  std::vector<std::pair<std::string, Eigen::Vector3f>> soft_bodies;  ///< name, linear RGB colour (scene key soft_bodies)
 };
 
 /// Reads DIR/run.json. A folder without run.json gives a default RunFolderInfo (status "").
@@ -34,12 +36,14 @@ std::string particlesFile(const std::string& dir);
 /// One OBJ sequence: "fluid_water" or "body_ball", frame index -> file path.
 struct ObjSequence {
   std::string name;           ///< file name without _NNNN.obj
-  bool body = false;          ///< body_* or cloth_* (else fluid_*)
+  bool body = false;          ///< body_*, cloth_* or soft_* (else fluid_*): drawn in the bodies layer
   bool cloth = false;         ///< cloth_*
+  bool soft = false;          ///< soft_* (a soft body's surface)
   std::map<int, std::string> frames;
 };
 
-/// Every fluid_*_NNNN.obj, body_*_NNNN.obj and cloth_*_NNNN.obj sequence in DIR, sorted by name.
+/// Every fluid_*_NNNN.obj, body_*_NNNN.obj, cloth_*_NNNN.obj and soft_*_NNNN.obj sequence in DIR,
+/// sorted by name.
 std::vector<ObjSequence> scanObjSequences(const std::string& dir);
 
 }  // namespace sph::io

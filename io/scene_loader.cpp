@@ -738,6 +738,19 @@ class Loader {
       if (!given(mesh_key) || spec.cloth[c].mesh.empty()) continue;
       spec.cloth[c].mesh_loc = locAt(mesh_key, markOf(mesh_key));
       loadClothMesh(spec.cloth[c], mesh_key, "cloth '" + spec.cloth[c].name + "'");
+      // The rectangle's keys mean nothing for a mesh cloth: remembered for a warning.
+      for (const char* k : {".width", ".length", ".resolution_x", ".resolution_y", ".shear_stiffness"}) {
+        const std::string key = indexed("cloth", c) + k;
+        if (marks_.count(key)) spec.cloth[c].unused_keys.push_back(locAt(key, markOf(key)).str() + ": '" + key + "'");
+      }
+    }
+    // Soft bodies from a mesh: a closed one (the lattice's cells are those inside it).
+    for (std::size_t b = 0; b < spec.soft_bodies.size(); ++b) {
+      SoftBodySpec& body = spec.soft_bodies[b];
+      const std::string mesh_key = indexed("soft_bodies", b) + ".mesh";
+      if (!given(mesh_key) || body.mesh.empty()) continue;
+      body.mesh_loc = locAt(mesh_key, markOf(mesh_key));
+      loadClosedMesh(body.mesh, mesh_key, "soft body '" + body.name + "'", "soft bodies", body.mesh_data);
     }
   }
 
@@ -809,11 +822,16 @@ class Loader {
   // Keyframed cloth anchors: keyframes replace velocity / stop (not both), need at least one key,
   // and their times strictly increase.
   void checkAnchorKeyframes(const SceneSpec& spec) {
-    for (std::size_t c = 0; c < spec.cloth.size(); ++c)
-      for (std::size_t a = 0; a < spec.cloth[c].anchors.size(); ++a) {
-        const std::string item = indexed(indexed("cloth", c) + ".anchors", a), list = item + ".keyframes";
+    // Cloths' anchors, then soft bodies' (the same rules).
+    std::vector<std::pair<std::string, const std::vector<ClothAnchorSpec>*>> owners;
+    for (std::size_t c = 0; c < spec.cloth.size(); ++c) owners.emplace_back(indexed("cloth", c), &spec.cloth[c].anchors);
+    for (std::size_t b = 0; b < spec.soft_bodies.size(); ++b)
+      owners.emplace_back(indexed("soft_bodies", b), &spec.soft_bodies[b].anchors);
+    for (const auto& [owner, anchors] : owners)
+      for (std::size_t a = 0; a < anchors->size(); ++a) {
+        const std::string item = indexed(owner + ".anchors", a), list = item + ".keyframes";
         if (!marks_.count(list) || !usable(list)) continue;
-        const auto& keys = spec.cloth[c].anchors[a].keyframes;
+        const auto& keys = (*anchors)[a].keyframes;
         for (const char* k : {".velocity", ".stop"})
           if (marks_.count(item + k))
             issue(item + k, markOf(item + k),
@@ -991,10 +1009,17 @@ class Loader {
   }
 
   void loadBodyMesh(RigidBodySpec& body, const std::string& mesh_key, const std::string& label) {
+    loadClosedMesh(body.mesh, mesh_key, label, "rigid bodies", body.mesh_data);
+  }
+
+  // A closed mesh (a rigid body's, a soft body's): found, read, welded, watertight with consistent
+  // winding and a positive volume, else an issue at `mesh_key` saying what `who` need.
+  void loadClosedMesh(std::string& file, const std::string& mesh_key, const std::string& label, const std::string& who,
+                      TriMesh& out) {
     const YAML::Mark mark = markOf(mesh_key);
     TriMesh mesh;
-    if (!readMeshFile(body.mesh, mesh_key, label, mesh)) return;
-    const fs::path path(body.mesh);  // absolute now
+    if (!readMeshFile(file, mesh_key, label, mesh)) return;
+    const fs::path path(file);  // absolute now
     // OBJ exporters often repeat a vertex for each face: weld within a millionth of the size.
     Eigen::Vector3f lo = mesh.positions[0], hi = mesh.positions[0];
     for (const auto& p : mesh.positions) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
@@ -1006,7 +1031,7 @@ class Loader {
       if (edges.nonmanifold) what += (what.empty() ? "" : ", ") + std::to_string(edges.nonmanifold) + " non-manifold edge(s)";
       if (edges.misoriented)
         what += (what.empty() ? "" : ", ") + std::to_string(edges.misoriented) + " edge(s) with inconsistent winding";
-      issue(mesh_key, mark, label + ": mesh " + path.string() + " is not closed: " + what + " (rigid bodies need a watertight mesh)");
+      issue(mesh_key, mark, label + ": mesh " + path.string() + " is not closed: " + what + " (" + who + " need a watertight mesh)");
       return;
     }
     if (meshVolume(mesh) <= 0.0) {
@@ -1016,7 +1041,7 @@ class Loader {
     }
     mesh.normals.clear();  // the body frame's geometry is all that is kept
     mesh.colours.clear();
-    body.mesh_data = std::move(mesh);
+    out = std::move(mesh);
   }
 
   std::string file_;                                 // as shown in messages

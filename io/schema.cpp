@@ -229,6 +229,36 @@ struct InAnchorKeys {
   }
 };
 
+struct InSoftBodies {
+  using Item = SoftBodySpec;
+  template <class S>
+  static auto& list(S& s) { return s.soft_bodies; }
+  template <class S>
+  static auto& item(S& s, std::size_t i) { return s.soft_bodies.at(i); }
+};
+
+/// Anchors of a soft body: a list inside the soft_bodies list (index: nestedIndex).
+struct InSoftAnchors {
+  using Item = ClothAnchorSpec;
+  template <class S>
+  static auto& list(S& s, std::size_t parent) { return s.soft_bodies.at(nestedParent(parent)).anchors; }
+  template <class S>
+  static auto& item(S& s, std::size_t i) { return list(s, i).at(nestedItem(i)); }
+};
+
+/// Keyframes of a soft body's anchor (index: nested2Index).
+struct InSoftAnchorKeys {
+  using Item = AnchorKeyframeSpec;
+  template <class S>
+  static auto& list(S& s, std::size_t parent) {
+    return s.soft_bodies.at(nestedParent(parent)).anchors.at(nestedItem(parent)).keyframes;
+  }
+  template <class S>
+  static auto& item(S& s, std::size_t i) {
+    return s.soft_bodies.at(nested2Top(i)).anchors.at(nested2Middle(i)).keyframes.at(nestedItem(i));
+  }
+};
+
 struct InProbePoints {
   using Item = PointProbeSpec;
   template <class S>
@@ -424,6 +454,8 @@ std::vector<KeyDef> buildTable() {
           .unit("1").atLeast(0).doc("Monaghan alpha, used by the artificial model"));
   add(field<InScene>("fluid.body_viscosity", [](auto& s) -> auto& { return s.fluid.body_viscosity; })
           .doc("viscous coupling with moving rigid bodies: fluid (the fluid's own model, e.g. artificial alpha) or physical (the phases' viscosity, laminar form, whatever the fluid's model)"));
+  add(field<InScene>("fluid.boundary_velocity", [](auto& s) -> auto& { return s.fluid.boundary_velocity; })
+          .doc("velocity of wall and body particles in the fluid-boundary viscous term: ghost (no-slip, Adami, Hu & Adams 2012 eq. 22-23: 2 v_wall minus the fluid velocity interpolated at the particle), wall (the wall's or body's own velocity: half the wall shear), or auto (ghost where the term is laminar: viscosity_model laminar, or body particles with body_viscosity physical; wall for the artificial term); wcsph only (dfsph: wall)"));
   add(field<InScene>("fluid.colour_diffusion", [](auto& s) -> auto& { return s.fluid.colour_diffusion; })
           .unit("m^2/s").atLeast(0).doc("colour diffusion coefficient; 0 = none"));
   add(field<InScene>("fluid.clamp_negative_pressure", [](auto& s) -> auto& { return s.fluid.clamp_negative_pressure; })
@@ -620,6 +652,67 @@ std::vector<KeyDef> buildTable() {
           .unit("s").atLeast(0).required().doc("time of this key, strictly greater than the previous key's"));
   add(field<InAnchorKeys>("cloth[].anchors[].keyframes[].offset", [](auto& k) -> auto& { return k.offset; })
           .unit("m").required().doc("displacement of the anchored nodes from where they were placed, world frame"));
+  // soft_bodies: volumetric lattices of springs (core/cloth.h, softLattice) ---------------------
+  add(list<InSoftBodies>("soft_bodies").defaultNote("[]")
+          .doc("soft bodies: a box (or closed OBJ mesh) filled with a cubic lattice of nodes joined by springs along every "
+               "cell's edges, face and body diagonals; x_world = position + R(axis, angle) x_body"));
+  add(field<InSoftBodies>("soft_bodies[].name", [](auto& b) -> auto& { return b.name; })
+          .required().doc("unique soft body name (output files soft_<name>_NNNN.obj, a row in soft.csv)"));
+  add(field<InSoftBodies>("soft_bodies[].size", [](auto& b) -> auto& { return b.size; })
+          .unit("m").greaterThan(0).doc("box extents along the body axes (each rounded to whole lattice cells by "
+                                         "adjusting the spacing per axis); not used with mesh"));
+  add(field<InSoftBodies>("soft_bodies[].position", [](auto& b) -> auto& { return b.position; })
+          .unit("m").doc("world position of the body centre (the box's centre; the mesh's origin)"));
+  add(field<InSoftBodies>("soft_bodies[].orientation_axis", [](auto& b) -> auto& { return b.orientation_axis; })
+          .unit("1").doc("axis of the rotation from the body frame, nonzero"));
+  add(field<InSoftBodies>("soft_bodies[].orientation_angle", [](auto& b) -> auto& { return b.orientation_angle; })
+          .unit("deg").doc("rotation about orientation_axis, right-handed"));
+  add(field<InSoftBodies>("soft_bodies[].spacing", [](auto& b) -> auto& { return b.spacing; })
+          .unit("m").atLeast(0).defaultNote("0 (the fluid's particle_spacing)")
+          .doc("lattice cell size; 0 = the fluid's particle_spacing dx (keep it <= dx against leaks)"));
+  add(field<InSoftBodies>("soft_bodies[].density", [](auto& b) -> auto& { return b.density; })
+          .unit("kg/m^3").greaterThan(0).doc("mass per volume; each cell's mass is lumped an eighth to each corner node"));
+  add(field<InSoftBodies>("soft_bodies[].young_modulus", [](auto& b) -> auto& { return b.young_modulus; })
+          .unit("Pa").greaterThan(0).doc("Young's modulus E; per cell of side a: k = 0.14 E a on edges, 0.12 E a on face and "
+                                          "body diagonals (isotropic, Poisson ratio 1/4)"));
+  add(field<InSoftBodies>("soft_bodies[].damping", [](auto& b) -> auto& { return b.damping; })
+          .unit("s").atLeast(0).doc("stiffness-proportional (Rayleigh) damping: a dashpot damping x k on every spring "
+                                     "(damping ratio damping x omega / 2 for a mode of angular frequency omega)"));
+  add(field<InSoftBodies>("soft_bodies[].air_damping", [](auto& b) -> auto& { return b.air_damping; })
+          .unit("1/s").atLeast(0).doc("drag on every node: dv/dt = -air_damping v"));
+  add(field<InSoftBodies>("soft_bodies[].solver", [](auto& b) -> auto& { return b.solver; })
+          .doc("xpbd (default) or explicit, as for cloth"));
+  add(field<InSoftBodies>("soft_bodies[].iterations", [](auto& b) -> auto& { return b.iterations; })
+          .unit("1").atLeast(1).atMost(1000).doc("xpbd: Gauss-Seidel sweeps over all springs per time step"));
+  add(field<InSoftBodies>("soft_bodies[].tear_strain", [](auto& b) -> auto& { return b.tear_strain; })
+          .unit("1").greaterThan(0).allowInfinity().doc("a spring breaks for good when its strain (L - L0) / L0 exceeds this; .inf = never"));
+  add(field<InSoftBodies>("soft_bodies[].prestrain", [](auto& b) -> auto& { return b.prestrain; })
+          .unit("1").atLeast(0).atMost(1).doc("placed stretched: every spring's rest length is its placed length / (1 + prestrain)"));
+  add(field<InSoftBodies>("soft_bodies[].colour", [](auto& b) -> auto& { return b.colour; })
+          .unit("1").atLeast(0).atMost(1).doc("linear RGB colour, each component in [0, 1]"));
+  add(field<InSoftBodies>("soft_bodies[].mesh", [](auto& b) -> auto& { return b.mesh; })
+          .doc("closed (watertight) OBJ mesh (relative to the scene file) instead of the box: the lattice's cells whose "
+               "centres lie inside it; size is not used"));
+  add(nestedList<InSoftAnchors>("soft_bodies[].anchors").defaultNote("[]")
+          .doc("pinned nodes (infinite mass), moving at a constant velocity or along keyframes; type box or edge"));
+  add(field<InSoftAnchors>("soft_bodies[].anchors[].type", [](auto& a) -> auto& { return a.type; })
+          .doc("box (nodes inside min..max) or edge (a side face of the lattice, body frame); corners and node are for cloth"));
+  add(field<InSoftAnchors>("soft_bodies[].anchors[].edge", [](auto& a) -> auto& { return a.edge; })
+          .doc("type edge: the side face of the lattice (x_min: the nodes of smallest body-frame x, ...)"));
+  add(field<InSoftAnchors>("soft_bodies[].anchors[].min", [](auto& a) -> auto& { return a.min; })
+          .unit("m").doc("type box: lower corner, world frame (the box must hold at least one node)"));
+  add(field<InSoftAnchors>("soft_bodies[].anchors[].max", [](auto& a) -> auto& { return a.max; })
+          .unit("m").doc("type box: upper corner, world frame"));
+  add(field<InSoftAnchors>("soft_bodies[].anchors[].velocity", [](auto& a) -> auto& { return a.velocity; })
+          .unit("m/s").doc("velocity of the anchored nodes until stop (0: fixed)"));
+  add(field<InSoftAnchors>("soft_bodies[].anchors[].stop", [](auto& a) -> auto& { return a.stop; })
+          .unit("s").atLeast(0).allowInfinity().doc("the anchored nodes stop moving at this time; .inf = never"));
+  add(nested2List<InSoftAnchorKeys>("soft_bodies[].anchors[].keyframes").defaultNote("[]")
+          .doc("instead of velocity / stop: at least 1 key; offset from the placed position, linear in time between keys"));
+  add(field<InSoftAnchorKeys>("soft_bodies[].anchors[].keyframes[].time", [](auto& k) -> auto& { return k.time; })
+          .unit("s").atLeast(0).required().doc("time of this key, strictly greater than the previous key's"));
+  add(field<InSoftAnchorKeys>("soft_bodies[].anchors[].keyframes[].offset", [](auto& k) -> auto& { return k.offset; })
+          .unit("m").required().doc("displacement of the anchored nodes from where they were placed, world frame"));
   // probes: the fluid sampled at points and along vertical gauges -----------------------------
   add(section("probes", [](SceneSpec& s) { return &s.probes.loc; })
           .doc("pressure probes and water-height gauges, sampled into probes.csv (like an experiment's gauges)"));
@@ -692,6 +785,9 @@ std::vector<KeyDef> buildTable() {
           .unit("1").atLeast(0).doc("damping ratio of the body's coupling spring: B_s = 2 ratio sqrt(K_s m)"));
   add(field<InScene>("haptics.reach", [](auto& s) -> auto& { return s.haptics.reach; })
           .unit("m").greaterThan(0).doc("a button press grabs the nearest grabbable body whose surface is this close to the target"));
+  add(field<InScene>("haptics.hold_orientation", [](auto& s) -> auto& { return s.haptics.hold_orientation; })
+          .doc("hold a grabbed body's orientation at the grab with an angular spring-damper as stiff and damped as the "
+               "grasp coupling; it acts on the body only and is not felt (the device renders force, not torque)"));
   add(field<InScene>("haptics.peak_force", [](auto& s) -> auto& { return s.haptics.peak_force; })
           .unit("N").greaterThan(0).doc("largest force sent to the device (capped by the device's own)"));
   add(field<InScene>("haptics.continuous_force", [](auto& s) -> auto& { return s.haptics.continuous_force; })
@@ -784,6 +880,9 @@ std::string defaultText(const KeyDef& key) {
   defaults.cloth.resize(1);
   defaults.cloth[0].anchors.resize(1);
   defaults.cloth[0].anchors[0].keyframes.resize(1);
+  defaults.soft_bodies.resize(1);
+  defaults.soft_bodies[0].anchors.resize(1);
+  defaults.soft_bodies[0].anchors[0].keyframes.resize(1);
   defaults.probes.points.resize(1);
   defaults.probes.gauges.resize(1);
   defaults.haptics.path.resize(1);

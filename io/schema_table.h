@@ -55,6 +55,11 @@ struct EnumNames<BodyViscosity> {
                                                                        {BodyViscosity::Physical, "physical"}};
 };
 template <>
+struct EnumNames<BoundaryVelocity> {
+  static constexpr std::pair<BoundaryVelocity, const char*> values[] = {
+      {BoundaryVelocity::Auto, "auto"}, {BoundaryVelocity::Ghost, "ghost"}, {BoundaryVelocity::Wall, "wall"}};
+};
+template <>
 struct EnumNames<FluidSolver> {
   static constexpr std::pair<FluidSolver, const char*> values[] = {{FluidSolver::Wcsph, "wcsph"},
                                                                      {FluidSolver::Dfsph, "dfsph"}};

@@ -98,7 +98,8 @@ __kernel void pressure_viscosity_force(const SimParams p, __global const float4*
 
 /* Wall pressure of boundary particle b (Adami, Hu & Adams 2012, eq. 27): the kernel-weighted mean
  * of the surrounding fluid's pressure, extrapolated to the wall along the hydrostatic gradient,
- *     p_b = (sum_f p_f W_bf + g . sum_f rho_f (x_b - x_f) W_bf) / sum_f W_bf,   clamped at 0,
+ *     p_b = (sum_f p_f W_bf + g . sum_f rho_f (x_b - x_f) W_bf) / sum_f W_bf,   clamped at 0 when the
+ * fluid's pressure is (fluid.clamp_negative_pressure),
  * (the wall's own acceleration, Adami's a_w, is left out: it is zero on walls and small against g
  * for bodies that float or are moved slowly). Only boundary particles that some fluid particle
  * saw within H this step (marked by the density pass with `stamp`) are computed: the others are
@@ -131,7 +132,10 @@ __kernel void boundary_pressure(const SimParams p, const uint n_boundary, const 
   }
   SPH_END_NEIGHBOURS
   const float3 g = (float3)(p.gravity[0], p.gravity[1], p.gravity[2]);
-  bpressure[b] = sw > 0.0f ? fmax((spw + dot(g, srw)) / sw, 0.0f) : 0.0f;
+  /* clamped at 0 as the fluid's own pressure is (fluid.clamp_negative_pressure): a wall kept at
+   * p >= 0 under a fluid allowed to pull lost half the suction behind a towed ball (issue 15) */
+  const float pb = sw > 0.0f ? (spw + dot(g, srw)) / sw : 0.0f;
+  bpressure[b] = p.clamp_negative_pressure ? fmax(pb, 0.0f) : pb;
 }
 
 /* Gravity alone, used when the pressure stage is disabled. */

@@ -13,11 +13,12 @@
 #   --blend FILE      also save the last frame's scene as a .blend file
 #
 # What it reads from RUN_DIR: every OBJ sequence NAME_%04d.obj (fluid_<phase>_*, body_<name>_*,
-# cloth_*; a fluid surface takes its phase's colour from the OBJ header, or the per-vertex colours
+# cloth_<name>_*, soft_<name>_* (soft bodies' surfaces); a fluid surface takes its phase's colour from the OBJ header, or the per-vertex colours
 # when the file has them), the VDB sequence NAME_%04d.vdb when --volume is given, and run.json for the domain box
 # (camera framing, floor). OBJ files are in simulation coordinates (metres, Z up) and are imported
 # with forward_axis='Y', up_axis='Z' so Blender's world matches the simulation's (and the VDB
-# files, which Blender imports without axis conversion). Debian's Blender has no OpenImageDenoise,
+# files, which Blender imports without axis conversion). Next to the PNGs it writes camera.json
+# (the camera's world -> clip matrix, for tests that look at where things land). Debian's Blender has no OpenImageDenoise,
 # so denoising is off. Per frame the meshes are imported, rendered and removed again, so memory
 # stays flat over long sequences.
 import json
@@ -25,6 +26,7 @@ import math
 import os
 import re
 import sys
+import time
 
 import bpy
 from mathutils import Vector
@@ -91,24 +93,37 @@ def domain_box(run):
 
 
 def material(name, colour, kind):
+    """A Principled BSDF material for one OBJ sequence. Water (a fluid surface without vertex
+    colours) is clear, tinted glass: IOR 1.33 and transmission 0.9, its base colour the phase colour
+    lightened halfway to white (light passes the tint twice, in and out, which would otherwise
+    darken it to near black), so the bodies and cloth under the surface show through. Bodies, cloth
+    and soft bodies are opaque."""
     mat = bpy.data.materials.new(name)
     mat.use_nodes = True
     nt = mat.node_tree
     bsdf = nt.nodes["Principled BSDF"]
-    bsdf.inputs["Base Color"].default_value = (*colour, 1.0)
-    bsdf.inputs["Roughness"].default_value = 0.15 if kind == "fluid" else 0.5
     if kind == "fluid":
-        bsdf.inputs["Transmission"].default_value = 0.6
+        tint = tuple(0.5 * c + 0.5 for c in colour)
+        bsdf.inputs["Base Color"].default_value = (*tint, 1.0)
+        bsdf.inputs["Roughness"].default_value = 0.05
+        bsdf.inputs["Transmission"].default_value = 0.9
         bsdf.inputs["IOR"].default_value = 1.33
-    # Per-vertex colours (OBJ "v x y z r g b", isosurface option vertex_colours) drive the colour.
+    else:
+        bsdf.inputs["Base Color"].default_value = (*colour, 1.0)
+        bsdf.inputs["Roughness"].default_value = 0.5
+    # Per-vertex colours (OBJ "v x y z r g b": bodies, cloth, soft bodies, and fluid surfaces with
+    # the isosurface option vertex_colours) drive the colour once a mesh brings them (import_obj).
     attr = nt.nodes.new("ShaderNodeAttribute")
     attr.attribute_type = "GEOMETRY"
     attr.attribute_name = "Color"
-    mat["vertex_colour_node"] = attr.name
+    mat["kind"] = kind
     return mat, attr, bsdf
 
 
-COLOURS = {"fluid": (0.25, 0.5, 0.9), "body": (0.8, 0.6, 0.3), "cloth": (0.8, 0.2, 0.25)}
+# Colours when neither the OBJ header nor its vertices give one, by the sequence's prefix:
+# fluid_<phase>, body_<name>, cloth_<name>, soft_<name> (soft bodies: the same format as cloth).
+COLOURS = {"fluid": (0.25, 0.5, 0.9), "body": (0.8, 0.6, 0.3), "cloth": (0.8, 0.2, 0.25),
+           "soft": (0.85, 0.55, 0.5)}
 
 
 def header_colour(path):
@@ -147,6 +162,10 @@ def import_obj(path, name, mat, attr, bsdf):
         if has_colour and not bsdf.inputs["Base Color"].is_linked:
             attr.attribute_name = mesh.color_attributes[0].name
             links.new(attr.outputs["Color"], bsdf.inputs["Base Color"])
+            if mat["kind"] == "fluid":
+                # Coloured fluid (paint that mixes): opaque, so that the colours read as they are.
+                bsdf.inputs["Transmission"].default_value = 0.0
+                bsdf.inputs["Roughness"].default_value = 0.3
     return objs
 
 
@@ -177,10 +196,29 @@ def setup_scene(opt, box):
     cam_data.lens = 35
     cam = bpy.data.objects.new("camera", cam_data)
     scene.collection.objects.link(cam)
-    cam.location = centre + Vector((0.6 * size.x + 0.3 * diag, -1.3 * diag, 0.7 * diag))
-    cam.rotation_euler = (centre - cam.location).to_track_quat("-Z", "Y").to_euler()
+    direction = Vector((0.6 * size.x + 0.3 * diag, -1.3 * diag, 0.7 * diag))
+    cam.rotation_euler = (-direction).to_track_quat("-Z", "Y").to_euler()
     cam_data.clip_end = 100 * diag
     scene.camera = cam
+    # Distance: move in along that direction until the box's corners fill the picture (each within
+    # 90 % of the half-width and half-height), so a flat or low scene is not a speck in the middle.
+    corners = [Vector((x, y, z)) for x in (lo.x, hi.x) for y in (lo.y, hi.y) for z in (lo.z, hi.z)]
+    scale = 1.0
+    for _ in range(40):
+        cam.location = centre + direction * scale
+        bpy.context.view_layer.update()
+        m = cam.calc_matrix_camera(bpy.context.evaluated_depsgraph_get(), x=r.resolution_x,
+                                        y=r.resolution_y) @ cam.matrix_world.inverted()
+        reach = 0.0
+        for c in corners:
+            p = m @ c.to_4d()
+            reach = max(reach, abs(p.x / p.w), abs(p.y / p.w)) if p.w > 0 else 2.0 + reach
+        if reach > 0.9:
+            scale /= 0.95  # one step back: the last distance that fitted
+            break
+        scale *= 0.95
+    cam.location = centre + direction * scale
+    bpy.context.view_layer.update()
     sun_data = bpy.data.lights.new("sun", "SUN")
     sun_data.energy = 3.0
     sun = bpy.data.objects.new("sun", sun_data)
@@ -230,6 +268,19 @@ def volume_object(scene, name, files):
     return ob
 
 
+def write_camera(scene, path):
+    """The camera as a world -> pixel projection, for tests that check where things land in the
+    picture: pixel (x right, y down) = ((ndc_x + 1) / 2 * W, (1 - ndc_y) / 2 * H), with
+    ndc = (M @ (x, y, z, 1)) divided by its w."""
+    r = scene.render
+    w, h = r.resolution_x, r.resolution_y
+    cam = scene.camera
+    proj = cam.calc_matrix_camera(bpy.context.evaluated_depsgraph_get(), x=w, y=h)
+    m = proj @ cam.matrix_world.inverted()
+    with open(path, "w") as f:
+        json.dump({"resolution": [w, h], "world_to_clip": [list(row) for row in m]}, f, indent=1)
+
+
 def main():
     opt = parse_args(sys.argv)
     run = opt["run"]
@@ -269,8 +320,11 @@ def main():
         volumes[name] = volume_object(scene, name, [seq[f] for f in sorted(seq)])
         volumes[name]["first_frame"] = min(seq)
 
+    write_camera(scene, os.path.join(opt["out"], "camera.json"))
     rendered = 0
+    started = time.monotonic()
     for f in frames:
+        t0 = time.monotonic()
         current = []
         for name, seq in objs.items():
             if name in materials and f in seq:
@@ -280,7 +334,7 @@ def main():
         scene.render.filepath = os.path.join(opt["out"], "frame_%04d.png" % f)
         bpy.ops.render.render(write_still=True)
         rendered += 1
-        print("render_blender: frame %d -> %s" % (f, scene.render.filepath), flush=True)
+        print("render_blender: frame %d -> %s (%.2f s)" % (f, scene.render.filepath, time.monotonic() - t0), flush=True)
         if opt["blend"] and f == frames[-1]:
             bpy.ops.wm.save_as_mainfile(filepath=opt["blend"])
         for ob in current:
@@ -288,7 +342,8 @@ def main():
             bpy.data.objects.remove(ob, do_unlink=True)
             if mesh is not None and mesh.users == 0:
                 bpy.data.meshes.remove(mesh)
-    print("render_blender: %d frames in %s" % (rendered, opt["out"]))
+    print("render_blender: %d frames in %s (%.2f s per frame)"
+          % (rendered, opt["out"], (time.monotonic() - started) / max(rendered, 1)))
 
 
 main()

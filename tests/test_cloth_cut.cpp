@@ -1,5 +1,5 @@
 // Cloth cutting (issue 11): a rigid body with `cutter: true` (a scalpel blade) breaks every spring
-// its surface crosses (kernels/cloth.cl, cloth_cut). No fluid here except in the incision test.
+// its surface crosses (kernels/cloth.cl, cloth_cut). No fluid here except in the incision test (a soft slab).
 #include "core/cl_context.h"
 #include "core/cloth.h"
 #include "core/model.h"
@@ -111,21 +111,25 @@ TEST_CASE("Cloth cutting: a blade drawn across a cloth cuts exactly the springs 
 }
 
 TEST_CASE("Cloth cutting: blood under a skin escapes through the cut, and only after it", "[cloth][cut][fluid]") {
-  // scenes/tests/incision_small.yaml: a skin (17 x 13 nodes, edges anchored, placed 20 % stretched
-  // like living skin) closes a chamber of blood that a reservoir keeps under about 6 cm of head; a
-  // keyframed blade (cutter: true) pierces the skin at 0.15-0.2 s and draws a cut along y from 2 to
-  // 8 cm until 0.45 s; the cut gapes under the skin's tension. Every frame, a blood
-  // particle inside the chamber is above the skin when it is higher than the skin's node nearest
-  // to it horizontally (the sheet's edges and the partition's side left out). None is above while
-  // no spring is broken; blood stands above the skin at the end. The cut follows the blade: every
-  // broken spring crosses the blade's plane x = 0.1391 within its path (y from 2 to 8 cm, widened
-  // by the blade's half width and one node spacing), and every spring that crosses that plane
-  // well inside the path (y 3-7 cm) is broken.
+  // scenes/tests/incision_small.yaml: a skin (a soft slab 1 cm thick, 14 x 11 x 2 lattice nodes at
+  // dx, its four sides clamped, placed 20 % stretched like living skin) closes a chamber of blood
+  // that a reservoir keeps under about 6 cm of head; a keyframed blade (cutter: true) pierces the
+  // skin at 0.15-0.2 s and draws a cut along y from 2 to 8 cm until 0.45 s; the cut gapes under
+  // the skin's tension. Every frame, a blood particle inside the chamber is above the skin when it
+  // is higher than the skin's top-layer node nearest to it horizontally (the slab's edges and the
+  // partition's side left out). None is above while no spring is broken (the slab holds the
+  // pressurised blood: no leak); blood stands above the skin at the end. The cut follows the
+  // blade: every broken spring crosses the blade's plane x = 0.135 within its path (y from 2 to 8
+  // cm, widened by the blade's half width and one lattice spacing), and every spring that crosses
+  // that plane well inside the path (y 3-7 cm) is broken.
   SceneSpec spec = io::loadScene(testing::scenePath("incision_small.yaml"));
   const Compiled comp = compile(spec);
   const cloth::ClothModel& m = comp.model.cloth;
-  const ClothSpec& c = spec.cloth[0];
-  const double sx = c.width / (c.resolution_x - 1), sy = c.length / (c.resolution_y - 1);
+  REQUIRE(spec.soft_bodies.size() == 1);
+  const SoftBodySpec& skin = spec.soft_bodies[0];
+  const double sx = 0.01, sy = 0.01;  // the lattice spacing: the fluid's dx
+  REQUIRE(m.nodes() == 14u * 11u * 2u);
+  const float top_z = float(skin.position.z() + 0.5 * skin.size.z());
   ClContext cl;
   Simulation sim(comp.model, comp.initial, cl);
   auto above = [&]() {
@@ -138,6 +142,7 @@ TEST_CASE("Cloth cutting: blood under a skin escapes through the cut, and only a
       std::size_t best = 0;
       double d2 = INFINITY;
       for (std::size_t k = 0; k < x.size(); ++k) {
+        if (m.x0[k].z() < top_z - 1e-4f) continue;  // the top layer
         const double ex = x[k].x() - f.x[p], ey = x[k].y() - f.y[p], e = ex * ex + ey * ey;
         if (e < d2) d2 = e, best = k;
       }
@@ -158,7 +163,7 @@ TEST_CASE("Cloth cutting: blood under a skin escapes through the cut, and only a
   }
   const std::vector<uint32_t> broken = sim.cloth()->readBroken();
   int cut = 0, off_path = 0, missed = 0;
-  const float xb = 0.1391f;
+  const float xb = 0.135f;
   for (std::size_t k = 0; k < m.springs(); ++k) {
     const Eigen::Vector4f a = m.x0[m.ends[2 * k]], b = m.x0[m.ends[2 * k + 1]];
     const bool across = (a.x() - xb) * (b.x() - xb) < 0;
@@ -303,10 +308,10 @@ TEST_CASE("Cloth: the memory estimate counts the cloth nodes", "[cloth][resource
   CHECK(est.bytes - without <= 20.0 * cloth_bytes);
 }
 
-TEST_CASE("Cloth: particles.h5part holds the rigid-body particles and cloth nodes with their type", "[cloth][io]") {
+TEST_CASE("Cloth: particles.h5part holds the rigid-body particles and soft-body nodes with their type", "[cloth][io]") {
   // One frame of scenes/tests/incision_small.yaml written to a folder: the `type` dataset
   // (ParticleType) has the fluid (0), every rigid body's particles (2: the partition and the blade)
-  // and every cloth node (3), in that order; the reader gives the fluid alone by default and
+  // and every soft-body node (4: the skin), in that order; the reader gives the fluid alone by default and
   // everything with fluid_only = false; the nodes sit at the skin's rest positions at t = 0.
   sph::testing::TempDir dir;
   app::RunOptions o = testing::quietRun("incision_small.yaml");
@@ -329,18 +334,19 @@ TEST_CASE("Cloth: particles.h5part holds the rigid-body particles and cloth node
     ++counts[all.type[i]];
     if (i > 0 && all.type[i] < all.type[i - 1]) ordered = false;
   }
-  INFO("fluid " << counts[0] << ", rigid " << counts[2] << ", cloth " << counts[3] << " of " << all.size());
-  CHECK(all.size() == comp.initial.size() + body_particles + 17 * 13);
+  const std::size_t nodes = 14 * 11 * 2;
+  INFO("fluid " << counts[0] << ", rigid " << counts[2] << ", soft " << counts[4] << " of " << all.size());
+  CHECK(all.size() == comp.initial.size() + body_particles + nodes);
   CHECK(counts[kFluid] == comp.initial.size());
   CHECK(counts[kRigid] == body_particles);
-  CHECK(counts[kCloth] == 17u * 13u);
+  CHECK(counts[kSoft] == nodes);
   CHECK(ordered);
   CHECK(fluid.size() == comp.initial.size());
   CHECK(fluid.type.empty());
   // Node k of the skin at t = 0: its rest position.
-  const std::size_t first_node = all.size() - 17 * 13;
+  const std::size_t first_node = all.size() - nodes;
   double worst = 0;
-  for (std::size_t k = 0; k < 17 * 13; ++k)
+  for (std::size_t k = 0; k < nodes; ++k)
     worst = std::max(worst, double((Eigen::Vector3f(all.x[first_node + k], all.y[first_node + k], all.z[first_node + k]) -
                                     comp.model.cloth.x0[k].head<3>())
                                        .norm()));

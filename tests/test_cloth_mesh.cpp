@@ -189,3 +189,26 @@ TEST_CASE("Cloth mesh: bad files and rectangle-only anchors are reported at thei
   CHECK(r.code == 2);
   CHECK(r.err.find("fin.yaml:7:") != std::string::npos);
 }
+
+TEST_CASE("Cloth mesh: rectangle keys given with a mesh are named in a warning, and validate prints it", "[cloth][mesh][input]") {
+  // width (line 7) and resolution_x (line 8) mean nothing for a mesh cloth: one warning each, with
+  // its location; the scene still loads and compiles (exit 0).
+  using namespace sph::testing;
+  TempDir dir;
+  dir.write("square.obj", squareObj(9, 0.16));  // as above: the anchors of kHang hold it
+  const auto scene = dir.write("scene.yaml", sceneText("    width: 0.3\n    resolution_x: 7\n    mesh: square.obj\n" +
+                                                           std::string(kHang), 0.1));
+  const Compiled comp = compile(io::loadScene(scene.string()));
+  INFO(comp.model.warnings.size());
+  REQUIRE(comp.model.warnings.size() == 2u);
+  CHECK(comp.model.warnings[0].find("scene.yaml:6:") != std::string::npos);
+  CHECK(comp.model.warnings[0].find("'cloth[0].width' is not used") != std::string::npos);
+  CHECK(comp.model.warnings[1].find("scene.yaml:7:") != std::string::npos);
+  CHECK(comp.model.warnings[1].find("'cloth[0].resolution_x'") != std::string::npos);
+  const Result r = sphaptics(dir.path, {"validate", scene.string()});
+  CHECK(r.code == 0);
+  CHECK(r.err.find("warning: ") != std::string::npos);
+  // Without the rectangle keys: no warning.
+  const auto clean = dir.write("clean.yaml", sceneText("    mesh: square.obj\n" + std::string(kHang), 0.1));
+  CHECK(compile(io::loadScene(clean.string())).model.warnings.empty());
+}

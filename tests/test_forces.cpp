@@ -99,3 +99,133 @@ TEST_CASE("Forces: a buoyant block placed flush on the floor is lifted to a gap 
                   << " m (expected " << 0.5 * h << " m)");
   CHECK(std::abs(draft - 0.5 * h) < 0.05 * 0.5 * h);
 }
+
+TEST_CASE("Forces: the Stokes drag of a towed ball matches 6 pi mu R U with the box's wall factor", "[forces]") {
+  // scenes/tests/stokes_tow.yaml: a ball, R = 3 cm, towed at U = 1 cm/s through a closed 20 cm
+  // box of liquid of nu = 0.05 m^2/s (Re = 0.012), laminar viscosity, no-slip ghost velocities at
+  // the body and the walls (fluid.boundary_velocity: auto; Adami, Hu & Adams 2012 eq. 22-23).
+  // Closed form: F = 6 pi mu R U K, K the wall factor of the box, bracketed by Haberman & Sayre's
+  // (1958) sphere in a concentric sphere of the box's volume (K = 2.04) and the one inscribed in
+  // it (2.57). Resolution: the no-slip surface of a ball sampled at R / dx = 3 lies within dx/2
+  // of R (its particles dx/2 inside, the fluid's first layer dx/2 outside), so the expected drag
+  // / 6 pi mu R U is (R_eff / R) K(R_eff) with R_eff in R -+ dx/2: 1.47 .. 3.75 at R / dx = 3
+  // (TowCheck::expected_lo/hi). Measured: 1.54 (0.88 before issue 15's ghost velocities, wall
+  // pressure and c0; 1.24 with fluid.boundary_velocity: wall, below the band: the test sees the
+  // no-slip condition). Halving the coupling force gives 0.77: below. The sideways force is reported, not tested here
+  // (the sphere's surface sampling: 0-14 % of the drag, README).
+  const app::TowCheck c = app::towedBall(scenePath("stokes_tow.yaml"), 0.01);
+  INFO(c.message);
+  REQUIRE(c.exit_code == 0);
+  INFO("R/dx " << c.radius / c.dx << ", Re " << c.reynolds << ": drag " << c.drag << " N = " << c.drag / c.stokes
+               << " x 6 pi mu R U (expected " << c.expected_lo << " .. " << c.expected_hi << "; K " << c.wall_factor_lo
+               << " .. " << c.wall_factor_hi << " at R), sideways " << c.side << " N +- " << c.side_noise << "; "
+               << c.wall_seconds << " s");
+  CHECK(c.drag / c.stokes > c.expected_lo);
+  CHECK(c.drag / c.stokes < c.expected_hi);
+}
+
+TEST_CASE("Forces: a buoyant ball released from rest mid-water accelerates with the added mass C_m = 1/2", "[forces]") {
+  // scenes/tests/release_ball.yaml: a 500 kg/m^3 ball (R = 3 cm = 3 dx) held 0.25 s mid-water,
+  // then released, and the same run with the ball held throughout. In a fluid at rest it would
+  // start at a0 = (rho_w - rho_b) g / (rho_b + rho_w / 2) = 4.9 m/s^2. A single run showed a
+  // ~0.02 s stall, then ~5.4 m/s^2. The cause is the tank's ringing (the water column's
+  // quarter-wave mode, 4 H / c0 = 0.05 s, still +-40 % of the buoyancy at 0.25 s, weakly damped):
+  // the release fell on a downswing of the buoyancy (the held force averages 0.73 rho g V over the
+  // first 10 ms after 0.25 s, 0.62 over 20 ms, against the ball's weight 0.5). Not the release
+  // itself: the free and held runs are bitwise equal up to it, the first free step feels the held
+  // force (a = 10 m/s^2: the fluid has not answered yet), and within ~R/c0 = 2 ms the added mass
+  // builds up, the ball then oscillating on the liquid's compressibility at a ~4 ms period.
+  // So the test compares with the held run, in momentum form over T = 10 ms (5 R/c0; v < 2.5 cm/s,
+  // drag negligible): C_m = -int (F_free - F_held) dt / (rho V v(T)), expected 1/2 .. 0.58 (Lamb's
+  // concentric sphere at the nearest boundary, the free surface 10 cm above), with the shaken
+  // ball's 25 % (R / dx = 3). Measured 0.59 (0.49 over 5 ms; over 20-50 ms 0.8-1.0, the drag of
+  // alpha = 0.1 then counting). The mean acceleration v(T) / T then equals (mean F_held - m g) /
+  // (m + C_m rho V) (momentum): reported, the same check in the issue's terms. Halving the
+  // coupling force: the held force falls below the weight and the ball does not rise.
+  const app::ReleaseMassCheck c = app::releasedBallAddedMass(scenePath("release_ball.yaml"), 0.01, 500.0, 0.01);
+  INFO(c.message);
+  REQUIRE(c.exit_code == 0);
+  INFO("R/dx " << c.radius / c.dx << ": C_m " << c.cm << " (expected 0.5 .. " << c.cm_confined << "); a0 " << c.a0
+               << " m/s^2 (expected from the held force " << c.a0_expected_lo << " .. " << c.a0_expected_hi
+               << ", in still water " << c.a0_still << "); held force " << c.held_over_buoyancy << " rho g V; "
+               << c.wall_seconds << " s");
+  CHECK(c.cm > 0.75 * 0.5);
+  CHECK(c.cm < 1.25 * c.cm_confined);
+}
+
+TEST_CASE("Forces: a buoyant ball released one spacing above the floor accelerates with the wall's added mass", "[forces]") {
+  // As the mid-water test, with the ball's underside one spacing dx above the floor (centre at
+  // h = 4 cm = 1.33 R). Near a wall the added mass for motion normal to it grows: C_m = 1/2 +
+  // 3/16 (R / h)^3 = 0.58 to leading order (Brennen 1982; the next terms add ~2 %), so expected
+  // 1/2 .. 0.58 with the same 25 % (R / dx = 3, and only one fluid layer under the ball). Measured
+  // 0.69 over 10 ms (0.58 over 5 ms); at R / dx = 4 it grows to 0.75 (bench; outside): leaving
+  // the one-spacing gap, the ball also pulls fluid in against the squeeze-film drag of the
+  // artificial viscosity (alpha = 0.1, mu_eff ~ 1.5 Pa s), which the held run has not (README).
+  // Halving the coupling force: the ball does not rise.
+  const app::ReleaseMassCheck c = app::releasedBallAddedMass(scenePath("release_ball.yaml"), 0.01, 500.0, 0.01,
+                                                             {"rigid_bodies[0].position=[0.1, 0.1, 0.04]"});
+  INFO(c.message);
+  REQUIRE(c.exit_code == 0);
+  INFO("R/dx " << c.radius / c.dx << ": C_m " << c.cm << " (expected 0.5 .. " << c.cm_floor << "); a0 " << c.a0
+               << " m/s^2 (expected from the held force " << c.a0_expected_lo << " .. " << c.a0_expected_hi
+               << "); held force " << c.held_over_buoyancy << " rho g V; " << c.wall_seconds << " s");
+  CHECK(c.cm > 0.75 * 0.5);
+  CHECK(c.cm < 1.25 * c.cm_floor);
+}
+
+TEST_CASE("Forces: a released buoyant ball rises and floats at its Archimedes draft with a damped heave", "[forces]") {
+  // release_ball.yaml (500 kg/m^3 ball, R = 3 cm = 3 dx, released mid-water at 0.25 s) run to
+  // 1.5 s: it rises, overshoots the surface and heaves about its float position.
+  //  - Draft: half its density, so half submerged: its centre at the water level, the level being
+  //    the fluid's volume at rest density plus the ball's displaced volume m / rho over the floor
+  //    area (as the flush block's test). Tolerance dx/2: where a free surface lies is known to
+  //    about half a spacing. Measured: 1.6 mm below.
+  //  - Damped: each crest lower than the one before. Measured 14.0 then 3.2 mm above the mean.
+  //  - Period: k = rho g pi R^2 (waterplane), m + a33 with a33 between 0.38 and 0.83 of the
+  //    displaced mass rho V / 2 over all frequencies (Hulme 1982, the floating hemisphere), so
+  //    T0 = 2 pi sqrt((m + a33) / k) = 0.333 .. 0.384 s; the waterplane radius is known to dx/2
+  //    (R^2 to +-33 %, T to +-17 %). The measured crest-to-crest period is corrected for its
+  //    damping, T0 = T sqrt(1 - zeta^2), zeta from the logarithmic decrement. Measured 0.37 s,
+  //    zeta 0.23, T0 = 0.360 s.
+  // Halving the coupling force halves the buoyancy: the ball no longer rises to the surface.
+  app::RunOptions o = testing::quietRun("release_ball.yaml");
+  o.duration = 1.5;
+  std::vector<std::pair<double, double>> z;  // (t, z) per frame after the release
+  std::size_t particles = 0;
+  double mass = 0, radius = 0, dx = 0;
+  const app::RunResult r = app::runScene(o, [&](Simulation& sim, const FrameReport&) {
+    particles = sim.numFluid();
+    mass = sim.model().bodies[0].mass;
+    radius = sim.model().bodies[0].spec.radius;
+    dx = sim.model().dx;
+    if (sim.time() >= 0.25 - 1e-9) z.emplace_back(sim.time(), sim.bodies()[0].x.z());
+  });
+  REQUIRE(r.exit_code == 0);
+  const double rho = 1000, area = 0.2 * 0.2, g = 9.81;
+  const double level = (particles * dx * dx * dx + mass / rho) / area;
+  double mean = 0;
+  int n = 0;
+  for (const auto& [t, h] : z)
+    if (t >= 1.3 - 1e-9) mean += h, ++n;
+  REQUIRE(n > 5);
+  mean /= n;
+  // crests: local maxima of z after the ball first reached the surface
+  std::vector<std::pair<double, double>> crests;
+  for (std::size_t k = 1; k + 1 < z.size(); ++k)
+    if (z[k].second > z[k - 1].second && z[k].second >= z[k + 1].second && z[k].second > mean) crests.push_back(z[k]);
+  INFO("level " << level << " m, mean z over the last 0.2 s " << mean << " m; " << crests.size() << " crests");
+  for (const auto& [t, h] : crests) UNSCOPED_INFO("crest at " << t << " s, " << (h - mean) * 1000 << " mm");
+  CHECK(std::abs(mean - level) < 0.5 * dx);
+  REQUIRE(crests.size() >= 2);
+  CHECK(crests[1].second - mean < crests[0].second - mean);
+  const double T = crests[1].first - crests[0].first;
+  const double delta = std::log((crests[0].second - mean) / (crests[1].second - mean));
+  const double zeta = delta / std::sqrt(4 * M_PI * M_PI + delta * delta);
+  const double T0 = T * std::sqrt(1 - zeta * zeta);
+  const double k = rho * g * M_PI * radius * radius, half = 0.5 * rho * 4.0 / 3.0 * M_PI * std::pow(radius, 3);
+  const double lo = 2 * M_PI * std::sqrt((mass + 0.38 * half) / k), hi = 2 * M_PI * std::sqrt((mass + 0.83 * half) / k);
+  INFO("period " << T << " s, zeta " << zeta << ", undamped " << T0 << " s; expected " << lo << " .. " << hi
+                 << " s, +-17 %");
+  CHECK(T0 > lo / 1.17);
+  CHECK(T0 < hi * 1.17);
+}

@@ -159,6 +159,7 @@ TEST_CASE("Live bridge: no bridge, or a bridge that stops answering, is a device
   BridgeProcess bridge(tmp.path, bridge_port, listen_port, 60.0);
   REQUIRE(bridge.pid > 0);
   o.out = (tmp.path / "killed").string();
+  o.record = (tmp.path / "killed.rec").string();  // a run that fails leaves no recording, not even an empty one
   const pid_t pid = bridge.pid;
   const app::RunResult killed = app::runScene(o, [&](Simulation&, const FrameReport& rep) {
     if (rep.frame == 3) ::kill(pid, SIGKILL);
@@ -166,6 +167,8 @@ TEST_CASE("Live bridge: no bridge, or a bridge that stops answering, is a device
   bridge.stop();
   CHECK(killed.exit_code == 3);
   CHECK(killed.message.find("stopped answering") != std::string::npos);
+  CHECK_FALSE(std::filesystem::exists(o.record));
+  CHECK_FALSE(std::filesystem::exists(o.record + ".partial"));
 }
 
 TEST_CASE("Live: `sphaptics run --interactive` with backend bridge in batch is refused, exit 2", "[haptics][live][bridge]") {

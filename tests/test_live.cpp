@@ -249,9 +249,11 @@ TEST_CASE("Live window: a renderer that stalls does not stop or slow the simulat
   //    the run could only end after the stub gives up (60 s). Timing-free: the run must end first,
   //    with every frame published.
   // 2. One that keeps each frame 200 ms: the simulation must keep its frame rate. The machine is
-  //    shared (CI runs tests side by side), so the runs alternate and each side's best of three is
-  //    compared with a bound of 0.75: a simulation that waited for such a renderer would run at
+  //    shared (CI runs tests side by side), so the runs alternate and each side's median of three
+  //    is compared with a bound of 0.6: a simulation that waited for such a renderer would run at
   //    about a third of its rate (measured once with a waiting mailbox: 5.1 against 14.9 frames/s).
+  //    (The best of three failed once under load: one quiet base run at 24.8 frames/s against
+  //    others at 11.7 and 13.3; a median does not follow a single outlier.)
   {
     app::RunOptions o = sph::testing::quietRun("haptic_drag.yaml");
     o.duration = 0.3;
@@ -315,7 +317,11 @@ TEST_CASE("Live window: a renderer that stalls does not stop or slow the simulat
                                       << with[0] << ", " << with[1] << ", " << with[2] << "; frames the renderer took "
                                       << drawn_total);
   CHECK(drawn_total >= 2);
-  CHECK(*std::max_element(with.begin(), with.end()) >= 0.75 * *std::max_element(base.begin(), base.end()));
+  auto median3 = [](std::vector<double> v) {
+    std::sort(v.begin(), v.end());
+    return v[1];
+  };
+  CHECK(median3(with) >= 0.6 * median3(base));
 }
 
 TEST_CASE("Live window: under Xvfb the window over a run shows the water, the device cursor and the grasp point",

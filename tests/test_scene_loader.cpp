@@ -188,6 +188,7 @@ TEST_CASE("a minimal scene gets every default of core/scene_spec.h", "[io]") {
   CHECK(s.fluid.viscosity_model == d.fluid.viscosity_model);
   CHECK(s.fluid.artificial_viscosity == d.fluid.artificial_viscosity);
   CHECK(s.fluid.body_viscosity == d.fluid.body_viscosity);
+  CHECK(s.fluid.boundary_velocity == d.fluid.boundary_velocity);
   CHECK(s.fluid.colour_diffusion == d.fluid.colour_diffusion);
   CHECK(s.fluid.clamp_negative_pressure == d.fluid.clamp_negative_pressure);
   CHECK(s.fluid.max_particles == d.fluid.max_particles);
@@ -213,6 +214,8 @@ TEST_CASE("the schema defaults are read from core/scene_spec.h", "[io]") {
   d.rigid_bodies.resize(1);
   d.cloth.resize(1);
   d.cloth[0].anchors.resize(1);
+  d.soft_bodies.resize(1);
+  d.soft_bodies[0].anchors.resize(1);
   d.probes.points.resize(1);
   d.probes.gauges.resize(1);
   d.haptics.path.resize(1);
@@ -508,7 +511,7 @@ TEST_CASE("bad --set keys and values are InputErrors against '--set'", "[io]") {
   REQUIRE_SET_ISSUE(section, "did you mean 'simulation.cfl'?");
 
   const auto nonsense = issuesOf(yaml, {"zzz=1"});
-  REQUIRE_SET_ISSUE(nonsense, "unknown key 'zzz'", "known keys at the top level: simulation, domain, fluid, rigid_bodies, cloth, probes, output");
+  REQUIRE_SET_ISSUE(nonsense, "unknown key 'zzz'", "known keys at the top level: simulation, domain, fluid, rigid_bodies, cloth, soft_bodies, probes, output");
 
   REQUIRE_SET_ISSUE(issuesOf(yaml, {"simulation.cfl"}), "expected key.path=value");
   REQUIRE_SET_ISSUE(issuesOf(yaml, {"simulation.gravity.x=1"}), "has no sub-keys");
@@ -551,7 +554,7 @@ TEST_CASE("the schema text lists every key with type, default, unit and range", 
       "fluid.dfsph.divergence_solve", "fluid.dfsph.walls", "fluid.dfsph.warm_start", "fluid.dfsph.relaxation", "fluid.dfsph.cfl", "fluid.dfsph.max_time_step",
       "fluid.particle_spacing",
       "fluid.equation_of_state", "fluid.speed_of_sound", "fluid.viscosity_model", "fluid.artificial_viscosity",
-      "fluid.body_viscosity", "fluid.colour_diffusion", "fluid.clamp_negative_pressure", "fluid.max_particles", "fluid.phases",
+      "fluid.body_viscosity", "fluid.boundary_velocity", "fluid.colour_diffusion", "fluid.clamp_negative_pressure", "fluid.max_particles", "fluid.phases",
       "fluid.phases[].name", "fluid.phases[].rest_density", "fluid.phases[].viscosity", "fluid.phases[].colour",
       "fluid.blocks", "fluid.blocks[].phase", "fluid.blocks[].min", "fluid.blocks[].max", "fluid.blocks[].velocity",
       "fluid.inflows", "fluid.inflows[].name", "fluid.inflows[].phase", "fluid.inflows[].shape",
@@ -573,13 +576,21 @@ TEST_CASE("the schema text lists every key with type, default, unit and range", 
       "cloth[].tear_strain", "cloth[].prestrain", "cloth[].colour", "cloth[].mesh", "cloth[].anchors", "cloth[].anchors[].type", "cloth[].anchors[].edge",
       "cloth[].anchors[].i", "cloth[].anchors[].j", "cloth[].anchors[].min", "cloth[].anchors[].max",
       "cloth[].anchors[].velocity", "cloth[].anchors[].stop", "cloth[].anchors[].keyframes",
-      "cloth[].anchors[].keyframes[].time", "cloth[].anchors[].keyframes[].offset", "probes", "probes.rate", "probes.points",
+      "cloth[].anchors[].keyframes[].time", "cloth[].anchors[].keyframes[].offset", "soft_bodies", "soft_bodies[].name",
+      "soft_bodies[].size", "soft_bodies[].position", "soft_bodies[].orientation_axis", "soft_bodies[].orientation_angle",
+      "soft_bodies[].spacing", "soft_bodies[].density", "soft_bodies[].young_modulus", "soft_bodies[].damping",
+      "soft_bodies[].air_damping", "soft_bodies[].solver", "soft_bodies[].iterations", "soft_bodies[].tear_strain",
+      "soft_bodies[].prestrain", "soft_bodies[].colour", "soft_bodies[].mesh", "soft_bodies[].anchors",
+      "soft_bodies[].anchors[].type", "soft_bodies[].anchors[].edge", "soft_bodies[].anchors[].min",
+      "soft_bodies[].anchors[].max", "soft_bodies[].anchors[].velocity", "soft_bodies[].anchors[].stop",
+      "soft_bodies[].anchors[].keyframes", "soft_bodies[].anchors[].keyframes[].time",
+      "soft_bodies[].anchors[].keyframes[].offset", "probes", "probes.rate", "probes.points",
       "probes.points[].name", "probes.points[].position", "probes.gauges", "probes.gauges[].name",
       "probes.gauges[].position", "probes.gauges[].length", "output", "output.directory", "output.particles",
       "output.step_forces",
       "output.isosurface", "output.isosurface.enabled", "output.isosurface.spacing", "output.isosurface.iso",
       "output.isosurface.vertex_colours", "output.isosurface.obj", "output.isosurface.vdb", "output.isosurface.vdb_level_set",
-      "haptics", "haptics.backend", "haptics.scale", "haptics.rotation_axis", "haptics.rotation_angle", "haptics.offset", "haptics.gain", "haptics.stiffness", "haptics.damping", "haptics.damping_ratio", "haptics.reach", "haptics.peak_force", "haptics.continuous_force", "haptics.ramp_time", "haptics.watchdog", "haptics.lowpass", "haptics.passivity", "haptics.servo_rate", "haptics.smoothing", "haptics.rolling_window", "haptics.hand_mass", "haptics.hand_stiffness", "haptics.hand_damping", "haptics.bridge_port", "haptics.listen_port", "haptics.bridge_timeout", "haptics.path", "haptics.path[].type", "haptics.path[].start", "haptics.path[].end", "haptics.path[].from", "haptics.path[].to", "haptics.path[].centre", "haptics.path[].radius", "haptics.path[].axis", "haptics.path[].period", "haptics.path[].phase", "haptics.path[].amplitude", "haptics.path[].f0", "haptics.path[].f1", "haptics.waypoints", "haptics.waypoints[].time", "haptics.waypoints[].position", "haptics.buttons", "haptics.buttons[].time", "haptics.buttons[].button", "haptics.buttons[].pressed"};
+      "haptics", "haptics.backend", "haptics.scale", "haptics.rotation_axis", "haptics.rotation_angle", "haptics.offset", "haptics.gain", "haptics.stiffness", "haptics.damping", "haptics.damping_ratio", "haptics.reach", "haptics.hold_orientation", "haptics.peak_force", "haptics.continuous_force", "haptics.ramp_time", "haptics.watchdog", "haptics.lowpass", "haptics.passivity", "haptics.servo_rate", "haptics.smoothing", "haptics.rolling_window", "haptics.hand_mass", "haptics.hand_stiffness", "haptics.hand_damping", "haptics.bridge_port", "haptics.listen_port", "haptics.bridge_timeout", "haptics.path", "haptics.path[].type", "haptics.path[].start", "haptics.path[].end", "haptics.path[].from", "haptics.path[].to", "haptics.path[].centre", "haptics.path[].radius", "haptics.path[].axis", "haptics.path[].period", "haptics.path[].phase", "haptics.path[].amplitude", "haptics.path[].f0", "haptics.path[].f1", "haptics.waypoints", "haptics.waypoints[].time", "haptics.waypoints[].position", "haptics.buttons", "haptics.buttons[].time", "haptics.buttons[].button", "haptics.buttons[].pressed"};
   const auto& table = sph::io::schemaTable();
   REQUIRE(table.size() == expected.size());
   for (std::size_t i = 0; i < expected.size(); ++i) {
@@ -617,12 +628,13 @@ TEST_CASE("sceneToJson writes every key of the resolved scene", "[io]") {
   const std::string json = sph::io::sceneToJson(s);
   INFO(json);
   // Every key name of the table appears (list items because the scene has one of each but blocks,
-  // bodies and the haptic path, waypoints and buttons).
+  // bodies, cloths, soft bodies and the haptic path, waypoints and buttons).
   for (const auto& key : sph::io::schemaTable()) {
     if (key.path.rfind("fluid.blocks[]", 0) == 0 || key.path.rfind("rigid_bodies[]", 0) == 0 ||
         key.path.rfind("probes.points[]", 0) == 0 || key.path.rfind("probes.gauges[]", 0) == 0 ||
         key.path.rfind("haptics.path[]", 0) == 0 || key.path.rfind("haptics.waypoints[]", 0) == 0 ||
-        key.path.rfind("haptics.buttons[]", 0) == 0 || key.path.rfind("cloth[]", 0) == 0)
+        key.path.rfind("haptics.buttons[]", 0) == 0 || key.path.rfind("cloth[]", 0) == 0 ||
+        key.path.rfind("soft_bodies[]", 0) == 0)
       continue;
     CHECK(json.find("\"" + key.name() + "\":") != std::string::npos);
   }

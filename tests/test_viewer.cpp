@@ -8,6 +8,7 @@
 #include "io/png.h"
 #include "io/run_folder.h"
 #include "tests/run_binary.h"
+#include "tests/soft_run.h"
 #include "tests/temp_dir.h"
 #include "viewer/camera.h"
 
@@ -220,6 +221,25 @@ TEST_CASE("viewer io: run.json's domain and colours, OBJ sequences, bad JSON loc
   CHECK_THROWS_WITH(io::readRunFolderInfo(tmp.path.string()), Catch::Contains("run.json:3:"));
 }
 
+// Soft bodies (soft_<name>_NNNN.obj, written by the soft-body exporter in the cloth OBJ's format):
+// listed as their own kind in the bodies layer, with their colour from run.json's soft_bodies.
+TEST_CASE("viewer io: soft-body surface sequences soft_<name>_NNNN.obj and their colours", "[viewer]") {
+  testing::TempDir tmp;
+  testing::writeSoftRun(tmp);
+  tmp.write("cloth_sheet_0000.obj", "v 0 0 0\n");
+  const io::RunFolderInfo info = io::readRunFolderInfo(tmp.path.string());
+  REQUIRE(info.soft_bodies.size() == 1);
+  CHECK(info.soft_bodies[0].first == "jelly");
+  CHECK(info.soft_bodies[0].second == Eigen::Vector3f(0.1f, 0.8f, 0.2f));
+  const auto seqs = io::scanObjSequences(tmp.path.string());
+  REQUIRE(seqs.size() == 2);
+  CHECK(seqs[0].name == "cloth_sheet");
+  CHECK((seqs[0].cloth && !seqs[0].soft));
+  CHECK(seqs[1].name == "soft_jelly");
+  CHECK((seqs[1].soft && seqs[1].body && !seqs[1].cloth));
+  CHECK(seqs[1].frames.size() == static_cast<std::size_t>(testing::kSoftFrames));
+}
+
 TEST_CASE("viewer: bad folder, frame or option give a message and exit code 2", "[viewer][cli]") {
   if (!SPHAPTICS_HAVE_VIEWER) {
     WARN("SKIPPED: this build has no viewer (GLFW, OpenGL or Dear ImGui missing at configure time)");
@@ -352,4 +372,31 @@ TEST_CASE("viewer: screenshots of a run with a body show it in its colour where 
     CHECK(water.at.size() > 0);
     CHECK(water.centroid().y() > c.y());
   }
+}
+
+// A hand-made folder with only a soft body's OBJ sequence (a green cube moving along x; no
+// particles): `view` plays it, and the last frame shows the cube's green inside its projected
+// box, filling more than half of it (a cube's silhouette is a hexagon inside that rectangle),
+// centred within 3 px of the projected centre.
+TEST_CASE("viewer: a soft body's surface sequence is drawn in its colour where it is", "[viewer][xvfb]") {
+  if (const std::string why = screenshotSkipReason(); !why.empty()) {
+    WARN("SKIPPED: " << why);
+    return;
+  }
+  testing::TempDir tmp;
+  testing::writeSoftRun(tmp);
+  screenshot(tmp.path, tmp.path / "last.png", {"--frame", "last"});
+  const io::RgbImage img = io::readPng((tmp.path / "last.png").string());
+  viewer::OrbitCamera cam;
+  cam.frame({0, 0, 0}, {0.2f, 0.1f, 0.2f}, static_cast<float>(kWidth) / kHeight);
+  const Eigen::Vector3f c = testing::softCentre(testing::kSoftFrames - 1);
+  const Eigen::Vector3f half = Eigen::Vector3f::Constant(0.5f * testing::kSoftSide);
+  const Eigen::Vector4f box = screenRect(cam, c - half, c + half);
+  const float area = (box[2] - box[0]) * (box[3] - box[1]);
+  const Pixels green = pixelsOf(img, testing::isSoftGreen);
+  INFO(green.at.size() << " green pixels, centroid " << green.centroid().transpose() << "; cube at " << project(cam, c).transpose()
+                       << ", rectangle " << box.transpose() << " (" << area << " px^2)");
+  CHECK(green.at.size() > 0.5 * area);
+  CHECK(green.inside(box, 1.0f) == green.at.size());
+  CHECK((green.centroid() - project(cam, c)).norm() < 3.0f);
 }

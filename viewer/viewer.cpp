@@ -194,16 +194,21 @@ class RunData {
     return {lo, hi};
   }
 
-  /// A sequence's colour: its body's or phase's colour from run.json, else a neutral grey.
+  /// A sequence's colour: its body's, cloth's, soft body's or phase's colour from run.json, else a
+  /// default per kind.
   Eigen::Vector3f colourOf(const io::ObjSequence& s) const {
-    const std::string key = s.name.substr(s.cloth ? 6 : s.body ? 5 : 6);
-    for (const auto& [name, colour] : s.cloth ? info_.cloths : s.body ? info_.bodies : info_.phases) {
+    const std::size_t prefix = s.cloth ? 6 : s.soft ? 5 : s.body ? 5 : 6;  // "cloth_", "soft_", "body_", "fluid_"
+    const std::string key = s.name.substr(prefix);
+    const auto& named = s.cloth ? info_.cloths : s.soft ? info_.soft_bodies : s.body ? info_.bodies : info_.phases;
+    for (const auto& [name, colour] : named) {
       std::string sanitised = name;  // as io::surfaceObjName writes phase names
       for (char& c : sanitised)
         if (!std::isalnum(static_cast<unsigned char>(c)) && c != '_' && c != '-') c = '_';
       if (name == key || sanitised == key) return colour;
     }
-    return s.cloth ? Eigen::Vector3f(0.8f, 0.3f, 0.3f) : s.body ? Eigen::Vector3f(0.7f, 0.7f, 0.7f) : Eigen::Vector3f(0.2f, 0.4f, 0.9f);
+    if (s.cloth) return {0.8f, 0.3f, 0.3f};
+    if (s.soft) return {0.85f, 0.55f, 0.5f};
+    return s.body ? Eigen::Vector3f(0.7f, 0.7f, 0.7f) : Eigen::Vector3f(0.2f, 0.4f, 0.9f);
   }
 
   std::string dir_;
