@@ -284,6 +284,14 @@ TEST_CASE("DFSPH: the same scene twice gives bitwise equal states, and the error
   REQUIRE(s1.exit_code == 0);
   CHECK(s1.state_hash == s2.state_hash);
   CHECK(s1.state_hash != a.state_hash);
+  // extrapolated walls: the wall-pressure pass gathers in the grid's fixed order: deterministic too
+  o.sets = {"fluid.solver=dfsph", "fluid.dfsph.walls=extrapolated"};
+  const app::RunResult e1 = app::runScene(o);
+  const app::RunResult e2 = app::runScene(o);
+  REQUIRE(e1.exit_code == 0);
+  CHECK(e1.state_hash == e2.state_hash);
+  CHECK(e1.profile.density_iterations == e2.profile.density_iterations);
+  CHECK(e1.state_hash != s1.state_hash);
 }
 
 TEST_CASE("DFSPH stage mask: its kernels run only with solver dfsph", "[dfsph]") {
