@@ -17,8 +17,8 @@ cl::Buffer DfsphSolver::makeBuffer(std::size_t bytes) {
   return clCall("allocating a DFSPH buffer", [&] { return cl::Buffer(cl_.context(), CL_MEM_READ_WRITE, bytes); });
 }
 
-DfsphSolver::DfsphSolver(ClContext& cl, KernelSet& kernels, std::size_t capacity, const DfsphSpec& spec, double dx,
-                         double support)
+DfsphSolver::DfsphSolver(ClContext& cl, KernelSet& kernels, std::size_t capacity, std::size_t boundary,
+                         const DfsphSpec& spec, double dx, double support)
     : cl_(cl), kernels_(kernels), spec_(spec) {
   // A particle in the bulk has (4/3) pi (H/dx)^3 neighbours (33 at H = 2 dx); below 60 % of that
   // its support is cut by a free surface (the reference implementation's 20 in 3D at H = 2 dx).
@@ -34,6 +34,10 @@ DfsphSolver::DfsphSolver(ClContext& cl, KernelSet& kernels, std::size_t capacity
   scratch_a_ = makeBuffer(capacity * 4);
   scratch_b_ = makeBuffer(capacity * 4);
   vel_before_ = makeBuffer(capacity * 16);
+  // Extrapolated walls: each solve's wall pressures (the other variants need none).
+  const std::size_t nb = spec.walls == DfsphWalls::Extrapolated ? boundary : 0;
+  bp_div_ = makeBuffer(nb * 4);
+  bp_dens_ = makeBuffer(nb * 4);
   // No pressure before the first step (and particles emitted later start from zero: slots past
   // the active count are never written).
   clCall("clearing the DFSPH pressures", [&] {
@@ -55,6 +59,16 @@ void DfsphSolver::factors(const SimParams& p, const DfsphFields& f) {
                 *f.sbnbr, *f.sbnbr_count, wallFactor(), alpha_);
 }
 
+void DfsphSolver::boundaryPressure(Kind kind, const SimParams& p, const DfsphFields& f, const cl::Buffer& pressure) {
+  if (f.n_boundary == 0) return;
+  // Adami et al. 2012 eq. 27 (pressure.cl, boundary_pressure): p_b = (sum_f p_f W_bf + g . sum_f
+  // rho_f r_bf W_bf) / sum_f W_bf, projected to >= 0; the divergence solve's without gravity.
+  SimParams q = p;
+  if (kind == Kind::Divergence) q.gravity[0] = q.gravity[1] = q.gravity[2] = 0.0f;
+  kernels_.call("boundary_pressure", f.n_boundary, kLocal, q, f.n_boundary, f.stamp, *f.bpos, *f.bmark, *f.pos,
+                *f.density, pressure, *f.cell_start, wallPressure(kind));
+}
+
 void DfsphSolver::source(Kind kind, const SimParams& p, const DfsphFields& f, cl::Buffer& pressure) {
   // Warm start (B&K 2017 section 4.4): a share of the previous step's pressure, scaled as the
   // reference implementation keeps it (p dt^2 for the density solve, p dt for the divergence solve).
@@ -65,20 +79,25 @@ void DfsphSolver::source(Kind kind, const SimParams& p, const DfsphFields& f, cl
   const double warm = spec_.warm_start ? 1.0 : 0.0;
   kernels_.call("dfsph_source", p.n_fluid, kLocal, p, *f.pos, *f.vel, *f.phase, *f.density, *f.snbr, *f.snbr_count,
                 *f.bpos, *f.bvel, *f.sbnbr, *f.sbnbr_count, div ? 0 : 1, div ? min_neighbours_ : 0u,
-                static_cast<float>(warm), source_, pressure);
+                static_cast<float>(warm), extrapolated() ? 1 : 0, source_, pressure);
 }
 
 void DfsphSolver::iterate(Kind kind, const SimParams& p, const DfsphFields& f, cl::Buffer& pressure) {
+  // Extrapolated walls: the wall pressures of the current pressures first.
+  const int use_bp = extrapolated() ? 1 : 0;
+  if (use_bp) boundaryPressure(kind, p, f, pressure);
   kernels_.call("dfsph_pressure_accel", p.n_fluid, kLocal, p, *f.pos, *f.phase, *f.density, pressure, *f.snbr,
-                *f.snbr_count, *f.bpos, *f.sbnbr, *f.sbnbr_count, wallFactor(), accel_);
+                *f.snbr_count, *f.bpos, *f.sbnbr, *f.sbnbr_count, wallFactor(), wallPressure(kind), use_bp, accel_);
   const uint32_t min_nbr = kind == Kind::Divergence ? min_neighbours_ : 0u;
   kernels_.call("dfsph_jacobi", p.n_fluid, kLocal, p, *f.pos, accel_, alpha_, source_, *f.snbr, *f.snbr_count,
-                *f.bpos, *f.sbnbr, *f.sbnbr_count, min_nbr, static_cast<float>(spec_.relaxation), pressure, err_);
+                *f.bpos, *f.sbnbr, *f.sbnbr_count, min_nbr, static_cast<float>(spec_.relaxation), extrapolated() ? 1 : 0, pressure, err_);
 }
 
-void DfsphSolver::apply(const SimParams& p, const DfsphFields& f, const cl::Buffer& pressure) {
+void DfsphSolver::apply(Kind kind, const SimParams& p, const DfsphFields& f, const cl::Buffer& pressure) {
+  const int use_bp = extrapolated() ? 1 : 0;
+  if (use_bp) boundaryPressure(kind, p, f, pressure);
   kernels_.call("dfsph_apply_pressure", p.n_fluid, kLocal, p, *f.pos, *f.vel, *f.phase, *f.density, pressure, *f.snbr,
-                *f.snbr_count, *f.bpos, *f.sbnbr, *f.sbnbr_count, wallFactor());
+                *f.snbr_count, *f.bpos, *f.sbnbr, *f.sbnbr_count, wallFactor(), wallPressure(kind), use_bp);
 }
 
 // --- Mirrored walls: the first version's iteration (kernels/dfsph.cl) ----------------------
@@ -165,12 +184,13 @@ DfsphSolveResult DfsphSolver::solve(Kind kind, const SimParams& p, const DfsphFi
   } while ((r.iterations < min_it || r.error > bound) && r.iterations < max_it);
   r.converged = r.error <= bound;
   // The velocities take the pressures found.
-  apply(p, f, pressure);
+  apply(kind, p, f, pressure);
   (div ? prev_dt_div_ : prev_dt_dens_) = p.dt;
   return r;
 }
 
 DfsphSolveResult DfsphSolver::divergenceSolve(const SimParams& p, const DfsphFields& f) {
+  divergence_ran_ = true;
   return solve(Kind::Divergence, p, f);
 }
 
@@ -184,6 +204,14 @@ DfsphSolveResult DfsphSolver::densitySolve(const SimParams& p, const DfsphFields
 
 void DfsphSolver::finish(const SimParams& p, const DfsphFields& f) {
   kernels_.call("dfsph_finish", p.n_fluid, kLocal, p, *f.phase, *f.density, pdiv_, pdens_, *f.pressure, *f.pterm);
+  // Extrapolated walls: the rigid coupling's wall pressure is that of both solves (the divergence
+  // solve's is zero when it is off: its buffer is cleared then).
+  if (extrapolated() && f.n_boundary > 0) {
+    clCall("copying the wall pressure", [&] {
+      return cl_.queue().enqueueCopyBuffer(bp_dens_, *f.bpressure, 0, 0, std::size_t(f.n_boundary) * 4);
+    });
+    if (divergence_ran_) kernels_.call("dfsph_add", f.n_boundary, kLocal, f.n_boundary, *f.bpressure, bp_div_);
+  }
 }
 
 }  // namespace sph

@@ -12,7 +12,9 @@
 // the pressures (accelerations of the pressures; pressures from the residual, projected to p >= 0)
 // until the average error is below its bound (and the least iterations are done) or the most
 // iterations are reached; then the velocities take the pressures. The average is summed in fixed chunks on the device and the
-// chunks in order on the host: bitwise deterministic.
+// chunks in order on the host: bitwise deterministic. With walls: extrapolated each iteration first
+// extrapolates the wall particles' pressure from the fluid's (Adami et al. 2012 eq. 27, pressure.cl
+// boundary_pressure); finish() hands both solves' wall pressure to the rigid coupling.
 #pragma once
 
 #include "core/cl_context.h"
@@ -39,6 +41,12 @@ struct DfsphFields {
   const cl::Buffer* sbnbr_count = nullptr;
   cl::Buffer* pressure = nullptr;         ///< (n) written by finish: density-solve pressure (unit: Pa)
   cl::Buffer* pterm = nullptr;            ///< (n) written by finish: p / delta^2 of both solves (unit: Pa m^6)
+  // Extrapolated walls (Adami et al. 2012 eq. 27, pressure.cl boundary_pressure):
+  uint32_t n_boundary = 0;                ///< boundary particles (walls, bodies, cloth nodes)
+  uint32_t stamp = 0;                     ///< this step's mark of the boundary particles near fluid
+  const cl::Buffer* bmark = nullptr;      ///< (n_boundary) the step each was last seen by fluid
+  const cl::Buffer* cell_start = nullptr; ///< the fluid grid's cells
+  cl::Buffer* bpressure = nullptr;        ///< (n_boundary) written by finish: both solves' wall pressure (unit: Pa)
 };
 
 /// How one solve ended.
@@ -50,7 +58,8 @@ struct DfsphSolveResult {
 
 class DfsphSolver {
  public:
-  DfsphSolver(ClContext& cl, KernelSet& kernels, std::size_t capacity, const DfsphSpec& spec, double dx, double support);
+  DfsphSolver(ClContext& cl, KernelSet& kernels, std::size_t capacity, std::size_t boundary, const DfsphSpec& spec,
+              double dx, double support);
   /// Device memory of the solver's buffers (unit: bytes).
   std::size_t bytes() const { return bytes_; }
 
@@ -73,6 +82,13 @@ class DfsphSolver {
  private:
   enum class Kind { Divergence, Density };
   bool mirrored() const { return spec_.walls == DfsphWalls::Mirrored; }
+  bool extrapolated() const { return spec_.walls == DfsphWalls::Extrapolated; }
+  /// Extrapolated walls: the wall pressure p_b of `pressure` (Adami et al. 2012 eq. 27; with the
+  /// hydrostatic term g . sum rho r W in the density solve only: the divergence solve's pressure
+  /// acts on a flow without gravity).
+  void boundaryPressure(Kind kind, const SimParams& p, const DfsphFields& f, const cl::Buffer& pressure);
+  /// The running solve's wall pressures (extrapolated walls; else unused).
+  cl::Buffer& wallPressure(Kind kind) { return kind == Kind::Divergence ? bp_div_ : bp_dens_; }
   /// Weight of a wall's pressure term: 2 mirrors p_i (p_b = p_i), 1 is Akinci's single term.
   float wallFactor() const { return mirrored() ? 2.0f : 1.0f; }
   DfsphSolveResult solve(Kind kind, const SimParams& p, const DfsphFields& f);
@@ -81,7 +97,7 @@ class DfsphSolver {
   /// One relaxed Jacobi iteration: pressure accelerations, then the pressures and their errors.
   void iterate(Kind kind, const SimParams& p, const DfsphFields& f, cl::Buffer& pressure);
   /// v += dt a^p of the pressures found.
-  void apply(const SimParams& p, const DfsphFields& f, const cl::Buffer& pressure);
+  void apply(Kind kind, const SimParams& p, const DfsphFields& f, const cl::Buffer& pressure);
   /// Mirrored walls: the first version's solve (increments from the velocities, each >= 0, applied
   /// every iteration; half the last pressure as warm start).
   DfsphSolveResult solveMirrored(Kind kind, const SimParams& p, const DfsphFields& f);
@@ -101,8 +117,10 @@ class DfsphSolver {
   cl::Buffer source_;                      // s_i of the running solve (unit: 1); mirrored: the increments (unit: Pa)
   cl::Buffer accel_;                       // pressure accelerations of the current pressures (n x float4) (unit: m/s^2)
   cl::Buffer pdiv_, pdens_;                // the solves' pressures (unit: Pa), kept for the warm start
+  bool divergence_ran_ = false;            // the divergence solve runs (its wall pressure counts)
   double prev_dt_div_ = 0.0, prev_dt_dens_ = 0.0;  // step of the last solve of each kind (unit: s)
   cl::Buffer vel_before_;                  // velocities before the density solve (unit: m/s)
+  cl::Buffer bp_div_, bp_dens_;            // extrapolated walls: each solve's wall pressures (unit: Pa)
   cl::Buffer scratch_a_, scratch_b_;       // reorder targets (swapped with pdiv_, pdens_); mirrored: a holds the previous pressure in a warm start
 };
 

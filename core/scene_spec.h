@@ -48,9 +48,11 @@ enum class ClothSolver { Xpbd, Explicit };
 enum class AnchorType { Corners, Edge, Node, Box };
 enum class ClothEdge { XMin, XMax, YMin, YMax };
 enum class FluidSolver { Wcsph, Dfsph };
-/// How DFSPH's walls take pressure (core/dfsph.h): mirrored (p_b = p_i, increments >= 0) or
-/// Akinci's single term (p_b = 0, pressures projected to >= 0: the reference implementation's).
-enum class DfsphWalls { Mirrored, Single };
+/// How DFSPH's walls take pressure (core/dfsph.h): mirrored (p_b = p_i, increments >= 0),
+/// Akinci's single term (p_b = 0, pressures projected to >= 0: the reference implementation's) or
+/// extrapolated (p_b from the fluid around the wall particle, Adami et al. 2012 eq. 27, in each
+/// projected Jacobi iteration, as WCSPH's walls; Band et al. 2018 for IISPH).
+enum class DfsphWalls { Mirrored, Single, Extrapolated };
 
 struct SimulationSpec {
   double duration = 2.0;                        ///< simulated time to run (unit: s)

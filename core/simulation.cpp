@@ -175,7 +175,8 @@ Simulation::Simulation(const Model& model, const HostParticles& initial, ClConte
   if (on(Stage::RigidDynamics)) contacts_ = std::make_unique<rigid::ContactSolver>(model_.bodies, model_.dx);
   // DFSPH: the solver and its buffers exist only with solver dfsph (a wcsph scene enqueues none of its kernels).
   if (model_.spec.fluid.solver == FluidSolver::Dfsph && cap > 0)
-    dfsph_ = std::make_unique<DfsphSolver>(cl_, kernels_, cap, model_.spec.fluid.dfsph, model_.dx, model_.support);
+    dfsph_ = std::make_unique<DfsphSolver>(cl_, kernels_, cap, n_static_ + n_moving_ + n_cloth_, model_.spec.fluid.dfsph,
+                                           model_.dx, model_.support);
   emitter_travel_.assign(model_.emitters.size(), model_.dx);  // the first layer leaves at the start time
   // Cloth nodes (stepped by stage cloth; with it disabled they hang still, still boundary for the fluid).
   if (model_.cloth.nodes() > 0) {
@@ -509,6 +510,18 @@ void Simulation::pressureForces() {
 
 // --- DFSPH (core/dfsph.h, kernels/dfsph.cl) -----------------------------------------------------
 
+// How the rigid coupling mirrors DFSPH's wall terms (rigid.cl, rigid_fluid_forces): 0 WCSPH (wall
+// pressure and contact), 2 mirrored, 1 single, -1 extrapolated (wall pressure, no contact).
+int Simulation::dfsphWallMode() const {
+  if (!dfsph_) return 0;
+  switch (model_.spec.fluid.dfsph.walls) {
+    case DfsphWalls::Mirrored: return 2;
+    case DfsphWalls::Single: return 1;
+    case DfsphWalls::Extrapolated: return -1;
+  }
+  return 0;
+}
+
 DfsphFields Simulation::dfsphFields() {
   DfsphFields f;
   f.pos = &pos_[cur_];
@@ -524,6 +537,11 @@ DfsphFields Simulation::dfsphFields() {
   f.sbnbr_count = &sbnbr_count_;
   f.pressure = &pressure_;
   f.pterm = &pterm_;
+  f.n_boundary = static_cast<uint32_t>(n_static_ + n_moving_ + n_cloth_);
+  f.stamp = stamp_;
+  f.bmark = &bmark_;
+  f.cell_start = &cell_start_;
+  f.bpressure = &bpressure_;
   return f;
 }
 
@@ -639,7 +657,7 @@ void Simulation::gatherBodyForces() {
   // DFSPH: the wall mirrors the fluid's pressure, no contact term, and the viscous reaction uses the
   // velocities the fluid's viscous forces saw (before the density solve changed them). WCSPH: the boundary
   // velocities of the fluid's viscous pass (the no-slip ghost velocities or the wall's own).
-  const int mirror = dfsph_ ? (model_.spec.fluid.dfsph.walls == DfsphWalls::Mirrored ? 2 : 1) : 0;
+  const int mirror = dfsphWallMode();
   const cl::Buffer& vel = dfsph_ ? dfsph_->viscousVelocities() : vel_[cur_];
   kernels_.call("rigid_fluid_forces", n_moving_, kLocal, params_, n_moving_, n_static_, bsrc_, bslot_, viscousBoundaryVelocities(), bpressure_, pos_[cur_], vel, phase_[cur_], density_, pterm_, cell_start_, viscous, mirror, bforce_);
   // The per-body reduction is timed on its own (profile.rigid_reduce_seconds).
@@ -800,7 +818,7 @@ void Simulation::gatherClothForces() {
   // With DFSPH the same choices as for bodies (gatherBodyForces): mirrored pressure, and the
   // velocities the fluid's viscous forces saw.
   const int viscous = on(Stage::Viscosity) ? 1 : 0;
-  const int mirror = dfsph_ ? (model_.spec.fluid.dfsph.walls == DfsphWalls::Mirrored ? 2 : 1) : 0;
+  const int mirror = dfsphWallMode();
   const cl::Buffer& vel = dfsph_ ? dfsph_->viscousVelocities() : vel_[cur_];
   kernels_.call("rigid_fluid_forces", n_cloth_, kLocal, params_, n_cloth_, n_static_ + n_moving_, bsrc_, bslot_, viscousBoundaryVelocities(), bpressure_, pos_[cur_], vel, phase_[cur_], density_, pterm_, cell_start_, viscous, mirror, cloth_force_);
 }

@@ -155,6 +155,7 @@ class Simulation {
   void divergenceSolve();
   void densitySolve();
   DfsphFields dfsphFields();
+  int dfsphWallMode() const;
   double dfsphStepLimit() const;
   void viscosityForces();
   void ghostVelocities();

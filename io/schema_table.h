@@ -67,7 +67,8 @@ struct EnumNames<FluidSolver> {
 template <>
 struct EnumNames<DfsphWalls> {
   static constexpr std::pair<DfsphWalls, const char*> values[] = {{DfsphWalls::Mirrored, "mirrored"},
-                                                                    {DfsphWalls::Single, "single"}};
+                                                                    {DfsphWalls::Single, "single"},
+                                                                    {DfsphWalls::Extrapolated, "extrapolated"}};
 };
 template <>
 struct EnumNames<TimeStepControl> {

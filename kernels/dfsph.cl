@@ -29,7 +29,9 @@
  *     a_i = a_i^p(p)                                   (dfsph_pressure_accel, the force above / m_i)
  *     r_i = s_i + dt^2 V0 [ sum_j (a_i - a_j) . gradW_ij + sum_b psi_b a_i . gradW_ib ]   (= s - A p)
  *     p_i <- max(p_i + omega r_i alpha_i / (dt^2 V0), 0)                                  (dfsph_jacobi)
- * with the error the compression left, err_i = max(r_i, 0); after the last iteration the velocities
+ * with the error the compression left, err_i = max(r_i, 0) (extrapolated walls: the residual of the
+ * complementarity problem, |r_i| where p_i > 0, max(r_i, 0) where p_i = 0, so that an overshoot
+ * of the pressure counts too); after the last iteration the velocities
  * take the pressure once, v_i += dt a_i^p(p) (dfsph_apply_pressure). A is symmetric and a pressure
  * that overshot comes back down in the next iteration. The pressure is kept for the next step's
  * warm start, all of it (dfsph_source).
@@ -40,6 +42,18 @@
  * computes increments from the current velocities (dfsph_divergence_source, dfsph_density_source),
  * each >= 0, the next applies them to the velocities (dfsph_apply_increments); stable, but an
  * overshoot stays for the rest of the step. Warm start: half the last pressure (dfsph_warm).
+ *
+ * extrapolated (w = 1 and the wall's own pressure p_b in the symmetric sum, as WCSPH's walls,
+ * pressure.cl): p_b = (sum_f p_f W_bf + g . sum_f rho_f r_bf W_bf) / sum_f W_bf (Adami, Hu & Adams
+ * 2012 eq. 27; the hydrostatic term in the density solve only) from the current pressures, before
+ * each iteration's accelerations (pressure.cl boundary_pressure), as Band et al. 2018 do for IISPH:
+ *     a_i^p += -(1/m_i) sum_b psi_b p_b / delta_i^2 gradW_ib.
+ * The constant pressure of a fluid at a wall then exerts no net force on it, and the layer next to
+ * a floor reads rho0 g (H - z) (single walls: ~1.7x). The factor keeps w = 1 (p_b's share of p_i
+ * is left off the diagonal; w = 1.5 or 2 there were worse). The projected Jacobi iteration of
+ * single, with the full last pressure as warm start everywhere (the projection lowers it where it
+ * must) and the complementarity residual as error (|r_i| where p_i > 0, so that an overshoot
+ * counts: with the one-sided error and full warm start the pressures ratcheted up 89 %).
  *
  * Neighbours: this step's lists within H (snbr, sbnbr; density.cl). */
 
@@ -115,7 +129,8 @@ inline float dfsph_density_rate(const SimParams* p, const uint i, __global const
  * density (kind 1, eq. 12): s_i = (delta_i + dt D delta_i / Dt) V0 - 1, the relative compression
  *     the current velocities would leave at the end of the step;
  * divergence (kind 0, eq. 15): s_i = dt V0 D delta_i / Dt, the relative density change over dt.
- * The pressure starts from warm x the previous step's where the flow now compresses, scaled by
+ * The pressure starts from warm x the previous step's where the flow now compresses (everywhere
+ * with warm_all: extrapolated walls, whose projected iteration lowers it again where it must), scaled by
  * (dt_prev / dt)^k (k = 2 density, 1 divergence: the reference implementation keeps p dt^k from
  * step to step), else from zero (warm = 0: no warm start). */
 __kernel void dfsph_source(const SimParams p, __global const float4* pos, __global const float4* vel,
@@ -123,7 +138,7 @@ __kernel void dfsph_source(const SimParams p, __global const float4* pos, __glob
                            __global const uint* nbr_count, __global const float4* bpos,
                            __global const float4* bvel, __global const uint* bnbr,
                            __global const uint* bnbr_count, const int kind, const uint min_neighbours,
-                           const float warm, __global float* source, __global float* pressure) {
+                           const float warm, const int warm_all, __global float* source, __global float* pressure) {
   const uint i = get_global_id(0);
   if (i >= p.n_fluid) return;
   const uint K = p.max_neighbours;
@@ -134,14 +149,14 @@ __kernel void dfsph_source(const SimParams p, __global const float4* pos, __glob
   /* divergence solve: fewer than min_neighbours neighbours (free surface, splashes): left alone */
   if (nbr_count[i] + bnbr_count[i] < min_neighbours) s = 0.0f;
   source[i] = s;
-  pressure[i] = s > 0.0f ? warm * pressure[i] : 0.0f;
+  pressure[i] = (s > 0.0f || warm_all) ? warm * pressure[i] : 0.0f;
 }
 
 /* The pressure force of the top of this file on particle i (unit: N), for the pressures `pr`. */
 inline float3 dfsph_force(const SimParams* p, const uint i, __global const float4* pos, __global const uint* phase,
                           __global const float* density, __global const float* pr, __global const uint* list,
                           const uint nf, __global const float4* bpos, __global const uint* blist, const uint nb,
-                          const float wall) {
+                          const float wall, __global const float* bpr, const int use_bp) {
   const float H = p->support;
   const float3 xi = pos[i].xyz;
   const float di = density[i] / p->phase_mass[phase[i]];
@@ -170,11 +185,15 @@ inline float3 dfsph_force(const SimParams* p, const uint i, __global const float
     f -= (ti + pr[j] / (dj * dj)) * sph_grad_factor(SPH_KERNEL, length(d), H) * d;
   }
   /* walls: wall = 2 mirrors the pressure (p_b = p_i, delta_b = delta_i), wall = 1 is Akinci's
-   * single term (p_b = 0 in the symmetric sum) */
+   * single term (p_b = 0 in the symmetric sum); extrapolated (use_bp): wall = 1 and the wall
+   * particle's own pressure p_b (Adami et al. 2012 eq. 27, bpr) in the symmetric sum, over delta_i^2 */
+  const float inv_d2 = 1.0f / (di * di);
   for (k = 0; k < nb; ++k) {
-    const float4 bb = bpos[blist[k]];
+    const uint b = blist[k];
+    const float4 bb = bpos[b];
     const float3 d = xi - bb.xyz;
-    f -= bb.w * wall * ti * sph_grad_factor(SPH_KERNEL, length(d), H) * d;
+    const float tb = use_bp ? bpr[b] * inv_d2 : 0.0f;
+    f -= bb.w * (wall * ti + tb) * sph_grad_factor(SPH_KERNEL, length(d), H) * d;
   }
   return f;
 }
@@ -184,12 +203,13 @@ __kernel void dfsph_pressure_accel(const SimParams p, __global const float4* pos
                                    __global const float* density, __global const float* pressure,
                                    __global const uint* nbr, __global const uint* nbr_count,
                                    __global const float4* bpos, __global const uint* bnbr,
-                                   __global const uint* bnbr_count, const float wall, __global float4* accel) {
+                                   __global const uint* bnbr_count, const float wall, __global const float* bpr,
+                                   const int use_bp, __global float4* accel) {
   const uint i = get_global_id(0);
   if (i >= p.n_fluid) return;
   const uint K = p.max_neighbours;
   const float3 f = dfsph_force(&p, i, pos, phase, density, pressure, nbr + (size_t)i * K, nbr_count[i], bpos,
-                               bnbr + (size_t)i * K, bnbr_count[i], wall);
+                               bnbr + (size_t)i * K, bnbr_count[i], wall, bpr, use_bp);
   accel[i] = (float4)(f / p.phase_mass[phase[i]], 0.0f);
 }
 
@@ -204,7 +224,7 @@ __kernel void dfsph_jacobi(const SimParams p, __global const float4* pos, __glob
                            __global const float* alpha, __global const float* source, __global const uint* nbr,
                            __global const uint* nbr_count, __global const float4* bpos, __global const uint* bnbr,
                            __global const uint* bnbr_count, const uint min_neighbours, const float omega,
-                           __global float* pressure, __global float* err) {
+                           const int two_sided, __global float* pressure, __global float* err) {
   const uint i = get_global_id(0);
   if (i >= p.n_fluid) return;
   const uint K = p.max_neighbours;
@@ -242,20 +262,22 @@ __kernel void dfsph_jacobi(const SimParams p, __global const float4* pos, __glob
   }
   const float r = source[i] + p.dt * p.dt * p.rest_volume * Ap;
   const float inc = omega * r * alpha[i] / (p.dt * p.dt * p.rest_volume);
-  pressure[i] = fmax(pressure[i] + inc, 0.0f);
-  err[i] = fmax(r, 0.0f);
+  const float p0 = pressure[i];
+  pressure[i] = fmax(p0 + inc, 0.0f);
+  err[i] = (two_sided && p0 > 0.0f) ? fabs(r) : fmax(r, 0.0f);
 }
 
 /* The end of a solve: the velocities take the pressures, v_i += dt a_i^p. */
 __kernel void dfsph_apply_pressure(const SimParams p, __global const float4* pos, __global float4* vel,
                           __global const uint* phase, __global const float* density, __global const float* pressure,
                           __global const uint* nbr, __global const uint* nbr_count, __global const float4* bpos,
-                          __global const uint* bnbr, __global const uint* bnbr_count, const float wall) {
+                          __global const uint* bnbr, __global const uint* bnbr_count, const float wall,
+                          __global const float* bpr, const int use_bp) {
   const uint i = get_global_id(0);
   if (i >= p.n_fluid) return;
   const uint K = p.max_neighbours;
   const float3 f = dfsph_force(&p, i, pos, phase, density, pressure, nbr + (size_t)i * K, nbr_count[i], bpos,
-                               bnbr + (size_t)i * K, bnbr_count[i], wall);
+                               bnbr + (size_t)i * K, bnbr_count[i], wall, bpr, use_bp);
   vel[i] += (float4)(p.dt / p.phase_mass[phase[i]] * f, 0.0f);
 }
 
@@ -407,4 +429,12 @@ __kernel void dfsph_reorder(const uint n, __global const uint* sorted, __global 
   const uint j = sorted[s];
   a_out[s] = a[j];
   b_out[s] = b[j];
+}
+
+/* Extrapolated walls: the wall pressures of the two solves add up (both are linear in the fluid's
+ * pressures but for the projection to >= 0), so the rigid coupling sees all that acted: a += b. */
+__kernel void dfsph_add(const uint n, __global float* a, __global const float* b) {
+  const uint i = get_global_id(0);
+  if (i >= n) return;
+  a[i] += b[i];
 }

@@ -101,12 +101,12 @@ __kernel void rigid_fluid_forces(const SimParams p, const uint n, const uint n_s
       const float mi = p.phase_mass[phase[i]];
       const float inv_delta = mi / density[i];
       const float F = sph_grad_factor(SPH_KERNEL, r, H);
-      if (mirror) { /* DFSPH (dfsph.cl): pterm = both solves' p / delta^2, weighed `mirror` = 2 (p_b = p_i)
-                     * or 1 (single wall term); no contact term */
+      if (mirror > 0) { /* DFSPH (dfsph.cl): pterm = both solves' p / delta^2, weighed `mirror` = 2 (p_b = p_i)
+                         * or 1 (single wall term); no contact term */
         f += bb.w * (float)mirror * pterm[i] * F * d;
-      } else {
+      } else { /* WCSPH (mirror 0) and DFSPH's extrapolated walls (-1: both solves' p_b, no contact) */
         f += bb.w * (pterm[i] + pb * inv_delta * inv_delta) * F * d;
-        if (r < dx && r > 1e-6f * dx) f -= mi * bb.w * (5.0f * p.c0 * p.c0 / dx) * (1.0f - r / dx) / r * d;
+        if (mirror == 0 && r < dx && r > 1e-6f * dx) f -= mi * bb.w * (5.0f * p.c0 * p.c0 / dx) * (1.0f - r / dx) / r * d;
       }
       if (viscous)
         f -= mi * sph_boundary_viscosity(&p, mi, density[i], p.phase_viscosity[phase[i]], vel[i].xyz - vb, d, r2, F, bb.w, vb4);

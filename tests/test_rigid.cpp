@@ -13,6 +13,7 @@
 #include "tests/run_binary.h"
 #include "tests/scene_issues.h"
 #include "tests/temp_dir.h"
+#include "tests/floating_block.h"
 #include "tests/three_balls.h"
 
 #include <catch2/catch.hpp>
@@ -715,38 +716,13 @@ TEST_CASE("Fluid placed inside or against a body is removed at compile time", "[
 }
 
 TEST_CASE("Coupling: Archimedes: a block of half the water's density floats with half its height submerged", "[rigid]") {
-  // scenes/tests/floating_block.yaml: a 12 x 12 x 6 cm block of 500 kg/m^3, dx = 1 cm. At rest its
-  // weight equals the fluid force and its draft is rho_s / rho_f h = 3 cm (shared/reference/
-  // rigid_body_analytic_checks.csv, Archimedes row). The water level follows from mass
-  // conservation: N dx^3 of fluid (at rest density: hydrostatic compression is rho g H / (rho c0^2)
-  // = 0.4 %) plus the submerged volume m / rho_f, over the tank's area. Averaged over the last
-  // 0.6 s (the heave has decayed to under 0.1 mm). Tolerance: the issue's 5 %. The error is one
-  // of resolution, at the block's edges: measured 4.8 % short at dx = 1.5 cm, 1.9 % at 1 cm,
-  // 0.8 % at 7.5 mm.
-  app::RunOptions o;
-  o.scene = (kSourceDir / "scenes" / "tests" / "floating_block.yaml").string();
-  o.quiet = true;
-  o.write_output = false;
-  double z_sum = 0, force_sum = 0;
-  int n = 0;
-  std::size_t particles = 0;
-  double mass = 0;
-  const app::RunResult r = app::runScene(o, [&](Simulation& sim, const FrameReport&) {
-    particles = sim.numFluid();
-    mass = sim.model().bodies[0].mass;
-    if (sim.time() < 0.9 - 1e-9) return;
-    z_sum += sim.bodies()[0].x.z();
-    force_sum += sim.bodies()[0].fluid_force.z();
-    ++n;
-  });
-  REQUIRE(r.exit_code == 0);
-  const double dx = 0.01, area = 0.24 * 0.24, h = 0.06, rho = 1000;
-  const double level = (particles * dx * dx * dx + mass / rho) / area;
-  const double draft = level - (z_sum / n - 0.5 * h);
-  INFO("water level " << level << " m, draft " << draft << " m (expected " << 0.5 * h << " m), mean fluid force "
-                      << force_sum / n << " N, weight " << mass * 9.81 << " N");
-  CHECK(std::abs(draft - 0.5 * h) < 0.05 * 0.5 * h);
-  CHECK(std::abs(force_sum / n - mass * 9.81) < 0.02 * mass * 9.81);  // at rest: the fluid carries it
+  // scenes/tests/floating_block.yaml; the scene, the measurement and the tolerances are in
+  // tests/floating_block.h, shared with the DFSPH test (test_dfsph.cpp).
+  const testing::FloatingBlock b = testing::floatingBlock({});
+  REQUIRE(b.exit_code == 0);
+  INFO("draft " << b.draft << " m (expected 0.03 m), mean fluid force " << b.frame_end_force << " N, weight " << b.weight << " N");
+  CHECK(std::abs(b.draft - 0.03) < 0.05 * 0.03);
+  CHECK(std::abs(b.frame_end_force - b.weight) < 0.02 * b.weight);  // at rest: the fluid carries it
 }
 
 TEST_CASE("Sampling: a body's face weighs what a domain wall weighs for fluid resting next to it", "[rigid]") {
