@@ -187,6 +187,8 @@ int forceChecks(const BenchOptions& opt) {
   const std::string accel = sourcePath("scenes/tests/accel_ball.yaml");
   const std::string release = sourcePath("scenes/tests/release_ball.yaml");
   const std::string tow = sourcePath("scenes/tests/stokes_tow.yaml");
+  const std::string sink = sourcePath("scenes/tests/sink_ball.yaml");
+  const std::string fall = sourcePath("scenes/tests/stokes_fall.yaml");
   for (const std::string& solver : opt.force_solvers) {
     const std::vector<std::string> sets = {"fluid.solver=" + solver};
     for (double dx : {0.01, 0.0075, 0.006}) {
@@ -229,6 +231,28 @@ int forceChecks(const BenchOptions& opt) {
       row("stokes_drag_over_6piMuRU", solver, dx, t.radius / dx, t.drag / t.stokes, t.expected_lo, t.expected_hi,
           t.wall_seconds);
       row("sideways_over_drag", solver, dx, t.radius / dx, t.side / t.drag, 0.0, 0.0, t.wall_seconds);
+    }
+    for (double dx : {0.01, 0.2 / 30}) {
+      // A dense ball sinking from rest: its speed 0.2 s after the release against the closed form
+      // with added mass and quadratic drag, C_m 0.375 .. 0.725, C_d 0 .. 0.5 (tests/test_forces.cpp);
+      // the largest distance outside that envelope (ringing margin included) over the samples.
+      const SinkCheck k = sinkingBall(sink, dx, 0.05, 0.375, 0.725, 0.0, 0.5, sets, opt.device);
+      if (k.exit_code != 0) {
+        std::printf("sinking ball at dx %g (%s): %s\n", dx, solver.c_str(), k.message.c_str());
+        continue;
+      }
+      row("sink_speed_0.2s_mps", solver, dx, k.radius / dx, k.v_end, k.v_lo, k.v_hi, k.wall_seconds);
+      row("sink_outside_envelope_mps", solver, dx, k.radius / dx, k.worst, 0.0, 0.0, k.wall_seconds);
+    }
+    for (double dx : {0.01, 0.008}) {
+      // Stokes terminal velocity: (m - rho V) g / (6 pi mu R U) against the towed ball's band.
+      const FallCheck f = fallingBall(fall, dx, sets, opt.device);
+      if (f.exit_code != 0) {
+        std::printf("Stokes fall at dx %g (%s): %s\n", dx, solver.c_str(), f.message.c_str());
+        continue;
+      }
+      row("stokes_fall_over_6piMuRU", solver, dx, f.radius / dx, f.ratio, f.expected_lo, f.expected_hi,
+          f.wall_seconds);
     }
   }
   std::cout << "wrote " << csv.string() << " (wall times on this machine; a shared machine adds noise)\n";
