@@ -342,7 +342,8 @@ double sinkingSpeed(double t, double m, double V, double R, double rho, double g
   return vt * std::tanh(a0 * t / vt);
 }
 
-SinkCheck sinkingBall(const std::string& scene, double dx, double skip, double cm_lo, double cm_hi, double cd_lo,
+SinkCheck sinkingBall(const std::string& scene, double dx, double skip, double until, double cm_lo, double cm_hi,
+                      double cd_lo,
                       double cd_hi, const std::vector<std::string>& sets, const std::string& device) {
   SinkCheck c;
   c.dx = dx;
@@ -354,7 +355,7 @@ SinkCheck sinkingBall(const std::string& scene, double dx, double skip, double c
   o.sets = {"fluid.particle_spacing=" + num(dx)};
   o.sets.insert(o.sets.end(), sets.begin(), sets.end());
   std::vector<StepForce> log;
-  double hold = -1, end = 0, rho = 0, g = 0, volume = 0, mass = 0, c0 = 0, depth = 0, nu = 0;
+  double hold = -1, end = 0, rho = 0, g = 0, volume = 0, mass = 0, nu = 0;
   const RunResult r = runScene(o, [&](Simulation& sim, const FrameReport&) {
     if (hold < 0) {
       const Model& m = sim.model();
@@ -365,8 +366,6 @@ SinkCheck sinkingBall(const std::string& scene, double dx, double skip, double c
       g = m.spec.simulation.gravity.norm();
       volume = m.bodies[0].volume;
       mass = m.bodies[0].mass;
-      c0 = m.c0;
-      for (const BlockSpec& b : m.spec.fluid.blocks) depth = std::max(depth, b.max.z() - m.spec.domain.min.z());
       c.radius = m.bodies[0].spec.radius * m.bodies[0].spec.scale;
       sim.recordStepForces(true);
     }
@@ -378,17 +377,44 @@ SinkCheck sinkingBall(const std::string& scene, double dx, double skip, double c
   if (r.exit_code != 0) return c;
   c.density = mass / volume;
   c.window = end - hold;
-  // The ringing's speed swing about the mean: +-0.4 rho g V at f = c0 / (4 H), integrated.
-  const double f = c0 / (4.0 * depth);
-  c.ringing = 0.4 * rho * g * volume / ((mass + cm_lo * rho * volume) * 2.0 * M_PI * f);
-  // Every logged step from `skip` after the release: the downward speed against the envelope.
-  for (const StepForce& s : log) {
+  // The ringing: over the last 0.1 s of the hold, the swing of int (F - mean F) dt over m + C_m rho V.
+  double held = 0, span = 0;
+  for (std::size_t k = 0; k + 1 < log.size(); ++k)
+    if (log[k].time >= hold - 0.1 && log[k].time < hold) {
+      held += log[k].force.z() * (log[k + 1].time - log[k].time);
+      span += log[k + 1].time - log[k].time;
+    }
+  if (!(span > 0.0)) {
+    c.exit_code = 1;
+    c.message = "too few steps in the hold";
+    return c;
+  }
+  held /= span;
+  double integral = 0, imin = 0, imax = 0;
+  for (std::size_t k = 0; k + 1 < log.size(); ++k)
+    if (log[k].time >= hold - 0.1 && log[k].time < hold) {
+      integral += (log[k].force.z() - held) * (log[k + 1].time - log[k].time);
+      imin = std::min(imin, integral);
+      imax = std::max(imax, integral);
+    }
+  c.ringing = (imax - imin) / (mass + cm_lo * rho * volume);
+  // Every logged step from `skip` after the release: the downward speed against the envelope;
+  // and the momentum balance for the mean drag (C_m = 1/2).
+  double v2_int = 0, v_T = 0, T = 0;
+  for (std::size_t k = 0; k < log.size(); ++k) {
+    const StepForce& s = log[k];
     const double t = s.time - hold;
+    if (t >= 0.0 && k + 1 < log.size()) {
+      v2_int += s.v.z() * s.v.z() * (log[k + 1].time - s.time);
+      v_T = -log[k + 1].v.z();
+      T = log[k + 1].time - hold;
+    }
     if (t < skip - 1e-12) continue;
     const double v = -s.v.z();
     const double lo = sinkingSpeed(t, mass, volume, c.radius, rho, g, cm_hi, cd_hi);
     const double hi = sinkingSpeed(t, mass, volume, c.radius, rho, g, cm_lo, cd_lo);
-    const double out = std::max({lo - c.ringing - v, v - hi - c.ringing, 0.0});
+    c.above = std::max(c.above, v - hi - c.ringing);
+    const double out = t <= until + 1e-12 ? std::max({lo - c.ringing - v, v - hi - c.ringing, 0.0}) : 0.0;
     if (out > c.worst) {
       c.worst = out;
       c.worst_time = t;
@@ -398,6 +424,9 @@ SinkCheck sinkingBall(const std::string& scene, double dx, double skip, double c
     c.lo.push_back(lo);
     c.hi.push_back(hi);
   }
+  if (v2_int > 0.0)
+    c.cd_effective = ((mass - rho * volume) * g * T - (mass + 0.5 * rho * volume) * v_T) /
+                     (0.5 * rho * M_PI * c.radius * c.radius * v2_int);
   if (c.t.size() < 3) {
     c.exit_code = 1;
     c.message = "too few steps after the release";

@@ -132,12 +132,17 @@ struct SinkCheck {
   double window = 0;          ///< time free, from the release to the last sample (unit: s)
   double v_end = 0;           ///< downward speed at the end of the window (unit: m/s)
   double v_lo = 0, v_hi = 0;  ///< the closed form's envelope at the end of the window (unit: m/s)
-  /// the tank's ringing (the water column's quarter-wave mode, frequency f = c0 / 4 H) swings the
-  /// buoyancy by up to +-40 % of rho g V (README, Forces on bodies): a speed of 0.4 rho g V /
-  /// ((m + C_m rho V) 2 pi f) about the mean, the envelope's margin at every sample (unit: m/s)
+  /// the tank's ringing (the water column's start-up waves; undamped in water at its own
+  /// viscosity): over the last 0.1 s of the hold, the swing (largest minus smallest) of
+  /// int (F - mean F) dt, divided by m + C_m rho V: the speed it would give the free ball about
+  /// the mean, the envelope's margin at every sample (unit: m/s)
   double ringing = 0;
-  double worst = 0;           ///< largest distance outside [v_lo - ringing, v_hi + ringing] over the samples (unit: m/s)
+  double worst = 0;           ///< largest distance outside [v_lo - ringing, v_hi + ringing] over the samples up to `until` (unit: m/s)
   double worst_time = 0;      ///< time after the release where it was found (unit: s)
+  double above = 0;           ///< largest distance above v_hi + ringing over all samples (unit: m/s)
+  /// the mean drag coefficient over the window, from momentum with C_m = 1/2:
+  /// C_d = ((m - rho V) g T - (m + rho V / 2) v(T)) / (1/2 rho pi R^2 int v^2 dt) (unit: 1)
+  double cd_effective = 0;
   double reynolds = 0;        ///< 2 R v_end / nu (unit: 1)
   std::vector<double> t, v, lo, hi;  ///< the samples: time after release (s), speed, envelope (m/s)
   double wall_seconds = 0;    ///< (unit: s)
@@ -148,8 +153,10 @@ struct SinkCheck {
 double sinkingSpeed(double t, double m, double V, double R, double rho, double g, double cm, double cd);
 
 /// Runs `scene` (sink_ball.yaml) at spacing dx; samples every step from `skip` seconds after the
-/// release (unit: s) on, against C_m in [cm_lo, cm_hi] and C_d in [cd_lo, cd_hi].
-SinkCheck sinkingBall(const std::string& scene, double dx, double skip, double cm_lo, double cm_hi, double cd_lo,
+/// release (unit: s) on, against C_m in [cm_lo, cm_hi] and C_d in [cd_lo, cd_hi]: the whole
+/// envelope up to `until` seconds after the release, its fast side over the whole run.
+SinkCheck sinkingBall(const std::string& scene, double dx, double skip, double until, double cm_lo, double cm_hi,
+                      double cd_lo,
                       double cd_hi, const std::vector<std::string>& sets = {}, const std::string& device = "");
 
 /// The drag over 6 pi mu R U expected of a ball of radius R (m) sampled at spacing dx (m) at the
