@@ -255,6 +255,8 @@ int forceChecks(const BenchOptions& opt) {
       }
       row("stokes_fall_over_6piMuRU", solver, dx, f.radius / dx, f.ratio, f.expected_lo, f.expected_hi,
           f.wall_seconds);
+      row("stokes_fall_held_buoyancy", solver, dx, f.radius / dx, f.ratio_held, f.expected_lo, f.expected_hi,
+          f.wall_seconds);
     }
   }
   std::cout << "wrote " << csv.string() << " (wall times on this machine; a shared machine adds noise)\n";

@@ -493,6 +493,16 @@ FallCheck fallingBall(const std::string& scene, double dx, const std::vector<std
   }
   c.speed = vz / n;
   c.side = std::max(std::abs(vx), std::abs(vy)) / n;
+  // The held ball's mean force over the last 0.05 s of the hold: the sampled buoyancy.
+  double held = 0;
+  int nh = 0;
+  for (const StepForce& f : log)
+    if (f.time >= hold - 0.05 && f.time < hold) held += f.force.z(), ++nh;
+  if (nh > 0) {
+    held /= nh;
+    c.held_over_buoyancy = held / (rho * g * volume);
+    c.ratio_held = (mass * g - held) / (6.0 * M_PI * rho * nu * c.radius * c.speed);
+  }
   c.reynolds = 2.0 * c.radius * c.speed / nu;
   c.ratio = c.speed_stokes / c.speed;
   return c;

@@ -175,6 +175,10 @@ struct FallCheck {
   double reynolds = 0;         ///< 2 R U / nu (unit: 1)
   double ratio = 0;            ///< the drag's factor over Stokes: speed_stokes / speed, to compare with the band (unit: 1)
   double expected_lo = 0, expected_hi = 0;  ///< the towed ball's band (stokesBand) (unit: 1)
+  /// the same with the buoyancy the liquid gave the ball held (mean force over the last 0.05 s of
+  /// the hold) instead of rho g V: at terminal speed the drag is m g - F_held (unit: 1)
+  double ratio_held = 0;
+  double held_over_buoyancy = 0;  ///< that held force / rho g V (unit: 1)
   double side = 0;             ///< largest mean sideways speed |v_x|, |v_y| over the same window (unit: m/s)
   double wall_seconds = 0;     ///< (unit: s)
 };
