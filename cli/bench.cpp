@@ -232,6 +232,32 @@ int forceChecks(const BenchOptions& opt) {
           t.wall_seconds);
       row("sideways_over_drag", solver, dx, t.radius / dx, t.side / t.drag, 0.0, 0.0, t.wall_seconds);
     }
+    for (const double c0 : {30.0, 60.0}) {
+      // Moderate Re: the towed ball at U = 1/3 m/s in a liquid of nu = 1e-3 m^2/s (Re = 2 R U / nu
+      // = 20), from 1 cm off the wall across the box, the drag averaged over the second half
+      // (0.12 .. 0.24 s, the centre passing 8 .. 12 cm). Schiller & Naumann (1933):
+      // C_D = 24/Re (1 + 0.15 Re^0.687), i.e. drag / 6 pi mu R U = 1 + 0.15 Re^0.687 = 2.17, times a
+      // wall factor between 1 (walls not felt) and the Stokes band's top (at moderate Re the walls
+      // matter less than in Stokes flow), with the no-slip surface within R -+ dx/2. Two sounds
+      // speeds: the box's acoustic ringing swings the drag (drag_se: standard error of 6 block means).
+      const double u = 1.0 / 3.0, nu = 1e-3;
+      std::vector<std::string> s2 = sets;
+      s2.insert(s2.end(), {"fluid.phases[0].viscosity=" + std::to_string(nu),
+                           "rigid_bodies[0].motion.velocity=[0.3333333333, 0, 0]",
+                           "rigid_bodies[0].position=[0.04, 0.1, 0.1]", "simulation.duration=0.24",
+                           "fluid.speed_of_sound=" + std::to_string(c0)});
+      const TowCheck t = towedBall(tow, 0.01, s2, opt.device);
+      if (t.exit_code != 0) {
+        std::printf("Re 20 drag at c0 %g (%s): %s\n", c0, solver.c_str(), t.message.c_str());
+        continue;
+      }
+      const double sn = 1.0 + 0.15 * std::pow(2.0 * t.radius * u / nu, 0.687);
+      const std::string tag = "_c0_" + std::to_string(static_cast<int>(c0));
+      row("re20_drag_over_6piMuRU" + tag, solver, 0.01, t.radius / 0.01, t.drag / t.stokes,
+          sn * (t.radius - 0.005) / t.radius, sn * t.expected_hi, t.wall_seconds);
+      row("re20_drag_se_over_6piMuRU" + tag, solver, 0.01, t.radius / 0.01, t.drag_noise / t.stokes, 0.0, 0.0,
+          t.wall_seconds);
+    }
     for (double dx : {0.01, 0.2 / 30}) {
       // A dense ball sinking from rest: its speed 0.2 s after the release against the closed form
       // with added mass and quadratic drag, C_m 0.375 .. 0.725, C_d 0 .. 0.5 (tests/test_forces.cpp);

@@ -316,18 +316,19 @@ TowCheck towedBall(const std::string& scene, double dx, const std::vector<std::s
   // correlation time), standard error = sd / sqrt(6).
   const int blocks = 6;
   double noise = 0;
-  for (int a = 0; a < 2; ++a) {
+  for (int a = 0; a < 3; ++a) {
     std::vector<double> means(blocks, 0.0);
     std::vector<int> counts(blocks, 0);
     for (std::size_t k = 0; k < win.size(); ++k) {
       const int b = static_cast<int>(k * blocks / win.size());
-      means[b] += a == 0 ? win[k]->force.y() : win[k]->force.z();
+      means[b] += win[k]->force[(a + 1) % 3];
       ++counts[b];
     }
     double mean = 0, var = 0;
     for (int b = 0; b < blocks; ++b) mean += (means[b] /= counts[b]) / blocks;
     for (int b = 0; b < blocks; ++b) var += (means[b] - mean) * (means[b] - mean) / (blocks - 1);
-    noise = std::max(noise, std::sqrt(var / blocks));
+    if (a == 2) c.drag_noise = std::sqrt(var / blocks);  // (the drag, axis x)
+    else noise = std::max(noise, std::sqrt(var / blocks));
   }
   c.side_noise = noise;
   return c;
