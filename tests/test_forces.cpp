@@ -1,8 +1,9 @@
 // Forces on bodies in water (issue 15): transients against closed forms. Added mass of a released
 // buoyant ball, buoyancy of a free body against the same body held, a buoyant block placed flush
-// on the floor rising to its Archimedes draft, and the Stokes drag and sideways force of a towed
-// ball. The checks themselves are in cli/force_checks.cpp (the `bench` force table runs them at
-// more resolutions). Tolerances are derived next to each check; each check fails when the
+// on the floor rising to its Archimedes draft, the Stokes drag and sideways force of a towed
+// ball, a dense ball sinking from rest, and the Stokes terminal velocity of a falling ball. The
+// checks themselves are in cli/force_checks.cpp (the `bench` force table runs them at more
+// resolutions). Tolerances are derived next to each check; each check fails when the
 // coupling force (kernels/rigid.cl, rigid_fluid_forces) is halved (README, Forces on bodies).
 #include "cli/force_checks.h"
 #include "cli/runner.h"
