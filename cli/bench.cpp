@@ -16,7 +16,9 @@
 //  5. Forces on bodies (issue 15): the checks of tests/test_forces.cpp (cli/force_checks.h) at
 //     R / dx = 3, 4 and 5 (the tests run 3 and 4): added mass of an accelerated ball, free against
 //     held, added mass of a released ball (mid-water and near the floor, R / dx = 3, 4), Stokes
-//     drag and sideways force of a towed ball (R / dx = 3, 3.75, 4.5), each against its closed form, with
+//     drag and sideways force of a towed ball (R / dx = 3, 3.75, 4.5), a dense ball sinking from
+//     rest (R / dx = 3, 4.5), the Stokes terminal velocity of a falling ball (R / dx = 3, 3.75) and
+//     the towed ball's drag at Re = 20 (two sound speeds), each against its closed form, with
 //     the wall time of the run: what accuracy costs. One row per check, solver and resolution.
 //  6. Impact pressure (issue 14, with the accuracy table): the pressure on the far wall during the
 //     dam-break impact with each solver, against the hydrostatic value of the local water height.
@@ -243,6 +245,8 @@ int forceChecks(const BenchOptions& opt) {
   const std::string accel = sourcePath("scenes/tests/accel_ball.yaml");
   const std::string release = sourcePath("scenes/tests/release_ball.yaml");
   const std::string tow = sourcePath("scenes/tests/stokes_tow.yaml");
+  const std::string sink = sourcePath("scenes/tests/sink_ball.yaml");
+  const std::string fall = sourcePath("scenes/tests/stokes_fall.yaml");
   for (const std::string& solver : opt.force_solvers) {
     const std::vector<std::string> sets = {"fluid.solver=" + solver};
     for (double dx : {0.01, 0.0075, 0.006}) {
@@ -285,6 +289,58 @@ int forceChecks(const BenchOptions& opt) {
       row("stokes_drag_over_6piMuRU", solver, dx, t.radius / dx, t.drag / t.stokes, t.expected_lo, t.expected_hi,
           t.wall_seconds);
       row("sideways_over_drag", solver, dx, t.radius / dx, t.side / t.drag, 0.0, 0.0, t.wall_seconds);
+    }
+    for (const double c0 : {30.0, 60.0}) {
+      // Moderate Re: the towed ball at U = 1/3 m/s in a liquid of nu = 1e-3 m^2/s (Re = 2 R U / nu
+      // = 20), from 1 cm off the wall across the box, the drag averaged over the second half
+      // (0.12 .. 0.24 s, the centre passing 8 .. 12 cm). Schiller & Naumann (1933):
+      // C_D = 24/Re (1 + 0.15 Re^0.687), i.e. drag / 6 pi mu R U = 1 + 0.15 Re^0.687 = 2.17, times a
+      // wall factor between 1 (walls not felt) and the Stokes band's top (at moderate Re the walls
+      // matter less than in Stokes flow), with the no-slip surface within R -+ dx/2. Two sounds
+      // speeds: the box's acoustic ringing swings the drag (drag_se: standard error of 6 block means).
+      const double u = 1.0 / 3.0, nu = 1e-3;
+      std::vector<std::string> s2 = sets;
+      s2.insert(s2.end(), {"fluid.phases[0].viscosity=" + std::to_string(nu),
+                           "rigid_bodies[0].motion.velocity=[0.3333333333, 0, 0]",
+                           "rigid_bodies[0].position=[0.04, 0.1, 0.1]", "simulation.duration=0.24",
+                           "fluid.speed_of_sound=" + std::to_string(c0)});
+      const TowCheck t = towedBall(tow, 0.01, s2, opt.device);
+      if (t.exit_code != 0) {
+        std::printf("Re 20 drag at c0 %g (%s): %s\n", c0, solver.c_str(), t.message.c_str());
+        continue;
+      }
+      const double sn = 1.0 + 0.15 * std::pow(2.0 * t.radius * u / nu, 0.687);
+      const std::string tag = "_c0_" + std::to_string(static_cast<int>(c0));
+      row("re20_drag_over_6piMuRU" + tag, solver, 0.01, t.radius / 0.01, t.drag / t.stokes,
+          sn * (t.radius - 0.005) / t.radius, sn * t.expected_hi, t.wall_seconds);
+      row("re20_drag_se_over_6piMuRU" + tag, solver, 0.01, t.radius / 0.01, t.drag_noise / t.stokes, 0.0, 0.0,
+          t.wall_seconds);
+    }
+    for (double dx : {0.01, 0.2 / 30}) {
+      // A dense ball sinking from rest: its speed 0.2 s after the release against the closed form
+      // with added mass and quadratic drag, C_m 0.375 .. 0.725, C_d 0 .. 0.5 (tests/test_forces.cpp);
+      // the largest distance outside that envelope (ringing margin included) up to 75 ms; the
+      // mean C_d over the 0.2 s from momentum against a sphere's 0.4 .. 0.5 at Re ~ 1e4.
+      const SinkCheck k = sinkingBall(sink, dx, 0.02, 0.075, 0.375, 0.725, 0.0, 0.5, sets, opt.device);
+      if (k.exit_code != 0) {
+        std::printf("sinking ball at dx %g (%s): %s\n", dx, solver.c_str(), k.message.c_str());
+        continue;
+      }
+      row("sink_speed_0.2s_mps", solver, dx, k.radius / dx, k.v_end, k.v_lo, k.v_hi, k.wall_seconds);
+      row("sink_outside_envelope_75ms_mps", solver, dx, k.radius / dx, k.worst, 0.0, 0.0, k.wall_seconds);
+      row("sink_mean_Cd", solver, dx, k.radius / dx, k.cd_effective, 0.4, 0.5, k.wall_seconds);
+    }
+    for (double dx : {0.01, 0.008}) {
+      // Stokes terminal velocity: (m - rho V) g / (6 pi mu R U) against the towed ball's band.
+      const FallCheck f = fallingBall(fall, dx, sets, opt.device);
+      if (f.exit_code != 0) {
+        std::printf("Stokes fall at dx %g (%s): %s\n", dx, solver.c_str(), f.message.c_str());
+        continue;
+      }
+      row("stokes_fall_over_6piMuRU", solver, dx, f.radius / dx, f.ratio, f.expected_lo, f.expected_hi,
+          f.wall_seconds);
+      row("stokes_fall_held_buoyancy", solver, dx, f.radius / dx, f.ratio_held, f.expected_lo, f.expected_hi,
+          f.wall_seconds);
     }
   }
   std::cout << "wrote " << csv.string() << " (wall times on this machine; a shared machine adds noise)\n";

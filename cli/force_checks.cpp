@@ -247,6 +247,14 @@ double sphereInSphereWallFactor(double l) {
   return (1.0 - std::pow(l, 5)) / (1.0 - 2.25 * l + 2.5 * std::pow(l, 3) - 2.25 * std::pow(l, 5) + std::pow(l, 6));
 }
 
+void stokesBand(double radius, double dx, double box, double& lo, double& hi) {
+  // The box's two bracketing containers (towedBall) with the no-slip surface dx/2 inside or
+  // outside R (the resolution's uncertainty).
+  const double r_lo = radius - 0.5 * dx, r_hi = radius + 0.5 * dx;
+  lo = r_lo / radius * sphereInSphereWallFactor(r_lo / (box * std::cbrt(3.0 / (4.0 * M_PI))));
+  hi = r_hi / radius * sphereInSphereWallFactor(r_hi / (0.5 * box));
+}
+
 TowCheck towedBall(const std::string& scene, double dx, const std::vector<std::string>& sets, const std::string& device) {
   TowCheck c;
   c.dx = dx;
@@ -284,10 +292,7 @@ TowCheck towedBall(const std::string& scene, double dx, const std::vector<std::s
   // (b = L (3 / 4 pi)^(1/3), the corners counted as near as the faces: K too low).
   c.wall_factor_hi = sphereInSphereWallFactor(c.radius / (0.5 * box));
   c.wall_factor_lo = sphereInSphereWallFactor(c.radius / (box * std::cbrt(3.0 / (4.0 * M_PI))));
-  // The same with the no-slip surface dx/2 inside or outside R (the resolution's uncertainty).
-  const double r_lo = c.radius - 0.5 * dx, r_hi = c.radius + 0.5 * dx;
-  c.expected_lo = r_lo / c.radius * sphereInSphereWallFactor(r_lo / (box * std::cbrt(3.0 / (4.0 * M_PI))));
-  c.expected_hi = r_hi / c.radius * sphereInSphereWallFactor(r_hi / (0.5 * box));
+  stokesBand(c.radius, dx, box, c.expected_lo, c.expected_hi);
   // The second half of the run: the viscous set-up time over the gap to the walls has passed.
   std::vector<const StepForce*> win;
   for (const StepForce& f : log)
@@ -311,20 +316,196 @@ TowCheck towedBall(const std::string& scene, double dx, const std::vector<std::s
   // correlation time), standard error = sd / sqrt(6).
   const int blocks = 6;
   double noise = 0;
-  for (int a = 0; a < 2; ++a) {
+  for (int a = 0; a < 3; ++a) {
     std::vector<double> means(blocks, 0.0);
     std::vector<int> counts(blocks, 0);
     for (std::size_t k = 0; k < win.size(); ++k) {
       const int b = static_cast<int>(k * blocks / win.size());
-      means[b] += a == 0 ? win[k]->force.y() : win[k]->force.z();
+      means[b] += win[k]->force[(a + 1) % 3];
       ++counts[b];
     }
     double mean = 0, var = 0;
     for (int b = 0; b < blocks; ++b) mean += (means[b] /= counts[b]) / blocks;
     for (int b = 0; b < blocks; ++b) var += (means[b] - mean) * (means[b] - mean) / (blocks - 1);
-    noise = std::max(noise, std::sqrt(var / blocks));
+    if (a == 2) c.drag_noise = std::sqrt(var / blocks);  // (the drag, axis x)
+    else noise = std::max(noise, std::sqrt(var / blocks));
   }
   c.side_noise = noise;
+  return c;
+}
+
+double sinkingSpeed(double t, double m, double V, double R, double rho, double g, double cm, double cd) {
+  // Net weight over the mass with added mass: the first acceleration a0.
+  const double net = (m - rho * V) * g, a0 = net / (m + cm * rho * V);
+  if (cd <= 0.0) return a0 * t;
+  // Terminal speed where the quadratic drag 1/2 rho C_d pi R^2 v^2 carries the net weight.
+  const double vt = std::sqrt(2.0 * net / (rho * cd * M_PI * R * R));
+  return vt * std::tanh(a0 * t / vt);
+}
+
+SinkCheck sinkingBall(const std::string& scene, double dx, double skip, double until, double cm_lo, double cm_hi,
+                      double cd_lo,
+                      double cd_hi, const std::vector<std::string>& sets, const std::string& device) {
+  SinkCheck c;
+  c.dx = dx;
+  RunOptions o;
+  o.scene = scene;
+  o.device = device;
+  o.quiet = true;
+  o.write_output = false;
+  o.sets = {"fluid.particle_spacing=" + num(dx)};
+  o.sets.insert(o.sets.end(), sets.begin(), sets.end());
+  std::vector<StepForce> log;
+  double hold = -1, end = 0, rho = 0, g = 0, volume = 0, mass = 0, nu = 0;
+  const RunResult r = runScene(o, [&](Simulation& sim, const FrameReport&) {
+    if (hold < 0) {
+      const Model& m = sim.model();
+      hold = m.bodies[0].spec.hold_until;
+      end = m.spec.simulation.duration;
+      rho = m.spec.fluid.phases[0].rest_density;
+      nu = m.spec.fluid.phases[0].viscosity;
+      g = m.spec.simulation.gravity.norm();
+      volume = m.bodies[0].volume;
+      mass = m.bodies[0].mass;
+      c.radius = m.bodies[0].spec.radius * m.bodies[0].spec.scale;
+      sim.recordStepForces(true);
+    }
+    for (const StepForce& f : sim.takeStepForces()) log.push_back(f);
+  });
+  c.exit_code = r.exit_code;
+  c.message = r.message;
+  c.wall_seconds = r.wall_seconds;
+  if (r.exit_code != 0) return c;
+  c.density = mass / volume;
+  c.window = end - hold;
+  // The ringing: over the last 0.1 s of the hold, the swing of int (F - mean F) dt over m + C_m rho V.
+  double held = 0, span = 0;
+  for (std::size_t k = 0; k + 1 < log.size(); ++k)
+    if (log[k].time >= hold - 0.1 && log[k].time < hold) {
+      held += log[k].force.z() * (log[k + 1].time - log[k].time);
+      span += log[k + 1].time - log[k].time;
+    }
+  if (!(span > 0.0)) {
+    c.exit_code = 1;
+    c.message = "too few steps in the hold";
+    return c;
+  }
+  held /= span;
+  double integral = 0, imin = 0, imax = 0;
+  for (std::size_t k = 0; k + 1 < log.size(); ++k)
+    if (log[k].time >= hold - 0.1 && log[k].time < hold) {
+      integral += (log[k].force.z() - held) * (log[k + 1].time - log[k].time);
+      imin = std::min(imin, integral);
+      imax = std::max(imax, integral);
+    }
+  c.ringing = (imax - imin) / (mass + cm_lo * rho * volume);
+  // Every logged step from `skip` after the release: the downward speed against the envelope;
+  // and the momentum balance for the mean drag (C_m = 1/2).
+  double v2_int = 0, v_T = 0, T = 0;
+  for (std::size_t k = 0; k < log.size(); ++k) {
+    const StepForce& s = log[k];
+    const double t = s.time - hold;
+    if (t >= 0.0 && k + 1 < log.size()) {
+      v2_int += s.v.z() * s.v.z() * (log[k + 1].time - s.time);
+      v_T = -log[k + 1].v.z();
+      T = log[k + 1].time - hold;
+    }
+    if (t < skip - 1e-12) continue;
+    const double v = -s.v.z();
+    const double lo = sinkingSpeed(t, mass, volume, c.radius, rho, g, cm_hi, cd_hi);
+    const double hi = sinkingSpeed(t, mass, volume, c.radius, rho, g, cm_lo, cd_lo);
+    c.above = std::max(c.above, v - hi - c.ringing);
+    const double out = t <= until + 1e-12 ? std::max({lo - c.ringing - v, v - hi - c.ringing, 0.0}) : 0.0;
+    if (out > c.worst) {
+      c.worst = out;
+      c.worst_time = t;
+    }
+    c.t.push_back(t);
+    c.v.push_back(v);
+    c.lo.push_back(lo);
+    c.hi.push_back(hi);
+  }
+  if (v2_int > 0.0)
+    c.cd_effective = ((mass - rho * volume) * g * T - (mass + 0.5 * rho * volume) * v_T) /
+                     (0.5 * rho * M_PI * c.radius * c.radius * v2_int);
+  if (c.t.size() < 3) {
+    c.exit_code = 1;
+    c.message = "too few steps after the release";
+    return c;
+  }
+  c.v_end = c.v.back();
+  c.v_lo = c.lo.back();
+  c.v_hi = c.hi.back();
+  c.reynolds = 2.0 * c.radius * c.v_end / nu;
+  return c;
+}
+
+FallCheck fallingBall(const std::string& scene, double dx, const std::vector<std::string>& sets,
+                      const std::string& device) {
+  FallCheck c;
+  c.dx = dx;
+  RunOptions o;
+  o.scene = scene;
+  o.device = device;
+  o.quiet = true;
+  o.write_output = false;
+  o.sets = {"fluid.particle_spacing=" + num(dx)};
+  o.sets.insert(o.sets.end(), sets.begin(), sets.end());
+  std::vector<StepForce> log;
+  double hold = -1, end = 0, nu = 0, rho = 0, box = 0, g = 0, volume = 0, mass = 0;
+  const RunResult r = runScene(o, [&](Simulation& sim, const FrameReport&) {
+    if (hold < 0) {
+      const Model& m = sim.model();
+      hold = m.bodies[0].spec.hold_until;
+      end = m.spec.simulation.duration;
+      nu = m.spec.fluid.phases[0].viscosity;
+      rho = m.spec.fluid.phases[0].rest_density;
+      g = m.spec.simulation.gravity.norm();
+      box = (m.spec.domain.max - m.spec.domain.min).minCoeff();
+      volume = m.bodies[0].volume;
+      mass = m.bodies[0].mass;
+      c.radius = m.bodies[0].spec.radius * m.bodies[0].spec.scale;
+      sim.recordStepForces(true);
+    }
+    for (const StepForce& f : sim.takeStepForces()) log.push_back(f);
+  });
+  c.exit_code = r.exit_code;
+  c.message = r.message;
+  c.wall_seconds = r.wall_seconds;
+  if (r.exit_code != 0) return c;
+  // Stokes: 6 pi mu R U = (m - rho V) g, mu = rho nu.
+  c.speed_stokes = (mass - rho * volume) * g / (6.0 * M_PI * rho * nu * c.radius);
+  stokesBand(c.radius, dx, box, c.expected_lo, c.expected_hi);
+  // The second half of the free time: the flow has set up over the gap to the walls.
+  const double from = hold + 0.5 * (end - hold);
+  double vz = 0, vx = 0, vy = 0;
+  int n = 0;
+  for (const StepForce& f : log) {
+    if (f.time < from) continue;
+    vz += -f.v.z();
+    vx += f.v.x();
+    vy += f.v.y();
+    ++n;
+  }
+  if (n < 12 || !(vz > 0.0)) {
+    c.exit_code = 1;
+    c.message = "too few steps in the window, or the ball did not fall";
+    return c;
+  }
+  c.speed = vz / n;
+  c.side = std::max(std::abs(vx), std::abs(vy)) / n;
+  // The held ball's mean force over the last 0.05 s of the hold: the sampled buoyancy.
+  double held = 0;
+  int nh = 0;
+  for (const StepForce& f : log)
+    if (f.time >= hold - 0.05 && f.time < hold) held += f.force.z(), ++nh;
+  if (nh > 0) {
+    held /= nh;
+    c.held_over_buoyancy = held / (rho * g * volume);
+    c.ratio_held = (mass * g - held) / (6.0 * M_PI * rho * nu * c.radius * c.speed);
+  }
+  c.reynolds = 2.0 * c.radius * c.speed / nu;
+  c.ratio = c.speed_stokes / c.speed;
   return c;
 }
 

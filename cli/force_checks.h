@@ -105,6 +105,7 @@ struct TowCheck {
   double expected_hi = 0;      ///< (unit: 1)
   double side = 0;             ///< largest mean sideways component |F_y|, |F_z| over the window (unit: N)
   double side_noise = 0;       ///< standard error of that mean, from 6 block means (unit: N)
+  double drag_noise = 0;       ///< standard error of the drag's mean, from 6 block means (unit: N)
   double wall_seconds = 0;     ///< (unit: s)
 };
 
@@ -116,5 +117,75 @@ double sphereInSphereWallFactor(double lambda);
 /// Runs `scene` (stokes_tow.yaml) at spacing dx; `sets` are extra --set overrides.
 TowCheck towedBall(const std::string& scene, double dx, const std::vector<std::string>& sets = {},
                    const std::string& device = "");
+
+/// A dense ball released from rest in still water, sinking (scenes/tests/sink_ball.yaml). Its
+/// downward speed against the closed form of a body with added mass and quadratic drag,
+/// (m + C_m rho V) dv/dt = (m - rho V) g - 1/2 rho C_d pi R^2 v^2, whose solution from rest is
+/// v(t) = v_t tanh(a0 t / v_t), a0 = (m - rho V) g / (m + C_m rho V), v_t = sqrt(2 (m - rho V) g /
+/// (rho C_d pi R^2)) (v = a0 t for C_d = 0). The envelope: slowest with the largest C_m and C_d,
+/// fastest with the smallest.
+struct SinkCheck {
+  int exit_code = 0;
+  std::string message;
+  double dx = 0;              ///< (unit: m)
+  double radius = 0;          ///< (unit: m)
+  double density = 0;         ///< the ball's (unit: kg/m^3)
+  double window = 0;          ///< time free, from the release to the last sample (unit: s)
+  double v_end = 0;           ///< downward speed at the end of the window (unit: m/s)
+  double v_lo = 0, v_hi = 0;  ///< the closed form's envelope at the end of the window (unit: m/s)
+  /// the tank's ringing (the water column's start-up waves; undamped in water at its own
+  /// viscosity): over the last 0.1 s of the hold, the swing (largest minus smallest) of
+  /// int (F - mean F) dt, divided by m + C_m rho V: the speed it would give the free ball about
+  /// the mean, the envelope's margin at every sample (unit: m/s)
+  double ringing = 0;
+  double worst = 0;           ///< largest distance outside [v_lo - ringing, v_hi + ringing] over the samples up to `until` (unit: m/s)
+  double worst_time = 0;      ///< time after the release where it was found (unit: s)
+  double above = 0;           ///< largest distance above v_hi + ringing over all samples (unit: m/s)
+  /// the mean drag coefficient over the window, from momentum with C_m = 1/2:
+  /// C_d = ((m - rho V) g T - (m + rho V / 2) v(T)) / (1/2 rho pi R^2 int v^2 dt) (unit: 1)
+  double cd_effective = 0;
+  double reynolds = 0;        ///< 2 R v_end / nu (unit: 1)
+  std::vector<double> t, v, lo, hi;  ///< the samples: time after release (s), speed, envelope (m/s)
+  double wall_seconds = 0;    ///< (unit: s)
+};
+
+/// The closed form above: speed at time t after the release from rest (unit: m/s), for a body of
+/// mass m (kg) and volume V (m^3), radius R (m), in a liquid of density rho (kg/m^3), gravity g (m/s^2).
+double sinkingSpeed(double t, double m, double V, double R, double rho, double g, double cm, double cd);
+
+/// Runs `scene` (sink_ball.yaml) at spacing dx; samples every step from `skip` seconds after the
+/// release (unit: s) on, against C_m in [cm_lo, cm_hi] and C_d in [cd_lo, cd_hi]: the whole
+/// envelope up to `until` seconds after the release, its fast side over the whole run.
+SinkCheck sinkingBall(const std::string& scene, double dx, double skip, double until, double cm_lo, double cm_hi,
+                      double cd_lo,
+                      double cd_hi, const std::vector<std::string>& sets = {}, const std::string& device = "");
+
+/// The drag over 6 pi mu R U expected of a ball of radius R (m) sampled at spacing dx (m) at the
+/// centre of a closed cubic box of side L (m): TowCheck::expected_lo/hi (unit: 1).
+void stokesBand(double radius, double dx, double box, double& lo, double& hi);
+
+/// A dense ball falling through a viscous liquid at its terminal velocity (scenes/tests/stokes_fall.yaml):
+/// U = (m - rho V) g / (6 pi mu R K), K the box's wall factor, as TowCheck.
+struct FallCheck {
+  int exit_code = 0;
+  std::string message;
+  double dx = 0;               ///< (unit: m)
+  double radius = 0;           ///< (unit: m)
+  double speed = 0;            ///< mean downward speed over the second half of the free time (unit: m/s)
+  double speed_stokes = 0;     ///< (m - rho V) g / (6 pi mu R), unbounded (unit: m/s)
+  double reynolds = 0;         ///< 2 R U / nu (unit: 1)
+  double ratio = 0;            ///< the drag's factor over Stokes: speed_stokes / speed, to compare with the band (unit: 1)
+  double expected_lo = 0, expected_hi = 0;  ///< the towed ball's band (stokesBand) (unit: 1)
+  /// the same with the buoyancy the liquid gave the ball held (mean force over the last 0.05 s of
+  /// the hold) instead of rho g V: at terminal speed the drag is m g - F_held (unit: 1)
+  double ratio_held = 0;
+  double held_over_buoyancy = 0;  ///< that held force / rho g V (unit: 1)
+  double side = 0;             ///< largest mean sideways speed |v_x|, |v_y| over the same window (unit: m/s)
+  double wall_seconds = 0;     ///< (unit: s)
+};
+
+/// Runs `scene` (stokes_fall.yaml) at spacing dx.
+FallCheck fallingBall(const std::string& scene, double dx, const std::vector<std::string>& sets = {},
+                      const std::string& device = "");
 
 }  // namespace sph::app

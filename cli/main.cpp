@@ -127,7 +127,7 @@ int main(int argc, char** argv) {
   cmd_bench->add_flag("--cloth-only", bench.cloth_only, "Only the cloth benches: the stability sweep (stiffness x step, xpbd and explicit) and the cost on balls_on_cloth (per stage, launches per step)");
   cmd_bench->add_flag("!--no-cloth", bench.cloth, "Skip the cloth stability sweep");
   cmd_bench->add_flag("--forces-only", bench.forces_only,
-                      "Only the force checks of bodies in water (added mass, free vs held, Stokes drag) against resolution");
+                      "Only the force checks of bodies in water (added mass, free vs held, Stokes drag and fall, sinking ball, drag at Re 20) against resolution");
   cmd_bench->add_flag("!--no-forces", bench.forces, "Skip the force checks");
   cmd_bench->add_option("--force-solvers", bench.force_solvers, "fluid.solver values for the force checks (wcsph, dfsph)")
       ->capture_default_str();
