@@ -1,0 +1,35 @@
+#!/usr/bin/env bash
+# Side by side in one sitting: the reference library's DFSPH dam break (SPlisHSPlasH, built with
+# ../shared/peer-bench) and sphaptics' DFSPH on the same scene (scenes/peer/dam_break_50k.yaml),
+# runs interleaved so that both see the same machine. Wall time of the whole process, including
+# start-up. Writes CSV to stdout: code,config,run,wall_s,simulated_s,steps,density_iterations_per_step
+#   PEER_BIN=.../SPlisHSPlasH/bin/SPHSimulator PEER_SCENES=.../scenes scripts/peer_side_by_side.sh [REPS]
+set -euo pipefail
+reps=${1:-3}
+: "${PEER_BIN:?set PEER_BIN to the SPHSimulator binary of SPlisHSPlasH (../shared/peer-bench/README.md)}"
+: "${PEER_SCENES:?set PEER_SCENES to the folder 03_make_scenes.py wrote}"
+top=$(cd "$(dirname "$0")/.." && pwd)
+sph=${SPHAPTICS:-$top/build/cli/sphaptics}
+scene=$top/scenes/peer/dam_break_50k.yaml
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+export OMP_NUM_THREADS=${OMP_NUM_THREADS:-2}
+now() { date +%s.%N; }
+echo "code,config,run,wall_s,simulated_s,steps,density_iterations_per_step"
+for k in $(seq 1 "$reps"); do
+  for c in dambreak50k_dfsph dambreak50k_dfsph_akinci; do
+    t0=$(now); "$PEER_BIN" --no-gui --stopAt 0.5 --output-dir "$work/peer" "$PEER_SCENES/$c.json" > "$work/peer.log" 2>&1; t1=$(now)
+    it=$(sed -n 's/.*Average number: DFSPH - iterations: \([0-9.]*\).*/\1/p' "$work/peer.log" | tail -1)
+    steps=$(sed -n 's/.*Total number: DFSPH - iterations: \([0-9]*\).*/\1/p' "$work/peer.log" | tail -1)
+    steps=$(awk -v n="$steps" -v a="$it" 'BEGIN { if (a > 0) printf "%.0f", n / a }')
+    echo "splishsplash,$c,$k,$(echo "$t1 - $t0" | bc),0.5,$steps,$it"
+  done
+  for w in single mirrored; do
+    t0=$(now); "$sph" run "$scene" -o "$work/sph" --set fluid.dfsph.walls=$w > "$work/sph.log" 2>&1; t1=$(now)
+    done_line=$(grep '^done:' "$work/sph.log")
+    sim=$(echo "$done_line" | sed -n 's/.* \([0-9.]*\) s simulated.*/\1/p')
+    steps=$(echo "$done_line" | sed -n 's/.* \([0-9]*\) steps.*/\1/p')
+    it=$(sed -n 's/.*DFSPH: \([0-9.]*\) density.*/\1/p' "$work/sph.log")
+    echo "sphaptics,dfsph_walls_$w,$k,$(echo "$t1 - $t0" | bc),$sim,$steps,$it"
+  done
+done
