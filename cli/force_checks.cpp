@@ -19,19 +19,28 @@ std::string num(double v) {
   return s.str();
 }
 
+/// A quiet run of `scene` at particle spacing dx that writes nothing: the check's own settings
+/// (`own`), then the caller's `sets` (which may override them).
+RunOptions checkRun(const std::string& scene, double dx, const std::vector<std::string>& own,
+                    const std::vector<std::string>& sets, const std::string& device) {
+  RunOptions o;
+  o.scene = scene;
+  o.device = device;
+  o.quiet = true;
+  o.write_output = false;
+  o.sets = {"fluid.particle_spacing=" + num(dx)};
+  o.sets.insert(o.sets.end(), own.begin(), own.end());
+  o.sets.insert(o.sets.end(), sets.begin(), sets.end());
+  return o;
+}
+
 }  // namespace
 
 ReleaseCheck releasedBall(const std::string& scene, double dx, double rho_b, double window,
                           const std::vector<std::string>& sets, const std::string& device) {
   ReleaseCheck c;
   c.dx = dx;
-  RunOptions o;
-  o.scene = scene;
-  o.device = device;
-  o.quiet = true;
-  o.write_output = false;
-  o.sets = {"fluid.particle_spacing=" + num(dx), "rigid_bodies[0].density=" + num(rho_b)};
-  o.sets.insert(o.sets.end(), sets.begin(), sets.end());
+  RunOptions o = checkRun(scene, dx, {"rigid_bodies[0].density=" + num(rho_b)}, sets, device);
   // Every step's force and velocity once the first frame is done (the hold lasts much longer).
   std::vector<StepForce> log;
   double hold = 0, rho_w = 0, g = 0, volume = 0, mass = 0;
@@ -91,13 +100,7 @@ ReleaseMassCheck releasedBallAddedMass(const std::string& scene, double dx, doub
   double hold = 0, rho_w = 0, g = 0, volume = 0, mass = 0, nearest = 0, floor_height = 0;
   // One run: every step's force and velocity of body 0.
   auto run = [&](bool held, std::vector<StepForce>& log) {
-    RunOptions o;
-    o.scene = scene;
-    o.device = device;
-    o.quiet = true;
-    o.write_output = false;
-    o.sets = {"fluid.particle_spacing=" + num(dx), "rigid_bodies[0].density=" + num(rho_b)};
-    o.sets.insert(o.sets.end(), sets.begin(), sets.end());
+    RunOptions o = checkRun(scene, dx, {"rigid_bodies[0].density=" + num(rho_b)}, sets, device);
     if (held) o.sets.push_back("rigid_bodies[0].hold_until=1e6");
     bool first = true;
     const RunResult r = runScene(o, [&](Simulation& sim, const FrameReport&) {
@@ -180,14 +183,8 @@ AccelCheck acceleratedBall(const std::string& scene, double dx, const std::vecto
                            const std::string& device) {
   AccelCheck c;
   c.dx = dx;
-  RunOptions o;
-  o.scene = scene;
-  o.device = device;
-  o.quiet = true;
-  o.write_output = false;
   // The ball's keyframes are in metres, so they do not change with dx.
-  o.sets = {"fluid.particle_spacing=" + num(dx)};
-  o.sets.insert(o.sets.end(), sets.begin(), sets.end());
+  RunOptions o = checkRun(scene, dx, {}, sets, device);
   std::vector<StepForce> log;
   double t0 = -1, t1 = 0, rho = 0, volume = 0, nearest = 0;
   const RunResult r = runScene(o, [&](Simulation& sim, const FrameReport&) {
@@ -258,13 +255,7 @@ void stokesBand(double radius, double dx, double box, double& lo, double& hi) {
 TowCheck towedBall(const std::string& scene, double dx, const std::vector<std::string>& sets, const std::string& device) {
   TowCheck c;
   c.dx = dx;
-  RunOptions o;
-  o.scene = scene;
-  o.device = device;
-  o.quiet = true;
-  o.write_output = false;
-  o.sets = {"fluid.particle_spacing=" + num(dx)};
-  o.sets.insert(o.sets.end(), sets.begin(), sets.end());
+  RunOptions o = checkRun(scene, dx, {}, sets, device);
   std::vector<StepForce> log;
   double duration = 0, nu = 0, rho = 0, box = 0;
   const RunResult r = runScene(o, [&](Simulation& sim, const FrameReport&) {
@@ -348,13 +339,7 @@ SinkCheck sinkingBall(const std::string& scene, double dx, double skip, double u
                       double cd_hi, const std::vector<std::string>& sets, const std::string& device) {
   SinkCheck c;
   c.dx = dx;
-  RunOptions o;
-  o.scene = scene;
-  o.device = device;
-  o.quiet = true;
-  o.write_output = false;
-  o.sets = {"fluid.particle_spacing=" + num(dx)};
-  o.sets.insert(o.sets.end(), sets.begin(), sets.end());
+  RunOptions o = checkRun(scene, dx, {}, sets, device);
   std::vector<StepForce> log;
   double hold = -1, end = 0, rho = 0, g = 0, volume = 0, mass = 0, nu = 0;
   const RunResult r = runScene(o, [&](Simulation& sim, const FrameReport&) {
@@ -444,13 +429,7 @@ FallCheck fallingBall(const std::string& scene, double dx, const std::vector<std
                       const std::string& device) {
   FallCheck c;
   c.dx = dx;
-  RunOptions o;
-  o.scene = scene;
-  o.device = device;
-  o.quiet = true;
-  o.write_output = false;
-  o.sets = {"fluid.particle_spacing=" + num(dx)};
-  o.sets.insert(o.sets.end(), sets.begin(), sets.end());
+  RunOptions o = checkRun(scene, dx, {}, sets, device);
   std::vector<StepForce> log;
   double hold = -1, end = 0, nu = 0, rho = 0, box = 0, g = 0, volume = 0, mass = 0;
   const RunResult r = runScene(o, [&](Simulation& sim, const FrameReport&) {

@@ -6,6 +6,7 @@
 #include "cli/runner.h"
 #include "io/png.h"
 #include "tests/run_binary.h"
+#include "tests/simulate_into.h"
 #include "tests/soft_run.h"
 #include "tests/temp_dir.h"
 
@@ -35,18 +36,7 @@ std::string renderSkipReason() {
   return "";
 }
 
-/// Simulates a scene into `out` through the runner (in-process), quietly.
-void simulate(const fs::path& scene, const fs::path& out, double duration, const std::vector<std::string>& sets) {
-  app::RunOptions opt;
-  opt.scene = scene.string();
-  opt.out = out.string();
-  opt.duration = duration;
-  opt.sets = sets;
-  opt.quiet = true;
-  const app::RunResult r = app::runScene(opt);
-  INFO(r.message);
-  REQUIRE(r.exit_code == 0);
-}
+using sph::testing::simulate;
 
 /// scripts/render.sh RUN --frames A:B at W x H with few samples; returns the log.
 void render(const fs::path& run, const std::string& frames, int width, int height) {

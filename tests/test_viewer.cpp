@@ -8,6 +8,7 @@
 #include "io/png.h"
 #include "io/run_folder.h"
 #include "tests/run_binary.h"
+#include "tests/simulate_into.h"
 #include "tests/soft_run.h"
 #include "tests/temp_dir.h"
 #include "viewer/camera.h"
@@ -104,18 +105,7 @@ Pixels pixelsOf(const io::RgbImage& img, Pred pred) {
   return px;
 }
 
-/// Simulates a scene into `out` through the runner (in-process), quietly.
-void simulate(const fs::path& scene, const fs::path& out, double duration, const std::vector<std::string>& sets) {
-  app::RunOptions opt;
-  opt.scene = scene.string();
-  opt.out = out.string();
-  opt.duration = duration;
-  opt.sets = sets;
-  opt.quiet = true;
-  const app::RunResult r = app::runScene(opt);
-  INFO(r.message);
-  REQUIRE(r.exit_code == 0);
-}
+using sph::testing::simulate;
 
 ParticleFrame smallFrame(double time, int n) {
   ParticleFrame f;
