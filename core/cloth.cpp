@@ -665,7 +665,7 @@ std::vector<Eigen::Vector3d> ClothSim::step(double t, double dt, const Eigen::Ve
   // Balls: the XPBD nodes' projections (J = -sum m dx / dt, in node order), then the explicit
   // nodes' velocity contact.
   if (any_xpbd_) {
-    k_.call("cloth_sphere_shift_reduce", ns, 0, n_, ns, float(dt), mass_, shift_, impulse_sum_);
+    k_.call("cloth_sphere_shift_reduce", ns, 0, n_, ns, float(dt), mass_, drag_, shift_, impulse_sum_);
     std::vector<Eigen::Vector4f> sums(ns);
     clCall("reading the sphere impulses", [&] { return cl_.queue().enqueueReadBuffer(impulse_sum_, CL_TRUE, 0, ns * 16, sums.data()); });
     for (uint32_t k = 0; k < ns; ++k) J[k] += sums[k].head<3>().cast<double>();
@@ -703,7 +703,8 @@ void ClothSim::explicitSubstep(double t, float dt, const Eigen::Vector4f& g, con
 
 void ClothSim::xpbdStep(double t, float dt, const Eigen::Vector4f& g, const cl::Buffer& fext, uint32_t n_spheres) {
   const cl_float4 g4{{g.x(), g.y(), g.z(), 0.0f}};
-  // Predict x* = x + dt v + dt^2 (g + f/m), remember x, clear the multipliers.
+  // Predict x* = x + dt (v + dt (g + f/m)) / (1 + dt c), remember x, clear the multipliers; the
+  // solve acts on the effective inverse mass 1 / (m (1 + dt c)) (implicit drag, cloth.cl).
   k_.call("cloth_xpbd_predict", n_, 64, n_, dt, float(t), g4, x_[cur_], v_[cur_], mass_, drag_, anchor_, x_rest_,
           track_, is_xpbd_, row_start_, fext, prev_, lambda_);
   // Coloured Gauss-Seidel: per colour one gather pass, ping-ponging the positions.

@@ -75,8 +75,16 @@ __kernel void cloth_explicit_step(const uint n, const float dt, const float t, c
   v_out[i] = (float4)(v, 0.0f);
 }
 
-/* XPBD (Macklin, Mueller, Chentanez 2016), Algorithm 1 lines 1-4: predict x* = x + dt v with
- * v += dt (g + f_ext / m) (drag implicit), keep x as prev, clear the multipliers of row i. */
+/* XPBD (Macklin, Mueller, Chentanez 2016), Algorithm 1 lines 1-4: predict x*, keep x as prev,
+ * clear the multipliers of row i.
+ * Air drag, backward Euler on the whole velocity (drag c, constraint force f_c):
+ *   m (v' - v) = dt (m g + f_ext + f_c) - dt m c v'  =>  v' = (v + dt (g + f_ext/m) + dt f_c/m) / (1 + dt c)
+ * and x' = x + dt v' = x* + dt^2 f_c / (m (1 + dt c)), with x* = x + dt (v + dt (g + f_ext/m)) / (1 + dt c).
+ * So the drag divides the external forces in x*, and the constraints act on the effective mass
+ * m (1 + dt c): the solve reads x.w = 1 / (m (1 + dt c)) (restored from prev.w = 1/m by
+ * cloth_xpbd_velocity). At rest (v' = v = 0) f_c = -m g - f_ext exactly: the springs and anchors
+ * carry the full weight. (Dividing only the prediction, with the constraints on m, leaves them
+ * m g / (1 + dt c): the bias this replaces.) A free node falls at the exact terminal speed g / c. */
 __kernel void cloth_xpbd_predict(const uint n, const float dt, const float t, const float4 g,
                                  __global float4* x, __global const float4* v, __global const float* mass,
                                  __global const float* drag, __global const float4* anchor,
@@ -92,8 +100,9 @@ __kernel void cloth_xpbd_predict(const uint n, const float dt, const float t, co
     x[i] = (float4)(cloth_anchor_x(i, x4.xyz, t, dt, anchor, x_rest, track), 0.0f);
     return;
   }
-  const float3 vi = (v[i].xyz + dt * (g.xyz + x4.w * fext[i].xyz)) / (1.0f + dt * drag[i]);
-  x[i] = (float4)(x4.xyz + dt * vi, x4.w);
+  const float damp = 1.0f + dt * drag[i];
+  const float3 vi = (v[i].xyz + dt * (g.xyz + x4.w * fext[i].xyz)) / damp;
+  x[i] = (float4)(x4.xyz + dt * vi, x4.w / damp);
 }
 
 /* XPBD, one colour of one Gauss-Seidel sweep: node i applies the correction of its spring of
@@ -202,17 +211,20 @@ __kernel void cloth_xpbd_solve(const uint n, const float dt, const uint sweeps, 
   }
 }
 
-/* XPBD, Algorithm 1 line 16: v = (x - prev) / dt; anchored nodes take their scripted velocity. */
-__kernel void cloth_xpbd_velocity(const uint n, const float dt, const float t, __global const float4* x,
+/* XPBD, Algorithm 1 line 16: v = (x - prev) / dt; anchored nodes take their scripted velocity.
+ * The inverse mass goes back from the solve's effective 1 / (m (1 + dt c)) to 1 / m (prev.w). */
+__kernel void cloth_xpbd_velocity(const uint n, const float dt, const float t, __global float4* x,
                                   __global const float4* prev, __global const float4* anchor,
                                   __global const float4* track, __global const uint* is_xpbd, __global float4* v) {
   const uint i = get_global_id(0);
   if (i >= n || !is_xpbd[i]) return;
   const float4 x4 = x[i];
+  const float4 p4 = prev[i];
+  x[i] = (float4)(x4.xyz, p4.w);
   if (x4.w == 0.0f)
     v[i] = (float4)(cloth_anchor_v(i, t + dt, anchor, track), 0.0f);
   else
-    v[i] = (float4)((x4.xyz - prev[i].xyz) / dt, 0.0f);
+    v[i] = (float4)((x4.xyz - p4.xyz) / dt, 0.0f);
 }
 
 /* The domain's closed walls (after either solver's step): a free node past one is put back just
@@ -322,8 +334,9 @@ __kernel void cloth_sphere_reduce(const uint n, const uint n_spheres, __global c
 
 /* XPBD contact with balls, inside the solve (Mueller et al. 2007, PBD collision constraints): after
  * each sweep a free node inside sphere k moves to its surface along the normal; the moves add up in
- * shift[k n + i]. Over the step they are the node's momentum change from the ball, m shift / dt
- * (v = (x - prev) / dt), so the ball receives -m shift / dt (cloth_sphere_shift_reduce). */
+ * shift[k n + i]. Over the step they are the node's impulse from the ball, m (1 + dt c) shift / dt
+ * (v = (x - prev) / dt, on the solve's effective mass), so the ball receives its opposite
+ * (cloth_sphere_shift_reduce). */
 __kernel void cloth_sphere_project(const uint n, const uint n_spheres, __global const float4* sphere,
                                    __global const uint* is_xpbd, __global float4* x, __global float4* shift) {
   const uint i = get_global_id(0);
@@ -331,14 +344,16 @@ __kernel void cloth_sphere_project(const uint n, const uint n_spheres, __global 
   cloth_sphere_project_node(i, n, n_spheres, sphere, is_xpbd, x, shift);
 }
 
-/* Per sphere k: J = -sum_i m_i shift_i / dt over the nodes in order (deterministic). */
+/* Per sphere k: J = -sum_i m_i (1 + dt c_i) shift_i / dt over the nodes in order (deterministic):
+ * the projection acts on the effective mass of the solve (cloth_xpbd_predict), so a ball resting
+ * on the cloth receives exactly what holds it. */
 __kernel void cloth_sphere_shift_reduce(const uint n, const uint n_spheres, const float dt,
-                                        __global const float* mass, __global const float4* shift,
-                                        __global float4* out) {
+                                        __global const float* mass, __global const float* drag,
+                                        __global const float4* shift, __global float4* out) {
   const uint k = get_global_id(0);
   if (k >= n_spheres) return;
   float3 J = (float3)(0.0f);
-  for (uint i = 0; i < n; ++i) J -= mass[i] * shift[k * n + i].xyz;
+  for (uint i = 0; i < n; ++i) J -= mass[i] * (1.0f + dt * drag[i]) * shift[k * n + i].xyz;
   out[k] = (float4)(J / dt, 0.0f);
 }
 

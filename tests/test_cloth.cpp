@@ -114,6 +114,53 @@ TEST_CASE("Cloth: a hanging chain at rest stretches spring i by (N - i + 1) m g 
   }
 }
 
+TEST_CASE("Cloth: the anchors of a hanging cloth at rest carry its full weight under air drag (both solvers)",
+          "[cloth][physics]") {
+  // A 5 x 5 cloth, 8 cm square, 10 g (1.25 kg/m^2), hung from its top edge in a vertical plane,
+  // air_damping c = 20/s, dt = 1/960 s: dt c = 0.021. Air drag acts on velocity only, so at rest
+  // the springs on the anchored edge carry the weight of the 20 free nodes, m g, exactly (statics:
+  // the free nodes' force balance summed, the inner springs cancel). A predictor that divides
+  // gravity by 1 + dt c as well leaves them m g / (1 + dt c), 2.1 % short. The drag damps every
+  // mode at c/2 = 10/s: after 1 s the release transient (amplitude m g) is e^-10 = 5e-5 of it.
+  // Tolerance 1e-3 relative, a twentieth of dt c: float rounding of the per-step corrections
+  // (dt^2 g = 1.1e-5 m against a position ulp of 1.5e-8 m) stays below it.
+  ClContext cl;
+  for (ClothSolver solver : {ClothSolver::Xpbd, ClothSolver::Explicit}) {
+    INFO("solver " << (solver == ClothSolver::Xpbd ? "xpbd" : "explicit"));
+    ClothSpec s;
+    s.name = "curtain";
+    s.resolution_x = s.resolution_y = 5;
+    s.width = s.length = 0.08;
+    s.areal_density = 0.01 / (0.08 * 0.08);
+    s.position = Eigen::Vector3d(0.5, 0.5, 0.06);
+    s.stretch_stiffness = 100;
+    s.shear_stiffness = 10;
+    s.bend_stiffness = 1;
+    s.orientation_axis = Eigen::Vector3d::UnitX();
+    s.orientation_angle = 90;  // cloth y -> world z: the y_max edge on top
+    s.air_damping = 20.0;
+    s.solver = solver;
+    ClothAnchorSpec top;
+    top.type = AnchorType::Edge;
+    top.edge = ClothEdge::YMax;
+    s.anchors.push_back(top);
+    const Compiled comp = compile(clothScene(s, 60, 16, 1.0));
+    const cloth::ClothModel& m = comp.model.cloth;
+    double free_mass = 0;
+    for (std::size_t k = 0; k < m.nodes(); ++k)
+      if (m.x0[k].w() > 0.0f) free_mass += m.mass[k];
+    Simulation sim(comp.model, comp.initial, cl);
+    for (int f = 0; f < comp.model.num_frames; ++f) sim.advanceFrame();
+    const cloth::ClothReport r = sim.cloth()->report(0, Eigen::Vector3d(0, 0, -kG));
+    const double weight = free_mass * kG;
+    INFO("anchor force " << r.anchor_force.transpose() << " N, weight of the free nodes " << weight
+                         << " N, relative error " << (-r.anchor_force.z() - weight) / weight << ", dt c = " << 20.0 / 960);
+    CHECK(std::abs(-r.anchor_force.z() - weight) <= 1e-3 * weight);
+    CHECK(std::abs(r.anchor_force.x()) <= 1e-3 * weight);
+    CHECK(std::abs(r.anchor_force.y()) <= 1e-3 * weight);
+  }
+}
+
 TEST_CASE("Cloth: a mass on a spring oscillates with period 2 pi sqrt(m/k)", "[cloth][physics]") {
   // m = 10 g, k = 100 N/m: T = 2 pi sqrt(m/k) = 62.8 ms. Released at the unstretched length under
   // gravity, it oscillates about mg/k below with amplitude mg/k (0.98 mm). Sampled 64 times per
