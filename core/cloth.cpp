@@ -113,13 +113,14 @@ std::vector<uint32_t> anchoredNodes(const ClothSpec& c, const ClothAnchorSpec& a
         for (int i : {0, nx - 1}) out.push_back(id(i, j));
       break;
     case AnchorType::Edge:
-      if (c.isMesh()) break;
+      if (c.isMesh() || a.edge == ClothEdge::ZMin || a.edge == ClothEdge::ZMax) break;  // z: a soft body's faces
       if (a.edge == ClothEdge::XMin || a.edge == ClothEdge::XMax)
         for (int j = 0; j < ny; ++j) out.push_back(id(a.edge == ClothEdge::XMin ? 0 : nx - 1, j));
       else
         for (int i = 0; i < nx; ++i) out.push_back(id(i, a.edge == ClothEdge::YMin ? 0 : ny - 1));
       break;
     case AnchorType::Node:
+      if (a.k != 0) break;  // k is a soft body's lattice index
       // A mesh cloth: vertex index i.
       if (c.isMesh()) {
         if (a.i >= 0 && static_cast<std::size_t>(a.i) < x.size() && a.j == 0) out.push_back(static_cast<uint32_t>(a.i));
@@ -215,21 +216,47 @@ SoftLattice softLattice(const SoftBodySpec& s, double dx) {
 }
 
 namespace {
-// The nodes of a soft body that an anchor pins (indices into the lattice's nodes): a box (world
-// frame) or a side face of the lattice (edge x_min: the nodes of lattice index i = 0, ...).
+// The nodes of a soft body that an anchor pins (indices into the lattice's nodes, ascending):
+//  - box: the nodes inside min..max (world frame);
+//  - edge: a face of the lattice (x_min: the nodes of the smallest lattice index i, ... z_max: the
+//    largest k; body frame);
+//  - corners: the lattice's eight extreme nodes, for each direction s = (+-1, +-1, +-1) the node
+//    that maximises s . (i, j, k) (the first in node order on a tie): a box's eight corners; for a
+//    mesh's lattice the outermost node towards each diagonal;
+//  - node: the node of lattice index (i, j, k), 0 .. cells_per_axis (none where a mesh's lattice
+//    has no node).
 std::vector<uint32_t> softAnchoredNodes(const SoftLattice& L, const ClothAnchorSpec& a) {
   std::vector<uint32_t> out;
   if (a.type == AnchorType::Box) {
     for (std::size_t k = 0; k < L.x.size(); ++k)
       if ((L.x[k].array() >= a.min.array()).all() && (L.x[k].array() <= a.max.array()).all()) out.push_back(uint32_t(k));
   } else if (a.type == AnchorType::Edge) {
-    const int axis = (a.edge == ClothEdge::XMin || a.edge == ClothEdge::XMax) ? 0 : 1;
-    const bool at_max = a.edge == ClothEdge::XMax || a.edge == ClothEdge::YMax;
+    const int axis = (a.edge == ClothEdge::XMin || a.edge == ClothEdge::XMax) ? 0
+                     : (a.edge == ClothEdge::YMin || a.edge == ClothEdge::YMax) ? 1 : 2;
+    const bool at_max = a.edge == ClothEdge::XMax || a.edge == ClothEdge::YMax || a.edge == ClothEdge::ZMax;
     int lo = std::numeric_limits<int>::max(), hi = std::numeric_limits<int>::min();
     for (const auto& ijk : L.node_ijk) lo = std::min(lo, ijk[axis]), hi = std::max(hi, ijk[axis]);
     for (std::size_t k = 0; k < L.node_ijk.size(); ++k)
       if (L.node_ijk[k][axis] == (at_max ? hi : lo)) out.push_back(uint32_t(k));
+  } else if (a.type == AnchorType::Corners) {
+    for (int c = 0; c < 8 && !L.node_ijk.empty(); ++c) {
+      const int sx = (c & 1) ? 1 : -1, sy = (c & 2) ? 1 : -1, sz = (c & 4) ? 1 : -1;
+      std::size_t best = 0;
+      int best_v = std::numeric_limits<int>::min();
+      for (std::size_t k = 0; k < L.node_ijk.size(); ++k) {
+        const auto& q = L.node_ijk[k];
+        const int v = sx * q[0] + sy * q[1] + sz * q[2];
+        if (v > best_v) best_v = v, best = k;
+      }
+      out.push_back(uint32_t(best));
+    }
+  } else if (a.type == AnchorType::Node) {
+    for (std::size_t k = 0; k < L.node_ijk.size(); ++k)
+      if (L.node_ijk[k] == std::array<int, 3>{{a.i, a.j, a.k}}) out.push_back(uint32_t(k));
   }
+  // A lattice one cell thick has coinciding corners: keep each node once.
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
   return out;
 }
 
@@ -319,6 +346,10 @@ ClothModel compileCloths(const std::vector<ClothSpec>& specs, std::vector<InputI
         msg << "cloth '" << s.name << "': this anchor pins no node of the cloth";
         if (s.isMesh() && (a.type == AnchorType::Corners || a.type == AnchorType::Edge))
           msg << " (corners and edge are for the rectangle: a mesh cloth takes node (vertex i) or box anchors)";
+        else if (a.type == AnchorType::Edge)
+          msg << " (a cloth's edges are x_min, x_max, y_min and y_max; z_min and z_max are a soft body's faces)";
+        else if (a.type == AnchorType::Node && a.k != 0)
+          msg << " (k " << a.k << ": a cloth's nodes are (i, j); k is for soft bodies)";
         else if (a.type == AnchorType::Node && s.isMesh())
           msg << " (vertex " << a.i << ", j " << a.j << ": a mesh cloth has vertices 0.." << n - 1 << " and j 0)";
         else if (a.type == AnchorType::Node)
@@ -423,17 +454,26 @@ ClothModel compileCloths(const std::vector<ClothSpec>& specs, std::vector<InputI
     std::vector<double> node_mass(n, 0.0);
     for (const auto& cell : L.cells)
       for (uint32_t q : cell) node_mass[q] += cell_mass / 8.0;
-    // Anchors: a box, or a side face of the lattice (corners and node are the rectangle's).
+    // Anchors: a box, a face of the lattice, its corners or one node (softAnchoredNodes), each
+    // constant, moving or keyframed as for cloth.
     std::vector<Eigen::Vector4f> anchor(n, Eigen::Vector4f::Zero());
     std::vector<bool> pinned(n, false);
     for (const ClothAnchorSpec& a : s.anchors) {
-      if (a.type == AnchorType::Corners || a.type == AnchorType::Node) {
-        fail(a.loc, label + ": anchors of type corners and node are for cloth; a soft body takes box (nodes inside "
-                            "min..max) or edge (a side face of its lattice: x_min, x_max, y_min, y_max)");
-        continue;
-      }
       const std::vector<uint32_t> nodes = softAnchoredNodes(L, a);
-      if (nodes.empty()) fail(a.loc, label + ": this anchor pins no node of the soft body (no node lies inside the box)");
+      if (nodes.empty()) {
+        std::ostringstream msg;
+        msg << label << ": this anchor pins no node of the soft body";
+        if (a.type == AnchorType::Box) msg << " (no node lies inside the box)";
+        if (a.type == AnchorType::Node) {
+          const auto& nc = L.cells_per_axis;
+          if (a.i < 0 || a.j < 0 || a.k < 0 || a.i > nc[0] || a.j > nc[1] || a.k > nc[2])
+            msg << " (node (" << a.i << ", " << a.j << ", " << a.k << ") is outside its lattice, 0.." << nc[0] << " x 0.."
+                << nc[1] << " x 0.." << nc[2] << ")";
+          else
+            msg << " (node (" << a.i << ", " << a.j << ", " << a.k << ") is not in the lattice: no cell inside the mesh has it as a corner)";
+        }
+        fail(a.loc, msg.str());
+      }
       pinNodes(m, a, nodes, 0, anchor, pinned);
     }
     for (uint32_t k = 0; k < n; ++k) {

@@ -46,7 +46,7 @@ enum class BodyShape { Mesh, Sphere, Box, Cylinder, Capsule };
 enum class MotionType { None, Constant, Keyframes };
 enum class ClothSolver { Xpbd, Explicit };
 enum class AnchorType { Corners, Edge, Node, Box };
-enum class ClothEdge { XMin, XMax, YMin, YMax };
+enum class ClothEdge { XMin, XMax, YMin, YMax, ZMin, ZMax };  ///< z_min / z_max: soft bodies only
 enum class FluidSolver { Wcsph, Dfsph };
 /// How DFSPH's walls take pressure (core/dfsph.h): mirrored (p_b = p_i, increments >= 0),
 /// Akinci's single term (p_b = 0, pressures projected to >= 0: the reference implementation's) or
@@ -237,10 +237,11 @@ struct AnchorKeyframeSpec {
 /// One set of anchored (pinned) cloth nodes. Anchored nodes have infinite mass: they follow their
 /// scripted motion (constant velocity, or keyframes) whatever the springs and the fluid do.
 struct ClothAnchorSpec {
-  AnchorType type = AnchorType::Corners;            ///< corners (all four), edge, node (i, j) or box (min, max)
-  ClothEdge edge = ClothEdge::YMax;                 ///< type edge: which edge of the rectangle (cloth frame)
-  int i = 0;                                        ///< type node: node index along the cloth x axis (0-based) (unit: 1)
-  int j = 0;                                        ///< type node: node index along the cloth y axis (0-based) (unit: 1)
+  AnchorType type = AnchorType::Corners;            ///< corners (all four; a soft body's eight), edge, node (i, j[, k]) or box (min, max)
+  ClothEdge edge = ClothEdge::YMax;                 ///< type edge: which edge of the rectangle (cloth frame); a soft body: which side face (body frame)
+  int i = 0;                                        ///< type node: node index along the cloth (soft body) x axis (0-based) (unit: 1)
+  int j = 0;                                        ///< type node: node index along the cloth (soft body) y axis (0-based) (unit: 1)
+  int k = 0;                                        ///< type node, soft bodies: lattice index along the body z axis (0-based) (unit: 1)
   Eigen::Vector3d min{0.0, 0.0, 0.0};               ///< type box: lower corner, world frame (unit: m)
   Eigen::Vector3d max{0.0, 0.0, 0.0};               ///< type box: upper corner, world frame (unit: m)
   Eigen::Vector3d velocity{0.0, 0.0, 0.0};          ///< velocity of the anchored nodes until `stop` (unit: m/s)
@@ -310,7 +311,7 @@ struct SoftBodySpec {
   double tear_strain = std::numeric_limits<double>::infinity();  ///< a spring breaks past this strain (unit: 1)
   double prestrain = 0.0;                           ///< placed stretched: rest length = placed length / (1 + prestrain) (unit: 1)
   Eigen::Vector3d colour{0.9, 0.7, 0.6};            ///< linear RGB in [0,1]
-  std::vector<ClothAnchorSpec> anchors;             ///< pinned nodes: box, or edge (a side face of the lattice, body frame)
+  std::vector<ClothAnchorSpec> anchors;             ///< pinned nodes: corners, edge (a face of the lattice), node (i, j, k) or box
   std::string mesh;                                 ///< closed OBJ mesh filled with the lattice (relative to the scene file; absolute after loading); empty = box
   SourceLoc mesh_loc;                               ///< where `mesh` was given
   TriMesh mesh_data;                                ///< the welded closed mesh in the body frame (filled by io::loadScene; not a key)

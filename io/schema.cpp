@@ -632,11 +632,12 @@ std::vector<KeyDef> buildTable() {
   add(field<InAnchors>("cloth[].anchors[].type", [](auto& a) -> auto& { return a.type; })
           .doc("corners (the four corners; the two ends of a chain), edge (one edge), node (i, j) or box (nodes inside min..max)"));
   add(field<InAnchors>("cloth[].anchors[].edge", [](auto& a) -> auto& { return a.edge; })
-          .doc("type edge: the edge of the rectangle, in the cloth frame"));
+          .doc("type edge: the edge of the rectangle, in the cloth frame: x_min, x_max, y_min or y_max (z_min and z_max are "
+               "for soft bodies)"));
   add(field<InAnchors>("cloth[].anchors[].i", [](auto& a) -> auto& { return a.i; })
-          .unit("1").doc("type node: node index along the cloth x axis, 0 .. resolution_x - 1 (mesh cloth: the vertex index, 0-based)"));
+          .unit("1").atLeast(0).doc("type node: node index along the cloth x axis, 0 .. resolution_x - 1 (mesh cloth: the vertex index, 0-based)"));
   add(field<InAnchors>("cloth[].anchors[].j", [](auto& a) -> auto& { return a.j; })
-          .unit("1").doc("type node: node index along the cloth y axis, 0 .. resolution_y - 1"));
+          .unit("1").atLeast(0).doc("type node: node index along the cloth y axis, 0 .. resolution_y - 1"));
   add(field<InAnchors>("cloth[].anchors[].min", [](auto& a) -> auto& { return a.min; })
           .unit("m").doc("type box: lower corner, world frame (the box must hold at least one node)"));
   add(field<InAnchors>("cloth[].anchors[].max", [](auto& a) -> auto& { return a.max; })
@@ -694,11 +695,21 @@ std::vector<KeyDef> buildTable() {
           .doc("closed (watertight) OBJ mesh (relative to the scene file) instead of the box: the lattice's cells whose "
                "centres lie inside it; size is not used"));
   add(nestedList<InSoftAnchors>("soft_bodies[].anchors").defaultNote("[]")
-          .doc("pinned nodes (infinite mass), moving at a constant velocity or along keyframes; type box or edge"));
+          .doc("pinned nodes (infinite mass), moving at a constant velocity or along keyframes, as for cloth"));
   add(field<InSoftAnchors>("soft_bodies[].anchors[].type", [](auto& a) -> auto& { return a.type; })
-          .doc("box (nodes inside min..max) or edge (a side face of the lattice, body frame); corners and node are for cloth"));
+          .doc("corners (the lattice's eight extreme nodes: for each diagonal direction (+-1, +-1, +-1) of the body frame "
+               "the node furthest along it; a box's eight corners), edge (a face of the lattice), node (lattice index i, j, k) "
+               "or box (nodes inside min..max)"));
   add(field<InSoftAnchors>("soft_bodies[].anchors[].edge", [](auto& a) -> auto& { return a.edge; })
-          .doc("type edge: the side face of the lattice (x_min: the nodes of smallest body-frame x, ...)"));
+          .doc("type edge: a face of the lattice, body frame (x_min: the nodes of the smallest lattice index along x, ... "
+               "z_max: the largest along z)"));
+  add(field<InSoftAnchors>("soft_bodies[].anchors[].i", [](auto& a) -> auto& { return a.i; })
+          .unit("1").atLeast(0).doc("type node: lattice index along the body x axis, 0 .. cells along x (a box: round(size.x / spacing))"));
+  add(field<InSoftAnchors>("soft_bodies[].anchors[].j", [](auto& a) -> auto& { return a.j; })
+          .unit("1").atLeast(0).doc("type node: lattice index along the body y axis, 0 .. cells along y"));
+  add(field<InSoftAnchors>("soft_bodies[].anchors[].k", [](auto& a) -> auto& { return a.k; })
+          .unit("1").atLeast(0).doc("type node: lattice index along the body z axis, 0 .. cells along z (a mesh's lattice: "
+                                   "only indices of nodes of cells inside the mesh)"));
   add(field<InSoftAnchors>("soft_bodies[].anchors[].min", [](auto& a) -> auto& { return a.min; })
           .unit("m").doc("type box: lower corner, world frame (the box must hold at least one node)"));
   add(field<InSoftAnchors>("soft_bodies[].anchors[].max", [](auto& a) -> auto& { return a.max; })

@@ -135,7 +135,9 @@ struct EnumNames<ClothEdge> {
   static constexpr std::pair<ClothEdge, const char*> values[] = {{ClothEdge::XMin, "x_min"},
                                                                    {ClothEdge::XMax, "x_max"},
                                                                    {ClothEdge::YMin, "y_min"},
-                                                                   {ClothEdge::YMax, "y_max"}};
+                                                                   {ClothEdge::YMax, "y_max"},
+                                                                   {ClothEdge::ZMin, "z_min"},
+                                                                   {ClothEdge::ZMax, "z_max"}};
 };
 
 /// The YAML spelling of an enum value, e.g. enumName(KernelType::WendlandC2) == "wendland_c2".

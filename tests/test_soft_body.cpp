@@ -149,6 +149,82 @@ TEST_CASE("Soft body: a free-standing column compresses under its own weight by 
   }
 }
 
+TEST_CASE("Soft body: corner, face and node anchors pin their lattice nodes; keyframed corners carry the body", "[soft]") {
+  // A 4 x 3 x 2 cm box at 1 cm: 5 x 4 x 3 lattice nodes, indices (i, j, k). corners pins the 8 with
+  // i in {0, 4}, j in {0, 3}, k in {0, 2}; edge z_min the 20 with k = 0 (z_max: k = 2); node
+  // (2, 1, 1) that node alone.
+  auto pinned = [](const ClothAnchorSpec& a) {
+    SoftBodySpec b = box(Eigen::Vector3d(0.04, 0.03, 0.02), 1e5);
+    b.anchors.push_back(a);
+    std::vector<InputIssue> issues;
+    const cloth::ClothModel m = cloth::compileCloths({}, issues, {b}, 0.01);
+    REQUIRE(issues.empty());
+    REQUIRE(m.nodes() == 60u);
+    std::vector<std::array<int, 3>> out;  // lattice index of every pinned node (node k = (k5 * 4 + j) * 5 + i)
+    for (int n = 0; n < 60; ++n)
+      if (m.x0[std::size_t(n)].w() == 0.0f) out.push_back({{n % 5, n / 5 % 4, n / 20}});
+    return out;
+  };
+  ClothAnchorSpec a;
+  a.type = AnchorType::Corners;
+  const auto corners = pinned(a);
+  CHECK(corners.size() == 8u);
+  for (const auto& q : corners) CHECK(((q[0] == 0 || q[0] == 4) && (q[1] == 0 || q[1] == 3) && (q[2] == 0 || q[2] == 2)));
+  a.type = AnchorType::Edge;
+  for (ClothEdge e : {ClothEdge::ZMin, ClothEdge::ZMax}) {
+    a.edge = e;
+    const auto face = pinned(a);
+    CHECK(face.size() == 20u);
+    for (const auto& q : face) CHECK(q[2] == (e == ClothEdge::ZMin ? 0 : 2));
+  }
+  a.type = AnchorType::Node;
+  a.i = 2, a.j = 1, a.k = 1;
+  const auto one = pinned(a);
+  REQUIRE(one.size() == 1u);
+  CHECK((one[0] == std::array<int, 3>{{2, 1, 1}}));
+
+  // Keyframed corners (XPBD, air damping 20/s) draw a 2 x 2 x 2 cm body (3 x 3 x 3 nodes) 2 cm
+  // along x over 0.5 s, then hold it until 1 s. Every frame the corners are at placed position +
+  // the path's offset (1e-6 m: float positions); at the end the free nodes have moved by the same
+  // 2 cm along x, on average within 1e-6 m: the body translates (in x it is symmetric about its
+  // centre, and its drag lag, m c v / k ~ 1e-5 m while it moves, decays by e^-5 in the 0.5 s hold
+  // to 7e-8 m; float positions near 0.5 m round to 6e-8 m).
+  SoftBodySpec b = box(Eigen::Vector3d(0.02, 0.02, 0.02), 1e5);
+  b.air_damping = 20;
+  b.iterations = 16;
+  ClothAnchorSpec c;
+  c.type = AnchorType::Corners;
+  c.keyframes = {{0.0, Eigen::Vector3d::Zero(), {}}, {0.5, Eigen::Vector3d(0.02, 0, 0), {}}};
+  b.anchors.push_back(c);
+  ClContext cl;
+  const Compiled comp = compile(softScene(b, 60, 16, 1.0));
+  const cloth::ClothModel& m = comp.model.cloth;
+  REQUIRE(m.nodes() == 27u);
+  Simulation sim(comp.model, comp.initial, cl);
+  double worst = 0;
+  std::vector<Eigen::Vector4f> x, v;
+  for (int f = 0; f < comp.model.num_frames; ++f) {
+    sim.advanceFrame();
+    sim.cloth()->read(x, v);
+    const double offset = 0.02 * std::min(1.0, sim.time() / 0.5);
+    for (std::size_t k = 0; k < 27; ++k)
+      if (m.x0[k].w() == 0.0f)
+        worst = std::max(worst, ((x[k].head<3>() - m.x0[k].head<3>()).cast<double>() - Eigen::Vector3d(offset, 0, 0))
+                                    .cwiseAbs()
+                                    .maxCoeff());
+  }
+  double moved = 0;
+  int free_nodes = 0;
+  for (std::size_t k = 0; k < 27; ++k)
+    if (m.x0[k].w() > 0.0f) moved += double(x[k].x() - m.x0[k].x()), ++free_nodes;
+  moved /= free_nodes;
+  INFO("corners off their path by at most " << worst << " m; free nodes moved " << moved << " m along x (19 nodes: "
+                                            << free_nodes << ")");
+  CHECK(free_nodes == 19);
+  CHECK(worst < 1e-6);
+  CHECK(std::abs(moved - 0.02) < 1e-6);
+}
+
 TEST_CASE("Soft body: the surface mesh is the intact cells' outer faces, and a broken spring opens its cell", "[soft][io]") {
   // A row of 4 x 1 x 1 cells: 6 x 4 - 2 x 3 = 18 outer faces (36 triangles), facing out. Breaking
   // a body diagonal of cell 1 (a spring of that cell only) removes the cell: cell 0 shows all 6
@@ -296,18 +372,54 @@ TEST_CASE("Soft body: bad input is reported at its location, exit 2", "[soft][in
   const cloth::ClothModel cube = cloth::compileCloths({}, none, ok.soft_bodies, 0.05);
   CHECK(none.empty());
   CHECK(cube.soft.at(0).nodes.size() == 8000u);
-  // Corners and node anchors (cloth only), a box around no node: at the anchor, when compiled.
+  // A node index outside the lattice (2 x 2 x 1 cells of 5 cm: indices 0..2 x 0..2 x 0..1), a box
+  // around no node: at the anchor, when compiled; a negative index: at its key, when loaded.
   const auto scene = dir.write("anchors.yaml", head +
                                                    "    anchors:\n"
                                                    "      - {type: corners}\n"
-                                                   "      - {type: box, min: [0, 0, 0], max: [0.1, 0.1, 0.1]}\n");
+                                                   "      - {type: box, min: [0, 0, 0], max: [0.1, 0.1, 0.1]}\n"
+                                                   "      - {type: node, i: 1, j: 1, k: 2}\n");
   try {
     (void)compile(io::loadScene(scene.string()));
-    FAIL("a corners anchor on a soft body compiled");
+    FAIL("an anchor outside the soft body compiled");
   } catch (const InputError& e) {
     INFO(dump(e.issues()));
-    CHECK(hasIssue(e.issues(), 7, {"corners and node are for cloth"}));
-    CHECK(hasIssue(e.issues(), 8, {"pins no node"}));
+    CHECK(e.issues().size() == 2u);  // corners pin the lattice's corners
+    CHECK(hasIssue(e.issues(), 8, {"pins no node", "box"}));
+    CHECK(hasIssue(e.issues(), 9, {"pins no node", "(1, 1, 2) is outside its lattice, 0..2 x 0..2 x 0..1"}));
+  }
+  issues = issuesOf(dir, head + "    anchors:\n      - {type: node, i: 0, j: 0, k: -1}\n");
+  CHECK(hasIssue(issues, 7, {"k"}));
+  // A mesh's lattice has no node outside the mesh: the cube scaled to fill 2 x 2 x 2 cells with a
+  // node at (1, 1, 1) (its centre), at (3, 3, 3) none (outside the 0..2 lattice).
+  const auto cube_node = dir.write("cube_node.yaml", head +
+                                                         "    mesh: cube.obj\n"
+                                                         "    spacing: 0.5\n"
+                                                         "    anchors:\n"
+                                                         "      - {type: node, i: 1, j: 1, k: 1}\n"
+                                                         "      - {type: node, i: 3, j: 3, k: 3}\n");
+  try {
+    (void)compile(io::loadScene(cube_node.string()));
+    FAIL("an anchor outside the soft body compiled");
+  } catch (const InputError& e) {
+    INFO(dump(e.issues()));
+    CHECK(e.issues().size() == 1u);
+    CHECK(hasIssue(e.issues(), 10, {"pins no node", "(3, 3, 3)"}));
+  }
+  // A cloth takes no z edge.
+  const auto cloth_z = dir.write("cloth_z.yaml", "domain: {min: [0, 0, 0], max: [1, 1, 1]}\n"
+                                                 "fluid: {particle_spacing: 0.05}\n"
+                                                 "cloth:\n"
+                                                 "  - name: sheet\n"
+                                                 "    position: [0.5, 0.5, 0.5]\n"
+                                                 "    anchors:\n"
+                                                 "      - {type: edge, edge: z_min}\n");
+  try {
+    (void)compile(io::loadScene(cloth_z.string()));
+    FAIL("a cloth anchored at a z edge compiled");
+  } catch (const InputError& e) {
+    INFO(dump(e.issues()));
+    CHECK(hasIssue(e.issues(), 7, {"pins no node", "z_min and z_max are a soft body's faces"}));
   }
   const Result r = sphaptics(dir.path, {"validate", dir.write("open.yaml", head + "    mesh: open.obj\n").string()});
   CHECK(r.code == 2);
