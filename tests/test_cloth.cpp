@@ -7,6 +7,7 @@
 #include "core/model.h"
 #include "core/simulation.h"
 #include "io/cloth_writer.h"
+#include "io/obj_io.h"
 #include "io/scene_loader.h"
 #include "tests/cloth_scenes.h"
 #include "tests/run_binary.h"
@@ -18,6 +19,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <sstream>
 #include <vector>
 
 using namespace sph;
@@ -159,6 +161,91 @@ TEST_CASE("Cloth: the anchors of a hanging cloth at rest carry its full weight u
     CHECK(std::abs(r.anchor_force.x()) <= 1e-3 * weight);
     CHECK(std::abs(r.anchor_force.y()) <= 1e-3 * weight);
   }
+}
+
+TEST_CASE("Cloth: sphaptics run writes cloth.csv with the anchor reaction and a coloured OBJ per frame", "[cloth][io]") {
+  // The curtain above as a scene file, run by the command line for 1 s: cloth.csv has a row per
+  // frame (61 with frame 0) whose anchor_fz at the end is minus the free nodes' weight (20 of 25
+  // nodes of 0.4 g: 0.07848 N) within 1e-3, and cloth_curtain_0060.obj the 4 x 4 cells' 32
+  // triangles with a colour per vertex.
+  using sph::testing::TempDir;
+  TempDir dir;
+  const auto scene = dir.write("curtain.yaml",
+                               "simulation: {duration: 1.0, frame_rate: 60, substeps: 16}\n"
+                               "domain: {min: [0, 0, 0], max: [1, 1, 1]}\n"
+                               "fluid: {particle_spacing: 0.05}\n"
+                               "cloth:\n"
+                               "  - name: curtain\n"
+                               "    width: 0.08\n"
+                               "    length: 0.08\n"
+                               "    resolution_x: 5\n"
+                               "    resolution_y: 5\n"
+                               "    position: [0.5, 0.5, 0.06]\n"
+                               "    orientation_axis: [1, 0, 0]\n"
+                               "    orientation_angle: 90\n"
+                               "    areal_density: 1.5625\n"
+                               "    stretch_stiffness: 100\n"
+                               "    shear_stiffness: 10\n"
+                               "    bend_stiffness: 1\n"
+                               "    air_damping: 20\n"
+                               "    anchors: [{type: edge, edge: y_max}]\n"
+                               "output: {particles: false}\n");
+  const sph::testing::Result r = sph::testing::sphaptics(dir.path, {"run", scene.string(), "-q", "-o", (dir.path / "run").string()});
+  INFO(r.err);
+  REQUIRE(r.code == 0);
+  std::istringstream csv(sph::testing::readFile(dir.path / "run" / "cloth.csv"));
+  std::string line, last;
+  int rows = 0;
+  bool header = false;
+  while (std::getline(csv, line)) {
+    if (line.empty() || line[0] == '#') continue;
+    if (line.rfind("time,cloth,", 0) == 0) {
+      header = line.find("anchor_fx,anchor_fy,anchor_fz") != std::string::npos;
+      continue;
+    }
+    ++rows;
+    last = line;
+  }
+  CHECK(header);
+  CHECK(rows == 61);
+  const double fz = std::stod(last.substr(last.rfind(',') + 1));
+  const double weight = 20 * 0.0004 * kG;
+  INFO("last row: " << last << "; weight of the free nodes " << weight << " N");
+  CHECK(std::abs(-fz - weight) <= 1e-3 * weight);
+  const TriMesh obj = io::readObj((dir.path / "run" / "cloth_curtain_0060.obj").string());
+  CHECK(obj.numTriangles() == 32u);
+  CHECK(obj.colours.size() == obj.positions.size());
+}
+
+TEST_CASE("Cloth: the explicit solver subdivides a step past 2 sqrt(m/k) and stays stable", "[cloth][physics]") {
+  // One mass m = 10 g on a spring k = 10^4 N/m (explicit, no damping): stability limit
+  // 2 sqrt(m/k) = 2 ms, taken with a 10 % margin (ClothModel::explicit_dt_limit = 1.8 ms). Frames of
+  // 1/60 s in one step each: every step runs ceil(16.7 / 1.8) = 10 substeps. Released at its rest
+  // length, it oscillates about m g / k below with amplitude A = m g / k (9.8 um). Symplectic Euler
+  // at substep h keeps x^2 + v^2 / omega^2 - h x v constant, so from rest at A its largest
+  // excursion is A / sqrt(1 - (omega h / 2)^2) = 1.81 A at omega h = 1.67: checked over 1 s (160
+  // periods) within 5 % of that (float rounding of z near 0.1 m: 1e-3 A). Unsubdivided (omega dt =
+  // 16.7) it grows by ~ (omega dt)^2 per step and overflows within the second.
+  const double m = 0.01, k = 1e4;
+  ClothSpec s = chain(1, m, 0.1, k, 0.0, ClothSolver::Explicit);
+  s.position.z() = 0.1;
+  ClContext cl;
+  const Compiled comp = compile(clothScene(s, 60, 1, 1.0));
+  const double limit = 1.8 * std::sqrt(m / k);
+  CHECK(comp.model.cloth.explicit_dt_limit == Approx(limit).epsilon(1e-6));
+  Simulation sim(comp.model, comp.initial, cl);
+  const double z_eq = comp.model.cloth.x0[0].z() - m * kG / k;
+  double worst = 0;
+  for (int f = 0; f < comp.model.num_frames; ++f) {
+    sim.advanceFrame();
+    CHECK(sim.cloth()->lastSubsteps() == static_cast<int>(std::ceil((1.0 / 60) / limit)));
+    worst = std::max(worst, std::abs(double(positions(sim)[0].z()) - z_eq));
+  }
+  const double h = (1.0 / 60) / std::ceil((1.0 / 60) / limit), wh = std::sqrt(k / m) * h;
+  const double bound = m * kG / k / std::sqrt(1 - wh * wh / 4);
+  INFO("largest distance from the rest point " << worst << " m; symplectic Euler's bound " << bound << " m");
+  CHECK(std::isfinite(worst));
+  CHECK(worst <= 1.05 * bound);
 }
 
 TEST_CASE("Cloth: a mass on a spring oscillates with period 2 pi sqrt(m/k)", "[cloth][physics]") {
