@@ -31,7 +31,9 @@ inline float3 cloth_anchor_v(const uint i, const float t_end, __global const flo
 
 /* Explicit mass-spring (the paper's): F_i = m_i g + f_ext + sum_j [k (L - L0) + c (v_j - v_i).u] u,
  * u = (x_j - x_i) / L; symplectic Euler (v first, then x with the new v), the drag implicit so it
- * never limits the step. XPBD nodes are copied through. */
+ * never limits the step: v' = (v + dt F / m) / (1 + dt c), every force (springs included) inside,
+ * so a node is at rest (v' = v = 0) exactly where F = 0: the springs carry the full weight. XPBD
+ * nodes are copied through. */
 __kernel void cloth_explicit_step(const uint n, const float dt, const float t, const float4 g,
                                   __global const float4* x_in, __global const float4* v_in,
                                   __global const float* mass, __global const float* drag,
