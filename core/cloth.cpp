@@ -622,6 +622,8 @@ ClothSim::ClothSim(const ClothModel& model, ClContext& cl, KernelSet& kernels) :
   std::vector<Eigen::Vector4f> v0(n_, Eigen::Vector4f::Zero());
   v_[0] = upload(v0);
   v_[1] = upload(v0);
+  xlo_[0] = upload(v0);
+  xlo_[1] = upload(v0);
   prev_ = upload(m_.x0);
   zero_force_ = upload(v0);
   mass_ = upload(m_.mass);
@@ -698,7 +700,7 @@ std::vector<Eigen::Vector3d> ClothSim::step(double t, double dt, const Eigen::Ve
   if (m_.closed_mask != 0) {
     const cl_float4 lo{{m_.walls_min.x(), m_.walls_min.y(), m_.walls_min.z(), 0.0f}};
     const cl_float4 hi{{m_.walls_max.x(), m_.walls_max.y(), m_.walls_max.z(), 0.0f}};
-    k_.call("cloth_domain_walls", n_, 64, n_, lo, hi, m_.closed_mask, m_.wall_margin, x_[cur_], v_[cur_]);
+    k_.call("cloth_domain_walls", n_, 64, n_, lo, hi, m_.closed_mask, m_.wall_margin, x_[cur_], v_[cur_], xlo_[lo_cur_]);
   }
   if (m_.any_tear) tear();
   if (ns == 0) return J;
@@ -735,10 +737,11 @@ void ClothSim::explicitSubstep(double t, float dt, const Eigen::Vector4f& g, con
   const int nxt = 1 - cur_;
   uploadTracks(t + dt);
   const cl_float4 g4{{g.x(), g.y(), g.z(), 0.0f}};
-  k_.call("cloth_explicit_step", n_, 64, n_, dt, float(t), g4, x_[cur_], v_[cur_], mass_, drag_, anchor_, x_rest_, track_,
-          is_xpbd_, row_start_, spring_, other_, prm_, broken_, fext, x_[nxt], v_[nxt]);
+  k_.call("cloth_explicit_step", n_, 64, n_, dt, float(t), g4, x_[cur_], xlo_[lo_cur_], v_[cur_], mass_, drag_, anchor_,
+          x_rest_, track_, is_xpbd_, row_start_, spring_, other_, prm_, broken_, fext, x_[nxt], xlo_[1 - lo_cur_], v_[nxt]);
   // XPBD nodes were copied through unchanged: both halves stay whole.
   cur_ = nxt;
+  lo_cur_ = 1 - lo_cur_;
 }
 
 void ClothSim::xpbdStep(double t, float dt, const Eigen::Vector4f& g, const cl::Buffer& fext, uint32_t n_spheres) {
@@ -781,7 +784,7 @@ std::vector<Eigen::Vector3d> ClothSim::collideSpheres(const std::vector<SphereCo
   std::vector<Eigen::Vector3d> out(ns, Eigen::Vector3d::Zero());
   if (ns == 0 || n_ == 0) return out;
   uploadSpheres(spheres);
-  k_.call("cloth_sphere_contact", n_, 64, n_, ns, spheres_, mass_, is_xpbd_, x_[cur_], v_[cur_], impulse_);
+  k_.call("cloth_sphere_contact", n_, 64, n_, ns, spheres_, mass_, is_xpbd_, x_[cur_], v_[cur_], impulse_, xlo_[lo_cur_]);
   k_.call("cloth_sphere_reduce", ns, 0, n_, ns, impulse_, impulse_sum_);
   std::vector<Eigen::Vector4f> sums(ns);
   clCall("reading the sphere impulses", [&] { return cl_.queue().enqueueReadBuffer(impulse_sum_, CL_TRUE, 0, ns * 16, sums.data()); });
@@ -841,6 +844,8 @@ void ClothSim::write(const std::vector<Eigen::Vector4f>& x, const std::vector<Ei
   clCall("writing the cloth", [&] {
     cl_.queue().enqueueWriteBuffer(x_[cur_], CL_TRUE, 0, n_ * 16, x.data());
     cl_.queue().enqueueWriteBuffer(v_[cur_], CL_TRUE, 0, n_ * 16, v.data());
+    // The positions written are whole: no low parts (explicit solver).
+    cl_.queue().enqueueFillBuffer(xlo_[lo_cur_], cl_float4{}, 0, n_ * 16);
     return 0;
   });
 }

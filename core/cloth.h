@@ -238,6 +238,10 @@ class ClothSim {
   double last_dt_ = 0.0;  // the last step's length (unit: s)
   bool any_explicit_ = false, any_xpbd_ = false;
   cl::Buffer x_rest_, track_;  // placed positions; tracks at the step's end (offset, velocity) per track
+  // Explicit solver: the low parts of the positions (x = x_[cur_] + xlo_[lo_cur_], an unevaluated
+  // float sum, kernels/cloth.cl), ping-ponged by its substeps only (unit: m); zero elsewhere.
+  cl::Buffer xlo_[2];
+  int lo_cur_ = 0;
   std::vector<Eigen::Vector4f> track_host_;
   cl::Buffer x_[2], v_[2], prev_, mass_, drag_, anchor_, row_start_, spring_, other_, ends_, prm_, broken_, slot_,
       lambda_, zero_force_, is_xpbd_, iters_, spheres_, impulse_, impulse_sum_, shift_;
