@@ -160,6 +160,16 @@ SinkCheck sinkingBall(const std::string& scene, double dx, double skip, double u
                       double cd_lo,
                       double cd_hi, const std::vector<std::string>& sets = {}, const std::string& device = "");
 
+/// The upper end of a sampled sphere's mean drag coefficient in a tank at Re ~ 1e3 .. 1e5: a
+/// sphere's 0.5 (Newton regime; started from rest its wake forms over several diameters, so its
+/// mean is lower), times the resolution's (1 + dx / 2R)^2 (the pressure surface of a ball sampled
+/// at spacing dx lies within dx/2 of R: form drag scales with the frontal area), times the wall
+/// factor of a sphere of diameter d = 2R settling in a tube of diameter D, Munroe's (1888)
+/// v_t / v_inf = 1 - (d / D)^1.5 for Re > ~1e3 (Chhabra, Agarwal & Sinha 1999, Powder Technol.
+/// 101, 288), so C_d x 1 / (1 - (d/D)^1.5)^2; for a square tank D is its side (the hydraulic
+/// diameter: the larger factor). R, dx, D in m (unit: 1).
+double sinkingDragBound(double radius, double dx, double tank);
+
 /// The drag over 6 pi mu R U expected of a ball of radius R (m) sampled at spacing dx (m) at the
 /// centre of a closed cubic box of side L (m): TowCheck::expected_lo/hi (unit: 1).
 void stokesBand(double radius, double dx, double box, double& lo, double& hi);
