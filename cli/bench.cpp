@@ -293,6 +293,15 @@ int forceChecks(const BenchOptions& opt) {
       row("stokes_drag_over_6piMuRU", solver, dx, t.radius / dx, t.drag / t.stokes, t.expected_lo, t.expected_hi,
           t.wall_seconds);
       row("sideways_over_drag", solver, dx, t.radius / dx, t.side / t.drag, 0.0, 0.0, t.wall_seconds);
+      // Where the no-slip surface lies: (R - R_eff) / dx for the drag measured, with the box's two
+      // bracketing containers (equal volume: the smaller offset; inscribed: the larger), against
+      // the band's -0.5 .. 0.5 (the boundary particles sit at R - dx/2, the fluid's first layer
+      // at R + dx/2). A constant offset in dx: first-order convergence in dx / R.
+      const double b_in = 0.5 * t.box, b_vol = t.box * std::cbrt(3.0 / (4.0 * M_PI));
+      row("stokes_noslip_inside_R_dx_eqvol", solver, dx, t.radius / dx,
+          (t.radius - stokesEffectiveRadius(t.drag / t.stokes, t.radius, b_vol)) / dx, -0.5, 0.5, t.wall_seconds);
+      row("stokes_noslip_inside_R_dx_inscr", solver, dx, t.radius / dx,
+          (t.radius - stokesEffectiveRadius(t.drag / t.stokes, t.radius, b_in)) / dx, -0.5, 0.5, t.wall_seconds);
     }
     for (const double c0 : {30.0, 60.0}) {
       // Moderate Re: the towed ball at U = 1/3 m/s in a liquid of nu = 1e-3 m^2/s (Re = 2 R U / nu

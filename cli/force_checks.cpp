@@ -250,6 +250,17 @@ double sphereInSphereWallFactor(double l) {
   return (1.0 - std::pow(l, 5)) / (1.0 - 2.25 * l + 2.5 * std::pow(l, 3) - 2.25 * std::pow(l, 5) + std::pow(l, 6));
 }
 
+double stokesEffectiveRadius(double ratio, double radius, double b) {
+  // (R_eff / R) K(R_eff / b) grows with R_eff: bisection.
+  double lo = 0.25 * radius, hi = std::min(1.75 * radius, 0.99 * b);
+  for (int k = 0; k < 60; ++k) {
+    const double mid = 0.5 * (lo + hi);
+    if (mid / radius * sphereInSphereWallFactor(mid / b) < ratio) lo = mid;
+    else hi = mid;
+  }
+  return 0.5 * (lo + hi);
+}
+
 void stokesBand(double radius, double dx, double box, double& lo, double& hi) {
   // The box's two bracketing containers (towedBall) with the no-slip surface dx/2 inside or
   // outside R (the resolution's uncertainty).
@@ -266,6 +277,7 @@ TowCheck towedBall(const std::string& scene, double dx, const std::vector<std::s
   const double duration = b.duration, nu = b.nu, rho = b.rho, box = b.box;
   const std::vector<StepForce>& log = b.log;
   c.speed = b.speed;
+  c.box = box;
   c.mu = rho * nu;
   c.reynolds = 2.0 * c.radius * c.speed / nu;
   c.stokes = 6.0 * M_PI * c.mu * c.radius * c.speed;

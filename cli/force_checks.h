@@ -91,6 +91,7 @@ struct TowCheck {
   double dx = 0;               ///< (unit: m)
   double radius = 0;           ///< (unit: m)
   double speed = 0;            ///< U (unit: m/s)
+  double box = 0;              ///< the domain's smallest side (unit: m)
   double mu = 0;               ///< dynamic viscosity rho nu (unit: Pa s)
   double reynolds = 0;         ///< 2 R U / nu (unit: 1)
   double drag = 0;             ///< mean -F_x over the second half of the run (unit: N)
@@ -113,6 +114,12 @@ struct TowCheck {
 /// spherical container (radius b), lambda = R / b: F = 6 pi mu R U K with
 /// K = (1 - lambda^5) / (1 - 9/4 lambda + 5/2 lambda^3 - 9/4 lambda^5 + lambda^6).
 double sphereInSphereWallFactor(double lambda);
+
+/// The radius R_eff of a no-slip sphere whose Stokes drag in a spherical container of radius b (m)
+/// is `ratio` x 6 pi mu R U: the root of (R_eff / R) K(R_eff / b) = ratio (bisection over
+/// 0.25 R .. min(1.75 R, 0.99 b)). With b the two containers that bracket the box (TowCheck), it
+/// places the towed ball's effective no-slip surface (unit: m).
+double stokesEffectiveRadius(double ratio, double radius, double b);
 
 /// Runs `scene` (stokes_tow.yaml) at spacing dx; `sets` are extra --set overrides.
 TowCheck towedBall(const std::string& scene, double dx, const std::vector<std::string>& sets = {},
