@@ -26,8 +26,9 @@
  * repulsion acts inside r0 = dx (in the spirit of Monaghan & Kajtar 2009's boundary forces):
  *     a_i += sum_b (V_b / V0) k_c c0^2 / dx (1 - r/r0) x_ib / r,   k_c = 5
  * (shared/pair_loops.h, sph_boundary_contact; r0 = dx/2 at a moving body's particles, issue 15:
- * with dx it was most of a moving body's drag). At walls r0 = dx covers the gaps of the boundary lattice (a point on the wall plane is at most 0.87 dx
- * from a boundary particle); the force is zero at the rest spacing; the barrier it builds before
+ * with dx it was most of a moving body's drag). At walls r0 = dx covers the gaps of the boundary
+ * lattice (a point on the wall plane is at most 0.87 dx from a boundary particle); the force is
+ * zero at the rest spacing; the barrier it builds before
  * the wall plane stops particles up to ~0.3 c0 (3x the speed c0 is chosen for); its stiffness
  * k_c c0^2 / dx^2 keeps dt^2 k < 1 at the CFL step (symplectic Euler needs < 4).
  * The force between fluid particles i and j is equal and opposite, so momentum is conserved. */

@@ -266,7 +266,8 @@ inline float3 sph_boundary_viscosity(const SimParams* p, const float m, const fl
  * depend on viscosity (a 6 cm ball sinking in water: mean C_d 3.9 against a sphere's 0.4-0.5;
  * 1.2 without this term, 1.3 with r0 = 0.75 dx, and bitwise the same as without it with r0 = dx/2:
  * no fluid particle came within dx/2 of the ball). Inside dx/2 it still stops a splash particle
- * (p = 0) before it reaches the body's surface. */
+ * (p = 0) before it reaches the body's surface; its stiffness there, 2 k_c c0^2 / dx^2, keeps
+ * dt^2 k < 2 at the CFL step (symplectic Euler needs < 4). */
 inline float3 sph_boundary_contact(const SimParams* p, const float3 d, const float r, const float w, const int body) {
   const float dx = cbrt(p->rest_volume);
   const float r0 = body ? 0.5f * dx : dx;
