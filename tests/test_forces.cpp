@@ -20,18 +20,19 @@ using namespace sph;
 using testing::scenePath;
 
 TEST_CASE("Forces: a ball shaken in still water feels the added mass C_m = 1/2", "[forces]") {
-  // A kinematic ball, radius 3 cm, shaken along x from rest, x = x0 + A (1 - cos w t), A = 1 mm,
-  // 10 Hz, two periods (scenes/tests/accel_ball.yaml; inviscid). The force needed is
+  // A kinematic ball, radius 3 cm, at rest 0.3 s, then shaken along x, x = x0 + A (1 - cos w t),
+  // A = 1 mm, 10 Hz, two periods (scenes/tests/accel_ball.yaml; inviscid). The force needed is
   // (m + C_m rho V) a; the fluid's part is F_x = -C_m rho V a, C_m = 1/2 in unbounded fluid. The
   // nearest wall (the floor, 8 cm from the centre) raises it: in a concentric sphere of that
   // radius C_m = 0.58 (Lamb 1932, art. 92), an upper bound for the box. F_x is fitted as
   // -M a - B v over the two periods (a and v are orthogonal there: added mass and drag separate).
-  // Resolution: R / dx = 3 and 4. The fluid layer next to the body is about dx/2 thick, an
-  // O(dx / R) error in the effective volume (+-50 % at R / dx = 3 if it moved with the body, which
-  // potential flow does not let it); the water column's ringing near 20 Hz leaks into the 10 Hz
-  // fit. Measured: 0.46 at R / dx = 3, 0.55 at 4 (0.43 and 0.64 before the body contact range
-  // was cut to dx/2, issue 15: README, Forces on bodies). Tolerance: 25 % outside [0.5, 0.58].
-  // Halving the coupling force halves C_m (the body is kinematic: 0.23, 0.28): below the band.
+  // Resolution: R / dx = 3 and 4. The volume the fluid sees displaced is the sampled ball's, known
+  // to ~7 % at R / dx = 3 (its held force is 0.93 rho g V, test below): tolerance 10 % outside
+  // [0.5, 0.58]. Measured: 0.511 at R / dx = 3, 0.505 at 4 (session 7; 0.58 at 5, bench). Shaken
+  // from 0.15 s, as before session 7, the tank's start-up ringing (undamped in this inviscid
+  // liquid) leaked into the 10 Hz fit: 0.46, 0.55 (0.43, 0.64 with the body contact range dx,
+  // before issue 15's fix), with a spurious drag B of 1.3 N s/m (0.57, 0.93 now). Halving the
+  // coupling force halves C_m (the body is kinematic: 0.256, 0.252, measured): below the band.
   for (const double dx : {0.01, 0.0075}) {
     const app::AccelCheck c = app::acceleratedBall(scenePath("accel_ball.yaml"), dx);
     INFO(c.message);
@@ -39,8 +40,8 @@ TEST_CASE("Forces: a ball shaken in still water feels the added mass C_m = 1/2",
     INFO("dx " << dx << " m (R/dx " << c.radius / dx << "): C_m " << c.cm << " (expected " << c.cm_unbounded << " - "
                << c.cm_confined << "), drag coefficient B " << c.damping << " N s/m, |a| up to " << c.accel
                << " m/s^2; " << c.wall_seconds << " s");
-    CHECK(c.cm > 0.75 * c.cm_unbounded);
-    CHECK(c.cm < 1.25 * c.cm_confined);
+    CHECK(c.cm > 0.9 * c.cm_unbounded);
+    CHECK(c.cm < 1.1 * c.cm_confined);
   }
 }
 
@@ -138,8 +139,9 @@ TEST_CASE("Forces: a buoyant ball released from rest mid-water accelerates with 
   // builds up, the ball then oscillating on the liquid's compressibility at a ~4 ms period.
   // So the test compares with the held run, in momentum form over T = 10 ms (5 R/c0; v < 2.5 cm/s,
   // drag negligible): C_m = -int (F_free - F_held) dt / (rho V v(T)), expected 1/2 .. 0.58 (Lamb's
-  // concentric sphere at the nearest boundary, the free surface 10 cm above), with the shaken
-  // ball's 25 % (R / dx = 3). Measured 0.56 (0.59 with the body contact range dx, before issue
+  // concentric sphere at the nearest boundary, the free surface 10 cm above), with 25 % (R / dx =
+  // 3; the shaken ball's tolerance before session 7: this check's 10 ms window is shorter than a
+  // period of the tank's ringing, so it keeps it). Measured 0.56 (0.59 with the body contact range dx, before issue
   // 15's fix; over 20-50 ms it grows, the drag of alpha = 0.1 then counting). The mean acceleration v(T) / T then equals (mean F_held - m g) /
   // (m + C_m rho V) (momentum): reported, the same check in the issue's terms. Halving the
   // coupling force: the held force falls below the weight and the ball does not rise.
