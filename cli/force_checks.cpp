@@ -34,33 +34,81 @@ RunOptions checkRun(const std::string& scene, double dx, const std::vector<std::
   return o;
 }
 
+/// One run of a force-check scene: what the checks read of body 0 and of the scene, captured at
+/// the end of the first frame, and every step's fluid force on body 0 from then on.
+struct BallRun {
+  RunResult result;          ///< exit code, message and wall time of the run
+  double hold = 0;           ///< rigid_bodies[0].hold_until (unit: s)
+  double duration = 0;       ///< simulation.duration (unit: s)
+  double rho = 0;            ///< the first phase's rest density (unit: kg/m^3)
+  double nu = 0;             ///< its kinematic viscosity (unit: m^2/s)
+  double g = 0;              ///< |gravity| (unit: m/s^2)
+  double volume = 0;         ///< the body's volume (unit: m^3)
+  double mass = 0;           ///< the body's mass (unit: kg)
+  double radius = 0;         ///< its radius times its scale (unit: m)
+  double box = 0;            ///< the domain's smallest side (unit: m)
+  double speed = 0;          ///< |motion.velocity| (unit: m/s)
+  double nearest = 0;        ///< the nearest wall or fluid block top from the start centre (unit: m)
+  double floor_height = 0;   ///< the start centre's height over the domain floor (unit: m)
+  double key_first = 0, key_last = 0;  ///< the first and last keyframe times, if keyframed (unit: s)
+  std::vector<StepForce> log;
+};
+
+BallRun runBall(const RunOptions& o) {
+  BallRun b;
+  bool first = true;
+  b.result = runScene(o, [&](Simulation& sim, const FrameReport&) {
+    if (first) {
+      first = false;
+      const Model& m = sim.model();
+      const auto& body = m.bodies[0];
+      b.hold = body.spec.hold_until;
+      b.duration = m.spec.simulation.duration;
+      b.rho = m.spec.fluid.phases[0].rest_density;
+      b.nu = m.spec.fluid.phases[0].viscosity;
+      b.g = m.spec.simulation.gravity.norm();
+      b.volume = body.volume;
+      b.mass = body.mass;
+      b.radius = body.spec.radius * body.spec.scale;
+      b.box = (m.spec.domain.max - m.spec.domain.min).minCoeff();
+      b.speed = body.spec.motion.velocity.norm();
+      // The start centre: the first keyframe's (keyframed motion), else the body's position.
+      const auto& keys = body.spec.motion.keyframes;
+      if (!keys.empty()) {
+        b.key_first = keys.front().time;
+        b.key_last = keys.back().time;
+      }
+      const Eigen::Vector3d x = keys.empty() ? body.spec.position : keys.front().position;
+      b.nearest = std::min((x - m.spec.domain.min).minCoeff(), (m.spec.domain.max - x).minCoeff());
+      for (const BlockSpec& blk : m.spec.fluid.blocks) b.nearest = std::min(b.nearest, blk.max.z() - x.z());
+      b.floor_height = x.z() - m.spec.domain.min.z();
+      sim.recordStepForces(true);
+    }
+    for (const StepForce& f : sim.takeStepForces()) b.log.push_back(f);
+  });
+  return b;
+}
+
+/// Copies a run's outcome into a check (exit code, message, wall time); true if it ran.
+template <class Check>
+bool ran(const BallRun& b, Check& c) {
+  c.exit_code = b.result.exit_code;
+  c.message = b.result.message;
+  c.wall_seconds = b.result.wall_seconds;
+  c.radius = b.radius;
+  return b.result.exit_code == 0;
+}
+
 }  // namespace
 
 ReleaseCheck releasedBall(const std::string& scene, double dx, double rho_b, double window,
                           const std::vector<std::string>& sets, const std::string& device) {
   ReleaseCheck c;
   c.dx = dx;
-  RunOptions o = checkRun(scene, dx, {"rigid_bodies[0].density=" + num(rho_b)}, sets, device);
-  // Every step's force and velocity once the first frame is done (the hold lasts much longer).
-  std::vector<StepForce> log;
-  double hold = 0, rho_w = 0, g = 0, volume = 0, mass = 0;
-  const RunResult r = runScene(o, [&](Simulation& sim, const FrameReport&) {
-    if (log.empty() && hold == 0) {
-      const Model& m = sim.model();
-      hold = m.bodies[0].spec.hold_until;
-      rho_w = m.spec.fluid.phases[0].rest_density;
-      g = m.spec.simulation.gravity.norm();
-      volume = m.bodies[0].volume;
-      mass = m.bodies[0].mass;
-      c.radius = m.bodies[0].spec.radius * m.bodies[0].spec.scale;
-      sim.recordStepForces(true);
-    }
-    for (const StepForce& f : sim.takeStepForces()) log.push_back(f);
-  });
-  c.exit_code = r.exit_code;
-  c.message = r.message;
-  c.wall_seconds = r.wall_seconds;
-  if (r.exit_code != 0) return c;
+  const BallRun b = runBall(checkRun(scene, dx, {"rigid_bodies[0].density=" + num(rho_b)}, sets, device));
+  if (!ran(b, c)) return c;
+  const double hold = b.hold, rho_w = b.rho, g = b.g, volume = b.volume, mass = b.mass;
+  const std::vector<StepForce>& log = b.log;
   c.weight = mass * g;
   c.buoyancy = rho_w * g * volume;
   c.a0_expected = (rho_w - rho_b) * g / (rho_b + 0.5 * rho_w);
@@ -97,41 +145,19 @@ ReleaseMassCheck releasedBallAddedMass(const std::string& scene, double dx, doub
                                        const std::vector<std::string>& sets, const std::string& device) {
   ReleaseMassCheck c;
   c.dx = dx;
-  double hold = 0, rho_w = 0, g = 0, volume = 0, mass = 0, nearest = 0, floor_height = 0;
-  // One run: every step's force and velocity of body 0.
-  auto run = [&](bool held, std::vector<StepForce>& log) {
-    RunOptions o = checkRun(scene, dx, {"rigid_bodies[0].density=" + num(rho_b)}, sets, device);
-    if (held) o.sets.push_back("rigid_bodies[0].hold_until=1e6");
-    bool first = true;
-    const RunResult r = runScene(o, [&](Simulation& sim, const FrameReport&) {
-      if (first) {
-        first = false;
-        const Model& m = sim.model();
-        if (!held) hold = m.bodies[0].spec.hold_until;
-        rho_w = m.spec.fluid.phases[0].rest_density;
-        g = m.spec.simulation.gravity.norm();
-        volume = m.bodies[0].volume;
-        mass = m.bodies[0].mass;
-        c.radius = m.bodies[0].spec.radius * m.bodies[0].spec.scale;
-        // The nearest wall or free surface from the centre (the blocks' top).
-        const Eigen::Vector3d x = m.bodies[0].spec.position;
-        nearest = std::min((x - m.spec.domain.min).minCoeff(), (m.spec.domain.max - x).minCoeff());
-        for (const BlockSpec& b : m.spec.fluid.blocks) nearest = std::min(nearest, b.max.z() - x.z());
-        floor_height = x.z() - m.spec.domain.min.z();
-        sim.recordStepForces(true);
-      }
-      for (const StepForce& f : sim.takeStepForces()) log.push_back(f);
-    });
-    c.wall_seconds += r.wall_seconds;
-    if (r.exit_code != 0) {
-      c.exit_code = r.exit_code;
-      c.message = r.message;
-    }
-  };
-  std::vector<StepForce> free_log, held_log;
-  run(false, free_log);
-  if (c.exit_code == 0) run(true, held_log);
-  if (c.exit_code != 0) return c;
+  // Two runs: free, and held throughout (both log every step's force and velocity of body 0).
+  const BallRun free_run = runBall(checkRun(scene, dx, {"rigid_bodies[0].density=" + num(rho_b)}, sets, device));
+  if (!ran(free_run, c)) return c;
+  RunOptions held_options = checkRun(scene, dx, {"rigid_bodies[0].density=" + num(rho_b)}, sets, device);
+  held_options.sets.push_back("rigid_bodies[0].hold_until=1e6");
+  const BallRun held_run = runBall(held_options);
+  const double free_wall = c.wall_seconds;
+  if (!ran(held_run, c)) return c;
+  c.wall_seconds += free_wall;
+  const double hold = free_run.hold, rho_w = free_run.rho, g = free_run.g, volume = free_run.volume;
+  const double mass = free_run.mass, nearest = free_run.nearest, floor_height = free_run.floor_height;
+  const std::vector<StepForce>& free_log = free_run.log;
+  const std::vector<StepForce>& held_log = held_run.log;
   const double l3 = std::pow(c.radius / nearest, 3);
   c.cm_confined = (1.0 + 2.0 * l3) / (2.0 * (1.0 - l3));
   c.cm_floor = 0.5 + 0.1875 * std::pow(c.radius / floor_height, 3);
@@ -184,30 +210,10 @@ AccelCheck acceleratedBall(const std::string& scene, double dx, const std::vecto
   AccelCheck c;
   c.dx = dx;
   // The ball's keyframes are in metres, so they do not change with dx.
-  RunOptions o = checkRun(scene, dx, {}, sets, device);
-  std::vector<StepForce> log;
-  double t0 = -1, t1 = 0, rho = 0, volume = 0, nearest = 0;
-  const RunResult r = runScene(o, [&](Simulation& sim, const FrameReport&) {
-    if (t0 < 0) {
-      const Model& m = sim.model();
-      const auto& keys = m.bodies[0].spec.motion.keyframes;
-      t0 = keys.front().time;
-      t1 = keys.back().time;
-      rho = m.spec.fluid.phases[0].rest_density;
-      volume = m.bodies[0].volume;
-      c.radius = m.bodies[0].spec.radius * m.bodies[0].spec.scale;
-      // The nearest wall or fluid surface from the centre (the box's walls; the blocks' top).
-      const Eigen::Vector3d x = keys.front().position;
-      nearest = std::min((x - m.spec.domain.min).minCoeff(), (m.spec.domain.max - x).minCoeff());
-      for (const BlockSpec& b : m.spec.fluid.blocks) nearest = std::min(nearest, b.max.z() - x.z());
-      sim.recordStepForces(true);
-    }
-    for (const StepForce& f : sim.takeStepForces()) log.push_back(f);
-  });
-  c.exit_code = r.exit_code;
-  c.message = r.message;
-  c.wall_seconds = r.wall_seconds;
-  if (r.exit_code != 0) return c;
+  const BallRun b = runBall(checkRun(scene, dx, {}, sets, device));
+  if (!ran(b, c)) return c;
+  const double t0 = b.key_first, t1 = b.key_last, rho = b.rho, volume = b.volume, nearest = b.nearest;
+  const std::vector<StepForce>& log = b.log;
   const double l3 = std::pow(c.radius / nearest, 3);
   c.cm_confined = (1.0 + 2.0 * l3) / (2.0 * (1.0 - l3));
   // F_x = -M a - B v by least squares over the moving phase (steps of equal length): over whole
@@ -244,6 +250,17 @@ double sphereInSphereWallFactor(double l) {
   return (1.0 - std::pow(l, 5)) / (1.0 - 2.25 * l + 2.5 * std::pow(l, 3) - 2.25 * std::pow(l, 5) + std::pow(l, 6));
 }
 
+double stokesEffectiveRadius(double ratio, double radius, double b) {
+  // (R_eff / R) K(R_eff / b) grows with R_eff: bisection.
+  double lo = 0.25 * radius, hi = std::min(1.75 * radius, 0.99 * b);
+  for (int k = 0; k < 60; ++k) {
+    const double mid = 0.5 * (lo + hi);
+    if (mid / radius * sphereInSphereWallFactor(mid / b) < ratio) lo = mid;
+    else hi = mid;
+  }
+  return 0.5 * (lo + hi);
+}
+
 void stokesBand(double radius, double dx, double box, double& lo, double& hi) {
   // The box's two bracketing containers (towedBall) with the no-slip surface dx/2 inside or
   // outside R (the resolution's uncertainty).
@@ -255,26 +272,12 @@ void stokesBand(double radius, double dx, double box, double& lo, double& hi) {
 TowCheck towedBall(const std::string& scene, double dx, const std::vector<std::string>& sets, const std::string& device) {
   TowCheck c;
   c.dx = dx;
-  RunOptions o = checkRun(scene, dx, {}, sets, device);
-  std::vector<StepForce> log;
-  double duration = 0, nu = 0, rho = 0, box = 0;
-  const RunResult r = runScene(o, [&](Simulation& sim, const FrameReport&) {
-    if (duration == 0) {
-      const Model& m = sim.model();
-      duration = m.spec.simulation.duration;
-      nu = m.spec.fluid.phases[0].viscosity;
-      rho = m.spec.fluid.phases[0].rest_density;
-      box = (m.spec.domain.max - m.spec.domain.min).minCoeff();
-      c.radius = m.bodies[0].spec.radius * m.bodies[0].spec.scale;
-      c.speed = m.bodies[0].spec.motion.velocity.norm();
-      sim.recordStepForces(true);
-    }
-    for (const StepForce& f : sim.takeStepForces()) log.push_back(f);
-  });
-  c.exit_code = r.exit_code;
-  c.message = r.message;
-  c.wall_seconds = r.wall_seconds;
-  if (r.exit_code != 0) return c;
+  const BallRun b = runBall(checkRun(scene, dx, {}, sets, device));
+  if (!ran(b, c)) return c;
+  const double duration = b.duration, nu = b.nu, rho = b.rho, box = b.box;
+  const std::vector<StepForce>& log = b.log;
+  c.speed = b.speed;
+  c.box = box;
   c.mu = rho * nu;
   c.reynolds = 2.0 * c.radius * c.speed / nu;
   c.stokes = 6.0 * M_PI * c.mu * c.radius * c.speed;
@@ -325,6 +328,12 @@ TowCheck towedBall(const std::string& scene, double dx, const std::vector<std::s
   return c;
 }
 
+double sinkingDragBound(double radius, double dx, double tank) {
+  const double resolution = std::pow(1.0 + 0.5 * dx / radius, 2);
+  const double wall = 1.0 / std::pow(1.0 - std::pow(2.0 * radius / tank, 1.5), 2);
+  return 0.5 * resolution * wall;
+}
+
 double sinkingSpeed(double t, double m, double V, double R, double rho, double g, double cm, double cd) {
   // Net weight over the mass with added mass: the first acceleration a0.
   const double net = (m - rho * V) * g, a0 = net / (m + cm * rho * V);
@@ -339,28 +348,10 @@ SinkCheck sinkingBall(const std::string& scene, double dx, double skip, double u
                       double cd_hi, const std::vector<std::string>& sets, const std::string& device) {
   SinkCheck c;
   c.dx = dx;
-  RunOptions o = checkRun(scene, dx, {}, sets, device);
-  std::vector<StepForce> log;
-  double hold = -1, end = 0, rho = 0, g = 0, volume = 0, mass = 0, nu = 0;
-  const RunResult r = runScene(o, [&](Simulation& sim, const FrameReport&) {
-    if (hold < 0) {
-      const Model& m = sim.model();
-      hold = m.bodies[0].spec.hold_until;
-      end = m.spec.simulation.duration;
-      rho = m.spec.fluid.phases[0].rest_density;
-      nu = m.spec.fluid.phases[0].viscosity;
-      g = m.spec.simulation.gravity.norm();
-      volume = m.bodies[0].volume;
-      mass = m.bodies[0].mass;
-      c.radius = m.bodies[0].spec.radius * m.bodies[0].spec.scale;
-      sim.recordStepForces(true);
-    }
-    for (const StepForce& f : sim.takeStepForces()) log.push_back(f);
-  });
-  c.exit_code = r.exit_code;
-  c.message = r.message;
-  c.wall_seconds = r.wall_seconds;
-  if (r.exit_code != 0) return c;
+  const BallRun b = runBall(checkRun(scene, dx, {}, sets, device));
+  if (!ran(b, c)) return c;
+  const double hold = b.hold, end = b.duration, rho = b.rho, g = b.g, volume = b.volume, mass = b.mass, nu = b.nu;
+  const std::vector<StepForce>& log = b.log;
   c.density = mass / volume;
   c.window = end - hold;
   // The ringing: over the last 0.1 s of the hold, the swing of int (F - mean F) dt over m + C_m rho V.
@@ -429,29 +420,11 @@ FallCheck fallingBall(const std::string& scene, double dx, const std::vector<std
                       const std::string& device) {
   FallCheck c;
   c.dx = dx;
-  RunOptions o = checkRun(scene, dx, {}, sets, device);
-  std::vector<StepForce> log;
-  double hold = -1, end = 0, nu = 0, rho = 0, box = 0, g = 0, volume = 0, mass = 0;
-  const RunResult r = runScene(o, [&](Simulation& sim, const FrameReport&) {
-    if (hold < 0) {
-      const Model& m = sim.model();
-      hold = m.bodies[0].spec.hold_until;
-      end = m.spec.simulation.duration;
-      nu = m.spec.fluid.phases[0].viscosity;
-      rho = m.spec.fluid.phases[0].rest_density;
-      g = m.spec.simulation.gravity.norm();
-      box = (m.spec.domain.max - m.spec.domain.min).minCoeff();
-      volume = m.bodies[0].volume;
-      mass = m.bodies[0].mass;
-      c.radius = m.bodies[0].spec.radius * m.bodies[0].spec.scale;
-      sim.recordStepForces(true);
-    }
-    for (const StepForce& f : sim.takeStepForces()) log.push_back(f);
-  });
-  c.exit_code = r.exit_code;
-  c.message = r.message;
-  c.wall_seconds = r.wall_seconds;
-  if (r.exit_code != 0) return c;
+  const BallRun b = runBall(checkRun(scene, dx, {}, sets, device));
+  if (!ran(b, c)) return c;
+  const double hold = b.hold, end = b.duration, nu = b.nu, rho = b.rho, box = b.box, g = b.g;
+  const double volume = b.volume, mass = b.mass;
+  const std::vector<StepForce>& log = b.log;
   // Stokes: 6 pi mu R U = (m - rho V) g, mu = rho nu.
   c.speed_stokes = (mass - rho * volume) * g / (6.0 * M_PI * rho * nu * c.radius);
   stokesBand(c.radius, dx, box, c.expected_lo, c.expected_hi);

@@ -91,6 +91,7 @@ struct TowCheck {
   double dx = 0;               ///< (unit: m)
   double radius = 0;           ///< (unit: m)
   double speed = 0;            ///< U (unit: m/s)
+  double box = 0;              ///< the domain's smallest side (unit: m)
   double mu = 0;               ///< dynamic viscosity rho nu (unit: Pa s)
   double reynolds = 0;         ///< 2 R U / nu (unit: 1)
   double drag = 0;             ///< mean -F_x over the second half of the run (unit: N)
@@ -113,6 +114,12 @@ struct TowCheck {
 /// spherical container (radius b), lambda = R / b: F = 6 pi mu R U K with
 /// K = (1 - lambda^5) / (1 - 9/4 lambda + 5/2 lambda^3 - 9/4 lambda^5 + lambda^6).
 double sphereInSphereWallFactor(double lambda);
+
+/// The radius R_eff of a no-slip sphere whose Stokes drag in a spherical container of radius b (m)
+/// is `ratio` x 6 pi mu R U: the root of (R_eff / R) K(R_eff / b) = ratio (bisection over
+/// 0.25 R .. min(1.75 R, 0.99 b)). With b the two containers that bracket the box (TowCheck), it
+/// places the towed ball's effective no-slip surface (unit: m).
+double stokesEffectiveRadius(double ratio, double radius, double b);
 
 /// Runs `scene` (stokes_tow.yaml) at spacing dx; `sets` are extra --set overrides.
 TowCheck towedBall(const std::string& scene, double dx, const std::vector<std::string>& sets = {},
@@ -159,6 +166,16 @@ double sinkingSpeed(double t, double m, double V, double R, double rho, double g
 SinkCheck sinkingBall(const std::string& scene, double dx, double skip, double until, double cm_lo, double cm_hi,
                       double cd_lo,
                       double cd_hi, const std::vector<std::string>& sets = {}, const std::string& device = "");
+
+/// The upper end of a sampled sphere's mean drag coefficient in a tank at Re ~ 1e3 .. 1e5: a
+/// sphere's 0.5 (Newton regime; started from rest its wake forms over several diameters, so its
+/// mean is lower), times the resolution's (1 + dx / 2R)^2 (the pressure surface of a ball sampled
+/// at spacing dx lies within dx/2 of R: form drag scales with the frontal area), times the wall
+/// factor of a sphere of diameter d = 2R settling in a tube of diameter D, Munroe's (1888)
+/// v_t / v_inf = 1 - (d / D)^1.5 for Re > ~1e3 (Chhabra, Agarwal & Sinha 1999, Powder Technol.
+/// 101, 288), so C_d x 1 / (1 - (d/D)^1.5)^2; for a square tank D is its side (the hydraulic
+/// diameter: the larger factor). R, dx, D in m (unit: 1).
+double sinkingDragBound(double radius, double dx, double tank);
 
 /// The drag over 6 pi mu R U expected of a ball of radius R (m) sampled at spacing dx (m) at the
 /// centre of a closed cubic box of side L (m): TowCheck::expected_lo/hi (unit: 1).

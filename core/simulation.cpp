@@ -505,7 +505,7 @@ void Simulation::pressureForces() {
     kernels_.call("pressure_viscosity_force", n_, kLocal, params_, pos_[cur_], vel_[cur_], phase_[cur_], density_, pterm_, snbr_, snbr_count_, bpos_, viscousBoundaryVelocities(), bpressure_, sbnbr_, sbnbr_count_, acc_);
     return;
   }
-  kernels_.call("pressure_force", n_, kLocal, params_, pos_[cur_], phase_[cur_], density_, pterm_, snbr_, snbr_count_, bpos_, bpressure_, sbnbr_, sbnbr_count_, acc_);
+  kernels_.call("pressure_force", n_, kLocal, params_, pos_[cur_], phase_[cur_], density_, pterm_, snbr_, snbr_count_, bpos_, bvel_, bpressure_, sbnbr_, sbnbr_count_, acc_);
 }
 
 // --- DFSPH (core/dfsph.h, kernels/dfsph.cl) -----------------------------------------------------

@@ -160,8 +160,12 @@ class Simulation {
   void viscosityForces();
   void ghostVelocities();
   /// The boundary velocities the viscous terms read: the no-slip ghost velocities when the model
-  /// asks for them (Model::ghost_velocity_mode), else the wall's own (bvel_).
-  const cl::Buffer& viscousBoundaryVelocities() const { return model_.ghost_velocity_mode ? bghost_ : bvel_; }
+  /// asks for them (Model::ghost_velocity_mode) and this step computed them (ghostVelocities runs
+  /// with the viscosity stage), else the wall's own (bvel_). Its w (the body flag) also sets the
+  /// contact range (pair_loops.h), so the fluid and the body side must read the same buffer.
+  const cl::Buffer& viscousBoundaryVelocities() const {
+    return model_.ghost_velocity_mode && on(Stage::Viscosity) ? bghost_ : bvel_;
+  }
   void diffuseColour();
   void integrate();
   void integrateBodies(double dt);

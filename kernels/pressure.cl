@@ -25,8 +25,10 @@
  * (negative pressures are clamped) and would reach the wall unopposed, so a short-range linear
  * repulsion acts inside r0 = dx (in the spirit of Monaghan & Kajtar 2009's boundary forces):
  *     a_i += sum_b (V_b / V0) k_c c0^2 / dx (1 - r/r0) x_ib / r,   k_c = 5
- * r0 = dx covers the gaps of the boundary lattice (a point on the wall plane is at most 0.87 dx
- * from a boundary particle); the force is zero at the rest spacing; the barrier it builds before
+ * (shared/pair_loops.h, sph_boundary_contact; r0 = dx/2 at a moving body's particles, issue 15:
+ * with dx it was most of a moving body's drag). At walls r0 = dx covers the gaps of the boundary
+ * lattice (a point on the wall plane is at most 0.87 dx from a boundary particle); the force is
+ * zero at the rest spacing; the barrier it builds before
  * the wall plane stops particles up to ~0.3 c0 (3x the speed c0 is chosen for); its stiffness
  * k_c c0^2 / dx^2 keeps dt^2 k < 1 at the CFL step (symplectic Euler needs < 4).
  * The force between fluid particles i and j is equal and opposite, so momentum is conserved. */
@@ -46,7 +48,6 @@ inline float4 sph_forces(const SimParams* p, const uint i, __global const float4
   const float3 xi = pos[i].xyz;
   const float H = p->support;
   const float pi_term = pterm[i]; /* p_i / delta_i^2, from the density pass */
-  const float dx = cbrt(p->rest_volume);
   const float mi = p->phase_mass[phase[i]];
   const float rhoi = density[i];
   const float inv_delta2 = (mi / rhoi) * (mi / rhoi); /* 1 / delta_i^2 */
@@ -63,7 +64,7 @@ inline float4 sph_forces(const SimParams* p, const uint i, __global const float4
     const float r = sqrt(r2);
     const float F = sph_grad_factor(SPH_KERNEL, r, H);
     f -= bb.w * (pi_term + bpressure[b] * inv_delta2) * F * d;
-    if (r < dx && r > 1e-6f * dx) contact += bb.w * (5.0f * p->c0 * p->c0 / dx) * (1.0f - r / dx) / r * d;
+    contact += sph_boundary_contact(p, d, r, bb.w, bvel[b].w > 0.5f); /* r0 = dx/2 at bodies (pair_loops.h) */
     if (viscous) av += sph_boundary_viscosity(p, mi, rhoi, p->phase_viscosity[phase[i]], vi - bvel[b].xyz, d, r2, F, bb.w, bvel[b]);
   }
 
@@ -71,14 +72,15 @@ inline float4 sph_forces(const SimParams* p, const uint i, __global const float4
   return (float4)(f / mi + contact + g, 0.0f) + (float4)(s.av + av, 0.0f);
 }
 
+/* (bvel: only its w, the body flag, is read here: the contact range.) */
 __kernel void pressure_force(const SimParams p, __global const float4* pos, __global const uint* phase,
                              __global const float* density, __global const float* pterm,
                              __global const uint* nbr, __global const uint* nbr_count,
-                             __global const float4* bpos, __global const float* bpressure,
+                             __global const float4* bpos, __global const float4* bvel, __global const float* bpressure,
                              __global const uint* bnbr, __global const uint* bnbr_count, __global float4* acc) {
   const uint i = get_global_id(0);
   if (i >= p.n_fluid) return;
-  acc[i] = sph_forces(&p, i, pos, pos, phase, density, pterm, nbr, nbr_count, bpos, bpos, bpressure, bnbr,
+  acc[i] = sph_forces(&p, i, pos, pos, phase, density, pterm, nbr, nbr_count, bpos, bvel, bpressure, bnbr,
                       bnbr_count, 0);
 }
 

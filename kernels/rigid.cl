@@ -70,7 +70,8 @@ __kernel void rigid_boundary_reorder(const uint n, const uint n_static, const ui
  * pressure.cl (with `mirror`, of dfsph.cl: 2 psi_b p_i / delta_i^2 gradW, no contact term) that
  * this particle b contributes to each fluid neighbour i within H:
  *     pressure (p_b: boundary_pressure):     F_b = + (V_b/V0) (p_i + p_b) / delta_i^2 gradW-factor (x_i - x_b)
- *     contact  (pressure.cl):                F_b = - m_i (V_b/V0) k_c c0^2/dx (1 - r/dx) (x_i - x_b) / r
+ *     contact  (pair_loops.h):               F_b = - m_i (V_b/V0) k_c c0^2/dx (1 - r/r0) (x_i - x_b) / r,
+ *                                            r0 = dx/2 on a body's particle, dx on a cloth node
  *     viscosity (pair_loops.h):              F_b = - m_i a_visc(i from b)
  * Fluid neighbours come from the fluid grid of the last list rebuild: its cells are H + skin
  * wide and no particle has moved skin/2 since, so the 27 cells hold every neighbour within H. */
@@ -91,7 +92,6 @@ __kernel void rigid_fluid_forces(const SimParams p, const uint n, const uint n_s
   const float3 xb = bb.xyz;
   const float H = p.support;
   const float H2 = H * H;
-  const float dx = cbrt(p.rest_volume);
   float3 f = (float3)(0.0f);
   SPH_FOR_NEIGHBOURS(&p, cell_start, xb, i) {
     const float3 d = pos[i].xyz - xb;
@@ -106,7 +106,7 @@ __kernel void rigid_fluid_forces(const SimParams p, const uint n, const uint n_s
         f += bb.w * (float)mirror * pterm[i] * F * d;
       } else { /* WCSPH (mirror 0) and DFSPH's extrapolated walls (-1: both solves' p_b, no contact) */
         f += bb.w * (pterm[i] + pb * inv_delta * inv_delta) * F * d;
-        if (mirror == 0 && r < dx && r > 1e-6f * dx) f -= mi * bb.w * (5.0f * p.c0 * p.c0 / dx) * (1.0f - r / dx) / r * d;
+        if (mirror == 0) f -= mi * sph_boundary_contact(&p, d, r, bb.w, vb4.w > 0.5f); /* r0 = dx/2 on bodies */
       }
       if (viscous)
         f -= mi * sph_boundary_viscosity(&p, mi, density[i], p.phase_viscosity[phase[i]], vel[i].xyz - vb, d, r2, F, bb.w, vb4);

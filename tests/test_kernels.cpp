@@ -480,9 +480,11 @@ struct Device {
     if (nb > 0) ks.call("boundary_pressure", nb, kLocal, P, nb, stamp, bpos, bmark, pos[cur], density, pressure, cell_start, bpressure);
   }
   // As core/simulation.cpp: the wall pressure, then the force pass.
-  void pressureForce() {
+  // (`flags`: boundary velocities whose w marks moving bodies' particles; default bvel, all walls)
+  void pressureForce(const cl::Buffer* flags = nullptr) {
     boundaryPressure();
-    ks.call("pressure_force", n, kLocal, P, pos[cur], phase[cur], density, pterm, snbr, snbr_count, bpos, bpressure, sbnbr, sbnbr_count, acc);
+    ks.call("pressure_force", n, kLocal, P, pos[cur], phase[cur], density, pterm, snbr, snbr_count, bpos,
+            flags ? *flags : bvel, bpressure, sbnbr, sbnbr_count, acc);
   }
   void pressureViscosityForce() {
     boundaryPressure();
@@ -922,12 +924,18 @@ TEST_CASE("pressure_force equals the brute-force reference (fluid, boundary and 
     Device d(kernelSet(c.kind, false), s);
     const DensityState st = runDensity(d, c.move * (P.cell_size - P.support));
     REQUIRE(st.overflow == 0u);
-    d.pressureForce();
+    // Every other boundary particle a moving body's (bvel.w = 1): its contact range is dx/2, the
+    // walls' dx (pair_loops.h, sph_boundary_contact).
+    std::vector<F4> flags = d.bvel_host;
+    for (std::size_t b = 0; b < flags.size(); b += 2) flags[b].w = 1.0f;
+    const cl::Buffer flag_buffer = toDevice(flags.empty() ? std::vector<F4>(1) : flags);
+    d.pressureForce(&flag_buffer);
     const auto acc = fromDevice<F4>(d.acc, d.n);
     const std::size_t n = d.n;
     const float H = P.support, H2 = H * H;
     const float dx = std::cbrt(P.rest_volume);
     const double kc = 5.0 * double(P.c0) * P.c0 / dx;
+    std::size_t body_contacts = 0;
 
     // Wall pressures (Adami et al. 2012 eq. 27, pressure.cl's boundary_pressure), brute force.
     std::vector<double> pb(s.bpos.size(), 0.0);
@@ -989,10 +997,13 @@ TEST_CASE("pressure_force equals the brute-force reference (fluid, boundary and 
         const double coef = -bb.w * (pi_term + pb[k] * inv_delta * inv_delta) * sph_grad_factor(c.kind, r, H);
         f += coef * Vec{a, b, e};
         fs += std::abs(coef) * r;
-        if (r < dx && r > 1e-6f * dx) {
-          contact += (bb.w * kc * (1.0 - double(r) / dx) / r) * Vec{a, b, e};
-          cs += bb.w * kc;  // (1 - r/dx) cancels: its rounding scales with the coefficient
+        const bool body = flags[k].w > 0.5f;
+        const float r0 = body ? 0.5f * dx : dx;
+        if (r < r0 && r > 1e-6f * dx) {
+          contact += (bb.w * kc * (1.0 - double(r) / r0) / r) * Vec{a, b, e};
+          cs += bb.w * kc;  // (1 - r/r0) cancels: its rounding scales with the coefficient
           ++contacts;
+          body_contacts += body;
         }
       }
       ref[i] = (1.0 / mi) * f;
@@ -1017,6 +1028,7 @@ TEST_CASE("pressure_force equals the brute-force reference (fluid, boundary and 
     }
     INFO("worst error / term scale " << worst_rel_scale << ", / max |a| " << worst_rel_max);
     CHECK_NO_FAILURES(f);
+    INFO(body_contacts << " of " << contacts << " contacts with body particles");
     if (c.boundary) CHECK(contacts > 0u);
   }
 }
