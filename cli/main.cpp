@@ -71,6 +71,9 @@ int main(int argc, char** argv) {
                                            "Simulated time in seconds (overrides simulation.duration; "
                                            "rounded to whole frames)");
   cmd_run->add_flag("--quiet,-q", run.quiet, "No progress line and no summary");
+  cmd_run->add_flag("--profile-kernels", run.profile_kernels,
+                    "Time every kernel (the queue is drained around each dispatch: slower, same results) and print "
+                    "each kernel's ms per step after the profile line");
   const std::string max_memory_help =
       "Refuse scenes estimated to need more memory than this, e.g. 8G, 512M, 2GiB (default: the machine's memory)";
   std::string run_max_memory, validate_max_memory;

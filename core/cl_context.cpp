@@ -3,6 +3,7 @@
 #include "core/errors.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cstdlib>
 #include <sstream>
 #include <utility>
@@ -181,6 +182,12 @@ cl::Kernel& KernelSet::operator[](const std::string& name) {
 void KernelSet::enqueue(const std::string& name, std::size_t global, std::size_t local) {
   if (global == 0) return;
   cl::Kernel& k = (*this)[name];
+  // Per-kernel timing: the queue is drained first, so the time is this kernel's alone.
+  std::chrono::steady_clock::time_point t0;
+  if (timing_) {
+    clCall("waiting for the queue", [&] { return cl_->queue().finish(); });
+    t0 = std::chrono::steady_clock::now();
+  }
   try {
     if (local > 0) {
       global = (global + local - 1) / local * local;
@@ -192,6 +199,10 @@ void KernelSet::enqueue(const std::string& name, std::size_t global, std::size_t
     throw DeviceError("enqueueing kernel '" + name + "' failed with " + clErrorName(e.err()));
   }
   ++counts_[name];
+  if (timing_) {
+    clCall("waiting for a kernel", [&] { return cl_->queue().finish(); });
+    seconds_[name] += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  }
 }
 
 }  // namespace sph
