@@ -116,6 +116,9 @@ class DfsphSolver {
   cl::Buffer alpha_, err_, partial_;
   cl::Buffer source_;                      // s_i of the running solve (unit: 1); mirrored: the increments (unit: Pa)
   cl::Buffer accel_;                       // pressure accelerations of the current pressures (n x float4) (unit: m/s^2)
+  // Packed for the pressure-force passes (kernels/dfsph.cl, dfsph_force): position (unit: m) and
+  // p / delta^2 of the running solve's pressure (mirrored: of the increments) (unit: Pa m^6), (n x float4).
+  cl::Buffer xt_;
   cl::Buffer pdiv_, pdens_;                // the solves' pressures (unit: Pa), kept for the warm start
   bool divergence_ran_ = false;            // the divergence solve runs (its wall pressure counts)
   double prev_dt_div_ = 0.0, prev_dt_dens_ = 0.0;  // step of the last solve of each kind (unit: s)

@@ -138,7 +138,8 @@ __kernel void dfsph_source(const SimParams p, __global const float4* pos, __glob
                            __global const uint* nbr_count, __global const float4* bpos,
                            __global const float4* bvel, __global const uint* bnbr,
                            __global const uint* bnbr_count, const int kind, const uint min_neighbours,
-                           const float warm, const int warm_all, __global float* source, __global float* pressure) {
+                           const float warm, const int warm_all, __global float* source, __global float* pressure,
+                           __global float4* xt) {
   const uint i = get_global_id(0);
   if (i >= p.n_fluid) return;
   const uint K = p.max_neighbours;
@@ -149,16 +150,21 @@ __kernel void dfsph_source(const SimParams p, __global const float4* pos, __glob
   /* divergence solve: fewer than min_neighbours neighbours (free surface, splashes): left alone */
   if (nbr_count[i] + bnbr_count[i] < min_neighbours) s = 0.0f;
   source[i] = s;
-  pressure[i] = (s > 0.0f || warm_all) ? warm * pressure[i] : 0.0f;
+  const float p0 = (s > 0.0f || warm_all) ? warm * pressure[i] : 0.0f;
+  pressure[i] = p0;
+  xt[i] = (float4)(pos[i].xyz, p0 / (delta * delta)); /* position and p / delta^2 (dfsph_force) */
 }
 
-/* The pressure force of the top of this file on particle i (unit: N), for the pressures `pr`. */
-inline float3 dfsph_force(const SimParams* p, const uint i, __global const float4* pos, __global const uint* phase,
+/* The pressure force of the top of this file on particle i (unit: N), for the pressures `pr`.
+ * Performance: the fluid neighbours' positions and p_j / delta_j^2 come packed in one float4 each,
+ * xt_j = (x_j, p_j / delta_j^2) (written with the pressures by dfsph_source and dfsph_jacobi), one
+ * gather per neighbour instead of five (position, phase, mass, density, pressure). */
+inline float3 dfsph_force(const SimParams* p, const uint i, __global const float4* xt, __global const uint* phase,
                           __global const float* density, __global const float* pr, __global const uint* list,
                           const uint nf, __global const float4* bpos, __global const uint* blist, const uint nb,
                           const float wall, __global const float* bpr, const int use_bp) {
   const float H = p->support;
-  const float3 xi = pos[i].xyz;
+  const float3 xi = xt[i].xyz;
   const float di = density[i] / p->phase_mass[phase[i]];
   const float ti = pr[i] / (di * di); /* p_i / delta_i^2 */
   /* fluid neighbours eight at a time (as dfsph_density_rate), then the rest one by one */
@@ -166,23 +172,19 @@ inline float3 dfsph_force(const SimParams* p, const uint i, __global const float
   uint k = 0;
   for (; k + 8 <= nf; k += 8) {
     const uint8 j = vload8(0, list + k);
-    SPH_LOAD8(x, pos, j);
+    SPH_LOAD8(x, xt, j);
     const float8 dx = xi.x - SPH_LANES8(x, x), dy = xi.y - SPH_LANES8(x, y), dz = xi.z - SPH_LANES8(x, z);
     const float8 F = sph_grad_factor8(sqrt(dx * dx + dy * dy + dz * dz), H);
-    const uint8 phj = (uint8)(phase[j.s0], phase[j.s1], phase[j.s2], phase[j.s3], phase[j.s4], phase[j.s5],
-                              phase[j.s6], phase[j.s7]);
-    const float8 dj = SPH_GATHER8(density, j) / SPH_GATHER8(p->phase_mass, phj);
-    const float8 c = (ti + SPH_GATHER8(pr, j) / (dj * dj)) * F;
+    const float8 c = (ti + SPH_LANES8(x, w)) * F;
     fx -= c * dx;
     fy -= c * dy;
     fz -= c * dz;
   }
   float3 f = (float3)(sph_hsum8(fx), sph_hsum8(fy), sph_hsum8(fz));
   for (; k < nf; ++k) {
-    const uint j = list[k];
-    const float3 d = xi - pos[j].xyz;
-    const float dj = density[j] / p->phase_mass[phase[j]];
-    f -= (ti + pr[j] / (dj * dj)) * sph_grad_factor(SPH_KERNEL, length(d), H) * d;
+    const float4 xj = xt[list[k]];
+    const float3 d = xi - xj.xyz;
+    f -= (ti + xj.w) * sph_grad_factor(SPH_KERNEL, length(d), H) * d;
   }
   /* walls: wall = 2 mirrors the pressure (p_b = p_i, delta_b = delta_i), wall = 1 is Akinci's
    * single term (p_b = 0 in the symmetric sum); extrapolated (use_bp): wall = 1 and the wall
@@ -199,7 +201,7 @@ inline float3 dfsph_force(const SimParams* p, const uint i, __global const float
 }
 
 /* Pressure accelerations a_i^p = f_i / m_i of the current pressures (unit: m/s^2). */
-__kernel void dfsph_pressure_accel(const SimParams p, __global const float4* pos, __global const uint* phase,
+__kernel void dfsph_pressure_accel(const SimParams p, __global const float4* xt, __global const uint* phase,
                                    __global const float* density, __global const float* pressure,
                                    __global const uint* nbr, __global const uint* nbr_count,
                                    __global const float4* bpos, __global const uint* bnbr,
@@ -208,7 +210,7 @@ __kernel void dfsph_pressure_accel(const SimParams p, __global const float4* pos
   const uint i = get_global_id(0);
   if (i >= p.n_fluid) return;
   const uint K = p.max_neighbours;
-  const float3 f = dfsph_force(&p, i, pos, phase, density, pressure, nbr + (size_t)i * K, nbr_count[i], bpos,
+  const float3 f = dfsph_force(&p, i, xt, phase, density, pressure, nbr + (size_t)i * K, nbr_count[i], bpos,
                                bnbr + (size_t)i * K, bnbr_count[i], wall, bpr, use_bp);
   accel[i] = (float4)(f / p.phase_mass[phase[i]], 0.0f);
 }
@@ -224,7 +226,8 @@ __kernel void dfsph_jacobi(const SimParams p, __global const float4* pos, __glob
                            __global const float* alpha, __global const float* source, __global const uint* nbr,
                            __global const uint* nbr_count, __global const float4* bpos, __global const uint* bnbr,
                            __global const uint* bnbr_count, const uint min_neighbours, const float omega,
-                           const int two_sided, __global float* pressure, __global float* err) {
+                           const int two_sided, __global float* pressure, __global float* err,
+                           __global const uint* phase, __global const float* density, __global float4* xt) {
   const uint i = get_global_id(0);
   if (i >= p.n_fluid) return;
   const uint K = p.max_neighbours;
@@ -263,12 +266,16 @@ __kernel void dfsph_jacobi(const SimParams p, __global const float4* pos, __glob
   const float r = source[i] + p.dt * p.dt * p.rest_volume * Ap;
   const float inc = omega * r * alpha[i] / (p.dt * p.dt * p.rest_volume);
   const float p0 = pressure[i];
-  pressure[i] = fmax(p0 + inc, 0.0f);
+  const float p1 = fmax(p0 + inc, 0.0f);
+  pressure[i] = p1;
   err[i] = (two_sided && p0 > 0.0f) ? fabs(r) : fmax(r, 0.0f);
+  /* the packed position and p / delta^2 that the next pressure-force pass gathers (dfsph_force) */
+  const float di = density[i] / p.phase_mass[phase[i]];
+  xt[i] = (float4)(xi, p1 / (di * di));
 }
 
 /* The end of a solve: the velocities take the pressures, v_i += dt a_i^p. */
-__kernel void dfsph_apply_pressure(const SimParams p, __global const float4* pos, __global float4* vel,
+__kernel void dfsph_apply_pressure(const SimParams p, __global const float4* xt, __global float4* vel,
                           __global const uint* phase, __global const float* density, __global const float* pressure,
                           __global const uint* nbr, __global const uint* nbr_count, __global const float4* bpos,
                           __global const uint* bnbr, __global const uint* bnbr_count, const float wall,
@@ -276,7 +283,7 @@ __kernel void dfsph_apply_pressure(const SimParams p, __global const float4* pos
   const uint i = get_global_id(0);
   if (i >= p.n_fluid) return;
   const uint K = p.max_neighbours;
-  const float3 f = dfsph_force(&p, i, pos, phase, density, pressure, nbr + (size_t)i * K, nbr_count[i], bpos,
+  const float3 f = dfsph_force(&p, i, xt, phase, density, pressure, nbr + (size_t)i * K, nbr_count[i], bpos,
                                bnbr + (size_t)i * K, bnbr_count[i], wall, bpr, use_bp);
   vel[i] += (float4)(p.dt / p.phase_mass[phase[i]] * f, 0.0f);
 }
@@ -302,15 +309,19 @@ __kernel void dfsph_divergence_source(const SimParams p, __global const float4* 
                                       __global const uint* bnbr_count, const uint min_neighbours,
                                       const int warm, const float omega, __global const float* pprev,
                                       __global float* pinc,
-                                      __global float* err) {
+                                      __global float* err, __global const uint* phase,
+                                      __global const float* density, __global float4* xt) {
   const uint i = get_global_id(0);
   if (i >= p.n_fluid) return;
   const uint K = p.max_neighbours;
   const uint nf = nbr_count[i], nb = bnbr_count[i];
   float rate = dfsph_density_rate(&p, i, pos, vel, nbr + (size_t)i * K, nf, bpos, bvel, bnbr + (size_t)i * K, nb);
   if (nf + nb < min_neighbours) rate = 0.0f;
-  pinc[i] = warm ? dfsph_warm(rate > 0.0f, pprev[i]) : fmax(omega * rate * alpha[i] / p.dt, 0.0f);
+  const float pi = warm ? dfsph_warm(rate > 0.0f, pprev[i]) : fmax(omega * rate * alpha[i] / p.dt, 0.0f);
+  pinc[i] = pi;
   err[i] = fmax(rate, 0.0f) * p.rest_volume * p.dt;
+  const float di = density[i] / p.phase_mass[phase[i]];
+  xt[i] = (float4)(pos[i].xyz, pi / (di * di)); /* packed for dfsph_apply_increments */
 }
 
 /* Source of the density solve (B&K 2017 Alg. 3, eq. 12): delta*_i = delta_i + dt D delta_i / Dt,
@@ -323,7 +334,7 @@ __kernel void dfsph_density_source(const SimParams p, __global const float4* pos
                                    __global const float4* bvel, __global const uint* bnbr,
                                    __global const uint* bnbr_count, const int warm, const float omega,
                                    __global const float* pprev,
-                                   __global float* pinc, __global float* err) {
+                                   __global float* pinc, __global float* err, __global float4* xt) {
   const uint i = get_global_id(0);
   if (i >= p.n_fluid) return;
   const uint K = p.max_neighbours;
@@ -331,15 +342,17 @@ __kernel void dfsph_density_source(const SimParams p, __global const float4* pos
                                         bnbr + (size_t)i * K, bnbr_count[i]);
   const float delta = density[i] / p.phase_mass[phase[i]];
   const float s = (delta + p.dt * rate) * p.rest_volume - 1.0f; /* relative density error */
-  pinc[i] = warm ? dfsph_warm(s > 0.0f, pprev[i]) : fmax(omega * s / p.rest_volume * alpha[i] / (p.dt * p.dt), 0.0f);
+  const float pi = warm ? dfsph_warm(s > 0.0f, pprev[i]) : fmax(omega * s / p.rest_volume * alpha[i] / (p.dt * p.dt), 0.0f);
+  pinc[i] = pi;
   err[i] = fmax(s, 0.0f);
+  xt[i] = (float4)(pos[i].xyz, pi / (delta * delta)); /* packed for dfsph_apply_increments */
 }
 
 /* Mirrored walls (fluid.dfsph.walls: mirrored), the iteration of the first version: each
  * iteration computes increments from the velocities (the sources above) and applies them here.
  * Applies the pressures pinc: v_i += dt a_i^p (the force at the top of this file), and adds them to
  * the accumulated pressure. Reads the neighbours' pressures, writes only particle i. */
-__kernel void dfsph_apply_increments(const SimParams p, __global const float4* pos, __global float4* vel,
+__kernel void dfsph_apply_increments(const SimParams p, __global const float4* xt, __global float4* vel,
                           __global const uint* phase, __global const float* density, __global const float* pinc,
                           __global float* pacc, __global const uint* nbr, __global const uint* nbr_count,
                           __global const float4* bpos, __global const uint* bnbr, __global const uint* bnbr_count) {
@@ -347,7 +360,7 @@ __kernel void dfsph_apply_increments(const SimParams p, __global const float4* p
   if (i >= p.n_fluid) return;
   const uint K = p.max_neighbours;
   const float H = p.support;
-  const float3 xi = pos[i].xyz;
+  const float3 xi = xt[i].xyz;
   const float mi = p.phase_mass[phase[i]];
   const float di = density[i] / mi;
   const float ti = pinc[i] / (di * di); /* p_i / delta_i^2 */
@@ -359,23 +372,19 @@ __kernel void dfsph_apply_increments(const SimParams p, __global const float4* p
   uint k = 0;
   for (; k + 8 <= nf; k += 8) {
     const uint8 j = vload8(0, list + k);
-    SPH_LOAD8(x, pos, j);
+    SPH_LOAD8(x, xt, j); /* position and p_j / delta_j^2, packed (dfsph_force) */
     const float8 dx = xi.x - SPH_LANES8(x, x), dy = xi.y - SPH_LANES8(x, y), dz = xi.z - SPH_LANES8(x, z);
     const float8 F = sph_grad_factor8(sqrt(dx * dx + dy * dy + dz * dz), H);
-    const uint8 phj = (uint8)(phase[j.s0], phase[j.s1], phase[j.s2], phase[j.s3], phase[j.s4], phase[j.s5],
-                              phase[j.s6], phase[j.s7]);
-    const float8 dj = SPH_GATHER8(density, j) / SPH_GATHER8(p.phase_mass, phj);
-    const float8 c = (ti + SPH_GATHER8(pinc, j) / (dj * dj)) * F;
+    const float8 c = (ti + SPH_LANES8(x, w)) * F;
     fx -= c * dx;
     fy -= c * dy;
     fz -= c * dz;
   }
   f = (float3)(sph_hsum8(fx), sph_hsum8(fy), sph_hsum8(fz));
   for (; k < nf; ++k) {
-    const uint j = list[k];
-    const float3 d = xi - pos[j].xyz;
-    const float dj = density[j] / p.phase_mass[phase[j]];
-    f -= (ti + pinc[j] / (dj * dj)) * sph_grad_factor(SPH_KERNEL, length(d), H) * d;
+    const float4 xj = xt[list[k]];
+    const float3 d = xi - xj.xyz;
+    f -= (ti + xj.w) * sph_grad_factor(SPH_KERNEL, length(d), H) * d;
   }
   const uint nb = bnbr_count[i];
   for (k = 0; k < nb; ++k) {
