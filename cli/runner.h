@@ -60,6 +60,7 @@ struct RunResult {
   uint64_t state_hash = 0;
   std::map<std::string, uint64_t> dispatch_counts;
   std::map<std::string, double> kernel_seconds;  ///< with profile_kernels: wall time per kernel (unit: s)
+  std::map<std::string, double> kernel_cpu_seconds;  ///< with profile_kernels: process CPU time per kernel (unit: s)
   std::vector<FrameReport> reports;  ///< one per frame
   bool haptics = false;              ///< a haptic session ran (the scene has a `haptics` section)
   std::size_t haptic_ticks = 0;      ///< servo ticks run (virtual time; live: real ticks)

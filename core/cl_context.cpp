@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <ctime>
 #include <cstdlib>
 #include <sstream>
 #include <utility>
@@ -184,9 +185,11 @@ void KernelSet::enqueue(const std::string& name, std::size_t global, std::size_t
   cl::Kernel& k = (*this)[name];
   // Per-kernel timing: the queue is drained first, so the time is this kernel's alone.
   std::chrono::steady_clock::time_point t0;
+  std::clock_t c0 = 0;
   if (timing_) {
     clCall("waiting for the queue", [&] { return cl_->queue().finish(); });
     t0 = std::chrono::steady_clock::now();
+    c0 = std::clock();
   }
   try {
     if (local > 0) {
@@ -202,6 +205,7 @@ void KernelSet::enqueue(const std::string& name, std::size_t global, std::size_t
   if (timing_) {
     clCall("waiting for a kernel", [&] { return cl_->queue().finish(); });
     seconds_[name] += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    cpu_seconds_[name] += static_cast<double>(std::clock() - c0) / CLOCKS_PER_SEC;
   }
 }
 
