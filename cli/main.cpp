@@ -140,6 +140,21 @@ int main(int argc, char** argv) {
   cmd_bench->add_option("--impact-size", bench.impact_size, "Particles of the impact pressure runs")
       ->check(CLI::Range(1000L, 10000000L))
       ->capture_default_str();
+  cmd_bench->add_option("--accuracy-sizes", bench.accuracy_sizes, "Particle counts of the accuracy table's runs")
+      ->check(CLI::Range(1000L, 10000000L))
+      ->capture_default_str();
+  cmd_bench->add_option("--accuracy-solvers", bench.accuracy_solvers,
+                        "Solvers of the accuracy table: wcsph, dfsph (the scene's walls), dfsph-mirrored, dfsph-single, "
+                        "dfsph-extrapolated")
+      ->check(CLI::IsMember({"wcsph", "dfsph", "dfsph-mirrored", "dfsph-single", "dfsph-extrapolated"}))
+      ->capture_default_str();
+  cmd_bench->add_option("--accuracy-cfl", bench.accuracy_cfls,
+                        "Courant numbers of the accuracy table (simulation.cfl, DFSPH's fluid.dfsph.cfl)")
+      ->check(CLI::Range(0.01, 1.0))
+      ->capture_default_str();
+  cmd_bench->add_option("--accuracy-eos", bench.accuracy_eos, "WCSPH's equations of state in the accuracy table")
+      ->check(CLI::IsMember({"linear", "tait"}))
+      ->capture_default_str();
 
   // compare
   app::CompareOptions compare;
