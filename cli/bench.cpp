@@ -527,16 +527,20 @@ int benchCommand(const BenchOptions& opt) {
              "simulated T shifted by +0.175\n";
       out << "solver,particles,dx_m,cfl,steps,eos,mean_rel_error,max_rel_error,points,wall_s,particle_steps_per_s,"
              "wall_crossings,iterations_per_step\n";
-      std::printf("\n%-6s %-9s %-8s %-5s %-7s %-7s %-10s %-10s %-8s %-9s %-6s\n", "solver", "particles", "dx [m]", "cfl",
+      std::printf("\n%-18s %-9s %-8s %-5s %-7s %-7s %-10s %-10s %-8s %-9s %-6s\n", "solver", "particles", "dx [m]", "cfl",
                   "steps", "eos", "mean err", "max err", "wall s", "crossings", "it/step");
       // WCSPH: both equations of state at Courant 0.4 and 0.2; DFSPH (no equation of state; its
       // Courant number is fluid.dfsph.cfl): the iterations per step of its density solve.
-      for (const char* solver : {"wcsph", "dfsph"})
-      for (double target : {4000.0, 12000.0, 30000.0}) {
-        for (double cfl : {0.4, 0.2}) {
-          for (const char* eos : {"linear", "tait"}) {
-            const bool dfsph = std::string(solver) == "dfsph";
-            if (dfsph && std::string(eos) == "tait") continue;
+      // (--accuracy-solvers: "dfsph-W" runs dfsph with fluid.dfsph.walls W; DFSPH takes one row per
+      // Courant number, the first equation of state's.)
+      for (const std::string& label : opt.accuracy_solvers)
+      for (long target : opt.accuracy_sizes) {
+        for (double cfl : opt.accuracy_cfls) {
+          for (const std::string& eos : opt.accuracy_eos) {
+            const bool dfsph = label.rfind("dfsph", 0) == 0;
+            if (dfsph && eos != opt.accuracy_eos.front()) continue;
+            const char* solver = label.c_str();
+            const std::string walls = label.size() > 6 && dfsph ? label.substr(6) : std::string();
             RunOptions ro;
             ro.scene = scene;
             ro.device = opt.device;
@@ -545,11 +549,12 @@ int benchCommand(const BenchOptions& opt) {
             const double dx = spacingFor(base, target);
             // a full row of particles across the tank marks the front (analysis.h)
             const std::size_t row = static_cast<std::size_t>(std::max(1.0, std::floor((base.fluid.blocks.at(0).max.y() - base.fluid.blocks.at(0).min.y()) / dx + 1e-4)));
-            ro.sets = {"fluid.particle_spacing=" + fmtd(dx, 9), std::string("fluid.solver=") + solver,
+            ro.sets = {"fluid.particle_spacing=" + fmtd(dx, 9), std::string("fluid.solver=") + (dfsph ? "dfsph" : "wcsph"),
                        (dfsph ? "fluid.dfsph.cfl=" : "simulation.cfl=") + fmtd(cfl, 2),
                        std::string("fluid.equation_of_state=") + eos,
                        // count problems instead of stopping: the table reports them
                        "simulation.numerical_errors=warn", "output.isosurface.enabled=false"};
+            if (!walls.empty()) ro.sets.push_back("fluid.dfsph.walls=" + walls);
             ro.duration = duration;
             std::vector<double> Ts{0.0}, Zs{1.0};
             double front_seconds = 0;
@@ -567,11 +572,11 @@ int benchCommand(const BenchOptions& opt) {
             uint64_t crossings = 0;
             for (const FrameReport& rep : r.reports) crossings += rep.wall_crossings;
             const double its = r.profile.steps ? double(r.profile.density_iterations) / double(r.profile.steps) : 0.0;
-            const char* eos_col = dfsph ? "-" : eos;
+            const char* eos_col = dfsph ? "-" : eos.c_str();
             out << solver << "," << r.particles << "," << dx << "," << cfl << "," << r.profile.steps << "," << eos_col
                 << "," << e.mean_rel << "," << e.max_rel << "," << e.points << "," << wall << "," << pss << ","
                 << crossings << "," << its << "\n";
-            std::printf("%-6s %-9zu %-8.4f %-5.2f %-7llu %-7s %-10.3f %-10.3f %-8.1f %-9llu %-6.1f\n", solver, r.particles,
+            std::printf("%-18s %-9zu %-8.4f %-5.2f %-7llu %-7s %-10.3f %-10.3f %-8.1f %-9llu %-6.1f\n", solver, r.particles,
                         dx, cfl, static_cast<unsigned long long>(r.profile.steps), eos_col, e.mean_rel, e.max_rel, wall,
                         static_cast<unsigned long long>(crossings), its);
             std::fflush(stdout);

@@ -39,6 +39,12 @@ struct BenchOptions {
   bool impact = true;        // the impact pressure on the far wall, both solvers (with the accuracy table)
   bool impact_only = false;  // only the impact pressure
   long impact_size = 12000;  // particles of the impact runs (the accuracy table's middle resolution)
+  // The accuracy table's runs: particle counts, solvers (wcsph, dfsph with the scene's walls, or
+  // dfsph-mirrored / dfsph-single / dfsph-extrapolated), Courant numbers and WCSPH's equations of state.
+  std::vector<long> accuracy_sizes{4000, 12000, 30000};
+  std::vector<std::string> accuracy_solvers{"wcsph", "dfsph"};
+  std::vector<double> accuracy_cfls{0.4, 0.2};
+  std::vector<std::string> accuracy_eos{"linear", "tait"};
 };
 
 /// Speed table (dam break at several sizes and substep counts) and accuracy-versus-time table

@@ -71,6 +71,9 @@ int main(int argc, char** argv) {
                                            "Simulated time in seconds (overrides simulation.duration; "
                                            "rounded to whole frames)");
   cmd_run->add_flag("--quiet,-q", run.quiet, "No progress line and no summary");
+  cmd_run->add_flag("--profile-kernels", run.profile_kernels,
+                    "Time every kernel (the queue is drained around each dispatch: slower, same results) and print "
+                    "each kernel's ms per step after the profile line");
   const std::string max_memory_help =
       "Refuse scenes estimated to need more memory than this, e.g. 8G, 512M, 2GiB (default: the machine's memory)";
   std::string run_max_memory, validate_max_memory;
@@ -136,6 +139,21 @@ int main(int argc, char** argv) {
   cmd_bench->add_flag("!--no-impact", bench.impact, "Skip the impact pressure table");
   cmd_bench->add_option("--impact-size", bench.impact_size, "Particles of the impact pressure runs")
       ->check(CLI::Range(1000L, 10000000L))
+      ->capture_default_str();
+  cmd_bench->add_option("--accuracy-sizes", bench.accuracy_sizes, "Particle counts of the accuracy table's runs")
+      ->check(CLI::Range(1000L, 10000000L))
+      ->capture_default_str();
+  cmd_bench->add_option("--accuracy-solvers", bench.accuracy_solvers,
+                        "Solvers of the accuracy table: wcsph, dfsph (the scene's walls), dfsph-mirrored, dfsph-single, "
+                        "dfsph-extrapolated")
+      ->check(CLI::IsMember({"wcsph", "dfsph", "dfsph-mirrored", "dfsph-single", "dfsph-extrapolated"}))
+      ->capture_default_str();
+  cmd_bench->add_option("--accuracy-cfl", bench.accuracy_cfls,
+                        "Courant numbers of the accuracy table (simulation.cfl, DFSPH's fluid.dfsph.cfl)")
+      ->check(CLI::Range(0.01, 1.0))
+      ->capture_default_str();
+  cmd_bench->add_option("--accuracy-eos", bench.accuracy_eos, "WCSPH's equations of state in the accuracy table")
+      ->check(CLI::IsMember({"linear", "tait"}))
       ->capture_default_str();
 
   // compare

@@ -18,6 +18,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -141,8 +142,8 @@ std::string profileLine(const Profile& p) {
     const double t = p.seconds[static_cast<std::size_t>(i)];
     if (t <= 0) continue;
     char buf[64];
-    std::snprintf(buf, sizeof buf, " %s %.2fs (%.0f%%)", stageName(static_cast<Stage>(i)), t,
-                  total > 0 ? 100.0 * t / total : 0.0);
+    std::snprintf(buf, sizeof buf, " %s %.2fs (%.0f%%, %.2f ms/step)", stageName(static_cast<Stage>(i)), t,
+                  total > 0 ? 100.0 * t / total : 0.0, p.steps ? 1e3 * t / static_cast<double>(p.steps) : 0.0);
     s << buf;
   }
   if (p.rigid_reduce_seconds > 0 && p.steps > 0) {
@@ -162,6 +163,27 @@ std::string profileLine(const Profile& p) {
                   double(p.density_iterations) / double(p.steps), double(p.divergence_iterations) / double(p.steps),
                   100.0 * p.max_density_error, 100.0 * p.max_divergence_error,
                   static_cast<unsigned long long>(p.unconverged_steps));
+    s << buf;
+  }
+  return s.str();
+}
+
+// --profile-kernels: each kernel's wall time per step and dispatches per step, largest first.
+std::string kernelProfileLine(const char* title, const std::map<std::string, double>& seconds,
+                              const std::map<std::string, uint64_t>& counts, uint64_t steps) {
+  std::vector<std::pair<double, std::string>> order;
+  double total = 0;
+  for (const auto& [name, t] : seconds) order.emplace_back(t, name), total += t;
+  std::sort(order.begin(), order.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+  const double per = 1.0 / static_cast<double>(std::max<uint64_t>(steps, 1));
+  std::ostringstream s;
+  char buf[160];
+  std::snprintf(buf, sizeof buf, "%s: total %.2f", title, 1e3 * total * per);
+  s << buf;
+  for (const auto& [t, name] : order) {
+    const auto c = counts.find(name);
+    std::snprintf(buf, sizeof buf, "; %s %.2f (%.2f)", name.c_str(), 1e3 * t * per,
+                  c == counts.end() ? 0.0 : static_cast<double>(c->second) * per);
     s << buf;
   }
   return s.str();
@@ -333,6 +355,7 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
     ClContext cl(opt.device);
     log("OpenCL " + cl.info().str());
     Simulation sim(model, compiled.initial, cl);
+    sim.profileKernels(opt.profile_kernels);
     for (const std::string& name : opt.disable) {
       auto st = stageFromName(name);
       if (!st) throw InputError("--disable", 0, 0, "unknown stage '" + name + "' (stages: " + stageNameList() + ")");
@@ -853,6 +876,8 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
     res.profile = sim.profile();
     res.device_bytes = sim.deviceBytes();
     res.dispatch_counts = sim.dispatchCounts();
+    res.kernel_seconds = sim.kernelSeconds();
+    res.kernel_cpu_seconds = sim.kernelCpuSeconds();
     res.state_hash = sim.stateHash();
     info.particle_steps_per_second = sim.profile().particle_steps / std::max(res.wall_seconds, 1e-9);
 
@@ -877,6 +902,11 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
                     humanRate(info.particle_steps_per_second).c_str());
       log(buf);
       log(profileLine(res.profile));
+      if (opt.profile_kernels) {
+        log(kernelProfileLine("kernels (wall ms/step, dispatches/step)", res.kernel_seconds, res.dispatch_counts, res.profile.steps));
+        log(kernelProfileLine("kernels (process CPU ms/step, dispatches/step)", res.kernel_cpu_seconds, res.dispatch_counts,
+                              res.profile.steps));
+      }
       if (const std::string w = warnings.summary(); !w.empty()) log("warnings: " + w);
       if (spec.output.isosurface.enabled) {
         std::snprintf(buf, sizeof buf,

@@ -23,6 +23,7 @@ struct RunOptions {
   bool duration_given = false;        ///< --duration was on the command line: `duration` must be finite and > 0
   double max_memory = 0;              ///< refuse scenes estimated to need more (unit: bytes; 0 = the machine's memory)
   bool quiet = false;                 ///< no progress line, no summary
+  bool profile_kernels = false;       ///< time every kernel dispatch (waits after each; slower) and print the table
   bool write_output = true;           ///< false: simulate only (benchmarks)
   std::string record;                 ///< with interactive: write the device readings per step and a state hash per frame here
   const haptics::Recording* replay = nullptr;  ///< replay this recording (its frames; every hash checked)
@@ -58,6 +59,8 @@ struct RunResult {
   std::size_t device_bytes = 0;
   uint64_t state_hash = 0;
   std::map<std::string, uint64_t> dispatch_counts;
+  std::map<std::string, double> kernel_seconds;  ///< with profile_kernels: wall time per kernel (unit: s)
+  std::map<std::string, double> kernel_cpu_seconds;  ///< with profile_kernels: process CPU time per kernel (unit: s)
   std::vector<FrameReport> reports;  ///< one per frame
   bool haptics = false;              ///< a haptic session ran (the scene has a `haptics` section)
   std::size_t haptic_ticks = 0;      ///< servo ticks run (virtual time; live: real ticks)

@@ -3,6 +3,8 @@
 #include "core/errors.h"
 
 #include <algorithm>
+#include <chrono>
+#include <ctime>
 #include <cstdlib>
 #include <sstream>
 #include <utility>
@@ -181,6 +183,14 @@ cl::Kernel& KernelSet::operator[](const std::string& name) {
 void KernelSet::enqueue(const std::string& name, std::size_t global, std::size_t local) {
   if (global == 0) return;
   cl::Kernel& k = (*this)[name];
+  // Per-kernel timing: the queue is drained first, so the time is this kernel's alone.
+  std::chrono::steady_clock::time_point t0;
+  std::clock_t c0 = 0;
+  if (timing_) {
+    clCall("waiting for the queue", [&] { return cl_->queue().finish(); });
+    t0 = std::chrono::steady_clock::now();
+    c0 = std::clock();
+  }
   try {
     if (local > 0) {
       global = (global + local - 1) / local * local;
@@ -192,6 +202,11 @@ void KernelSet::enqueue(const std::string& name, std::size_t global, std::size_t
     throw DeviceError("enqueueing kernel '" + name + "' failed with " + clErrorName(e.err()));
   }
   ++counts_[name];
+  if (timing_) {
+    clCall("waiting for a kernel", [&] { return cl_->queue().finish(); });
+    seconds_[name] += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    cpu_seconds_[name] += static_cast<double>(std::clock() - c0) / CLOCKS_PER_SEC;
+  }
 }
 
 }  // namespace sph

@@ -70,12 +70,22 @@ class KernelSet {
     enqueue(name, global, local);
   }
   const std::map<std::string, uint64_t>& dispatchCounts() const { return counts_; }
+  /// Per-kernel timing (`sphaptics run --profile-kernels`): each dispatch waits for the queue before
+  /// and after, and its wall time is added to its kernel's total. Slower; changes no result.
+  void setTiming(bool on) { timing_ = on; }
+  /// Wall time per kernel name since timing was switched on (unit: s).
+  const std::map<std::string, double>& kernelSeconds() const { return seconds_; }
+  /// Process CPU time (all threads, the OpenCL CPU driver's included) per kernel name: on a loaded
+  /// machine it varies less than the wall time (unit: s).
+  const std::map<std::string, double>& kernelCpuSeconds() const { return cpu_seconds_; }
 
  private:
   ClContext* cl_ = nullptr;
   cl::Program program_;
   std::map<std::string, cl::Kernel> kernels_;
   std::map<std::string, uint64_t> counts_;
+  bool timing_ = false;
+  std::map<std::string, double> seconds_, cpu_seconds_;
 };
 
 /// Runs `fn`, turning a cl::Error into a DeviceError whose message names the code and `what`.

@@ -27,6 +27,8 @@ DfsphSolver::DfsphSolver(ClContext& cl, KernelSet& kernels, std::size_t capacity
   alpha_ = makeBuffer(capacity * 4);
   source_ = makeBuffer(capacity * 4);
   accel_ = makeBuffer(capacity * 16);
+  xt_ = makeBuffer(capacity * 16);
+  gwall_ = makeBuffer(capacity * 16);
   err_ = makeBuffer(capacity * 4);
   partial_ = makeBuffer(kChunks * 4);
   pdiv_ = makeBuffer(capacity * 4);
@@ -56,7 +58,7 @@ void DfsphSolver::reorder(std::size_t n, const cl::Buffer& sorted) {
 
 void DfsphSolver::factors(const SimParams& p, const DfsphFields& f) {
   kernels_.call("dfsph_factor", p.n_fluid, kLocal, p, *f.pos, *f.phase, *f.density, *f.snbr, *f.snbr_count, *f.bpos,
-                *f.sbnbr, *f.sbnbr_count, wallFactor(), alpha_);
+                *f.sbnbr, *f.sbnbr_count, wallFactor(), alpha_, *f.bvel, gwall_);
 }
 
 void DfsphSolver::boundaryPressure(Kind kind, const SimParams& p, const DfsphFields& f, const cl::Buffer& pressure) {
@@ -79,25 +81,26 @@ void DfsphSolver::source(Kind kind, const SimParams& p, const DfsphFields& f, cl
   const double warm = spec_.warm_start ? 1.0 : 0.0;
   kernels_.call("dfsph_source", p.n_fluid, kLocal, p, *f.pos, *f.vel, *f.phase, *f.density, *f.snbr, *f.snbr_count,
                 *f.bpos, *f.bvel, *f.sbnbr, *f.sbnbr_count, div ? 0 : 1, div ? min_neighbours_ : 0u,
-                static_cast<float>(warm), extrapolated() ? 1 : 0, source_, pressure);
+                static_cast<float>(warm), extrapolated() ? 1 : 0, source_, pressure, xt_, gwall_);
 }
 
 void DfsphSolver::iterate(Kind kind, const SimParams& p, const DfsphFields& f, cl::Buffer& pressure) {
   // Extrapolated walls: the wall pressures of the current pressures first.
   const int use_bp = extrapolated() ? 1 : 0;
   if (use_bp) boundaryPressure(kind, p, f, pressure);
-  kernels_.call("dfsph_pressure_accel", p.n_fluid, kLocal, p, *f.pos, *f.phase, *f.density, pressure, *f.snbr,
-                *f.snbr_count, *f.bpos, *f.sbnbr, *f.sbnbr_count, wallFactor(), wallPressure(kind), use_bp, accel_);
+  kernels_.call("dfsph_pressure_accel", p.n_fluid, kLocal, p, xt_, *f.phase, *f.density, pressure, *f.snbr,
+                *f.snbr_count, *f.bpos, *f.sbnbr, *f.sbnbr_count, wallFactor(), wallPressure(kind), use_bp, accel_, gwall_);
   const uint32_t min_nbr = kind == Kind::Divergence ? min_neighbours_ : 0u;
   kernels_.call("dfsph_jacobi", p.n_fluid, kLocal, p, *f.pos, accel_, alpha_, source_, *f.snbr, *f.snbr_count,
-                *f.bpos, *f.sbnbr, *f.sbnbr_count, min_nbr, static_cast<float>(spec_.relaxation), extrapolated() ? 1 : 0, pressure, err_);
+                *f.bpos, *f.sbnbr, *f.sbnbr_count, min_nbr, static_cast<float>(spec_.relaxation), extrapolated() ? 1 : 0, pressure, err_,
+                *f.phase, *f.density, xt_, gwall_);
 }
 
 void DfsphSolver::apply(Kind kind, const SimParams& p, const DfsphFields& f, const cl::Buffer& pressure) {
   const int use_bp = extrapolated() ? 1 : 0;
   if (use_bp) boundaryPressure(kind, p, f, pressure);
-  kernels_.call("dfsph_apply_pressure", p.n_fluid, kLocal, p, *f.pos, *f.vel, *f.phase, *f.density, pressure, *f.snbr,
-                *f.snbr_count, *f.bpos, *f.sbnbr, *f.sbnbr_count, wallFactor(), wallPressure(kind), use_bp);
+  kernels_.call("dfsph_apply_pressure", p.n_fluid, kLocal, p, xt_, *f.vel, *f.phase, *f.density, pressure, *f.snbr,
+                *f.snbr_count, *f.bpos, *f.sbnbr, *f.sbnbr_count, wallFactor(), wallPressure(kind), use_bp, gwall_);
 }
 
 // --- Mirrored walls: the first version's iteration (kernels/dfsph.cl) ----------------------
@@ -107,15 +110,16 @@ void DfsphSolver::sourceIncrements(Kind kind, const SimParams& p, const DfsphFie
   const float omega = static_cast<float>(spec_.relaxation);
   if (kind == Kind::Divergence)
     kernels_.call("dfsph_divergence_source", p.n_fluid, kLocal, p, *f.pos, *f.vel, alpha_, *f.snbr, *f.snbr_count,
-                  *f.bpos, *f.bvel, *f.sbnbr, *f.sbnbr_count, min_neighbours_, w, omega, scratch_a_, source_, err_);
+                  *f.bpos, *f.bvel, *f.sbnbr, *f.sbnbr_count, min_neighbours_, w, omega, scratch_a_, source_, err_,
+                  *f.phase, *f.density, xt_, gwall_);
   else
     kernels_.call("dfsph_density_source", p.n_fluid, kLocal, p, *f.pos, *f.vel, *f.phase, *f.density, alpha_,
-                  *f.snbr, *f.snbr_count, *f.bpos, *f.bvel, *f.sbnbr, *f.sbnbr_count, w, omega, scratch_a_, source_, err_);
+                  *f.snbr, *f.snbr_count, *f.bpos, *f.bvel, *f.sbnbr, *f.sbnbr_count, w, omega, scratch_a_, source_, err_, xt_, gwall_);
 }
 
 void DfsphSolver::applyIncrements(const SimParams& p, const DfsphFields& f, cl::Buffer& pacc) {
-  kernels_.call("dfsph_apply_increments", p.n_fluid, kLocal, p, *f.pos, *f.vel, *f.phase, *f.density, source_, pacc, *f.snbr,
-                *f.snbr_count, *f.bpos, *f.sbnbr, *f.sbnbr_count);
+  kernels_.call("dfsph_apply_increments", p.n_fluid, kLocal, p, xt_, *f.vel, *f.phase, *f.density, source_, pacc, *f.snbr,
+                *f.snbr_count, *f.bpos, *f.sbnbr, *f.sbnbr_count, gwall_);
 }
 
 DfsphSolveResult DfsphSolver::solveMirrored(Kind kind, const SimParams& p, const DfsphFields& f) {

@@ -116,6 +116,12 @@ class DfsphSolver {
   cl::Buffer alpha_, err_, partial_;
   cl::Buffer source_;                      // s_i of the running solve (unit: 1); mirrored: the increments (unit: Pa)
   cl::Buffer accel_;                       // pressure accelerations of the current pressures (n x float4) (unit: m/s^2)
+  // Packed for the pressure-force passes (kernels/dfsph.cl, dfsph_force): position (unit: m) and
+  // p / delta^2 of the running solve's pressure (mirrored: of the increments) (unit: Pa m^6), (n x float4).
+  cl::Buffer xt_;
+  // Per particle, from the factor pass: the wall sums (G_b = sum_b psi_b gradW_ib (unit: 1/m^4),
+  // sum_b psi_b v_b . gradW_ib (unit: 1/(m^3 s))) the solves use instead of wall loops (n x float4).
+  cl::Buffer gwall_;
   cl::Buffer pdiv_, pdens_;                // the solves' pressures (unit: Pa), kept for the warm start
   bool divergence_ran_ = false;            // the divergence solve runs (its wall pressure counts)
   double prev_dt_div_ = 0.0, prev_dt_dens_ = 0.0;  // step of the last solve of each kind (unit: s)

@@ -106,6 +106,10 @@ class Simulation {
   const Model& model() const { return model_; }
   const Profile& profile() const { return profile_; }
   const std::map<std::string, uint64_t>& dispatchCounts() const { return kernels_.dispatchCounts(); }
+  /// Per-kernel wall time (`--profile-kernels`): every dispatch waits for its kernel; no result changes.
+  void profileKernels(bool on) { kernels_.setTiming(on); }
+  const std::map<std::string, double>& kernelSeconds() const { return kernels_.kernelSeconds(); }
+  const std::map<std::string, double>& kernelCpuSeconds() const { return kernels_.kernelCpuSeconds(); }
 
   /// Rigid bodies: the compiled bodies (model().bodies) and their current states, same order.
   const std::vector<rigid::BodyState>& bodies() const { return bodies_; }

@@ -102,6 +102,7 @@ void writeRunJson(const std::string& path, const RunInfo& info) {
       << info.profile.seconds[static_cast<std::size_t>(i)];
   j << "},\n";
   j << "  \"rigid_reduce_seconds\": " << info.profile.rigid_reduce_seconds << ",\n";
+  j << "  \"neighbour_list_builds\": " << info.profile.grid_builds << ",\n";
   // DFSPH solver (zero with solver wcsph): iterations, steps above the bound, largest errors reached
   j << "  \"dfsph\": {\"density_iterations\": " << info.profile.density_iterations
     << ", \"divergence_iterations\": " << info.profile.divergence_iterations

@@ -57,45 +57,103 @@
  *
  * Neighbours: this step's lists within H (snbr, sbnbr; density.cl). */
 
-/* Factor alpha_i = delta_i^2 / D_i (B&K 2017 eq. 9, for the pressure force above). */
+/* Performance: walls and bodies do not move during a step's solves, so the factor pass keeps each
+ * particle's wall sums gwall_i = (G_b, sum_b psi_b v_b . gradW_ib), G_b = sum_b psi_b gradW_ib,
+ * and the later passes use them instead of a loop over the wall neighbours:
+ *     sum_b psi_b (v_i - v_b) . gradW_ib = v_i . G_b - gwall_i.w     (density rate),
+ *     sum_b psi_b a_i . gradW_ib = a_i . G_b                         (Jacobi residual),
+ *     sum_b psi_b w t_i gradW_ib = w t_i G_b                          (pressure force). */
+
+/* sum_b psi_b gradW_ib over a boundary list (xyz) and sum_b psi_b q_b . gradW_ib (w) with
+ * q_b = vel[b] (when `vel` is not null), or with the scalars s[b] (when `s` is not null):
+ * sum_b psi_b s_b gradW_ib in xyz instead. Eight at a time (shared/pair_loops.h), lanes summed in
+ * a fixed order, then the rest one by one. */
+inline float4 dfsph_wall_sums(const float3 xi, __global const uint* list, const uint nb, __global const float4* bpos,
+                              __global const float4* bvel, __global const float* s, const float H) {
+  float8 gx = (float8)(0.0f), gy = gx, gz = gx, fl = gx;
+  uint k = 0;
+  for (; k + 8 <= nb; k += 8) {
+    const uint8 b = vload8(0, list + k);
+    SPH_LOAD8(x, bpos, b);
+    const float8 dx = xi.x - SPH_LANES8(x, x), dy = xi.y - SPH_LANES8(x, y), dz = xi.z - SPH_LANES8(x, z);
+    float8 F = SPH_LANES8(x, w) * sph_grad_factor8(sqrt(dx * dx + dy * dy + dz * dz), H);
+    if (s) F *= SPH_GATHER8(s, b);
+    gx += F * dx;
+    gy += F * dy;
+    gz += F * dz;
+    if (bvel) {
+      SPH_LOAD8(v, bvel, b);
+      fl += F * (SPH_LANES8(v, x) * dx + SPH_LANES8(v, y) * dy + SPH_LANES8(v, z) * dz);
+    }
+  }
+  float4 r = (float4)(sph_hsum8(gx), sph_hsum8(gy), sph_hsum8(gz), sph_hsum8(fl));
+  for (; k < nb; ++k) {
+    const uint b = list[k];
+    const float4 bb = bpos[b];
+    const float3 d = xi - bb.xyz;
+    float F = bb.w * sph_grad_factor(SPH_KERNEL, length(d), H);
+    if (s) F *= s[b];
+    r.xyz += F * d;
+    if (bvel) r.w += F * dot(bvel[b].xyz, d);
+  }
+  return r;
+}
+
+/* Factor alpha_i = delta_i^2 / D_i (B&K 2017 eq. 9, for the pressure force above), and the wall
+ * sums gwall_i (above). */
 __kernel void dfsph_factor(const SimParams p, __global const float4* pos, __global const uint* phase,
                            __global const float* density, __global const uint* nbr, __global const uint* nbr_count,
                            __global const float4* bpos, __global const uint* bnbr,
-                           __global const uint* bnbr_count, const float wall, __global float* alpha) {
+                           __global const uint* bnbr_count, const float wall, __global float* alpha,
+                           __global const float4* bvel, __global float4* gwall) {
   const uint i = get_global_id(0);
   if (i >= p.n_fluid) return;
   const uint K = p.max_neighbours;
   const float H = p.support;
   const float3 xi = pos[i].xyz;
   const float mi = p.phase_mass[phase[i]];
-  /* sums of gradients over fluid and boundary, and sum_j |gradW_ij|^2 / m_j */
-  float3 gf = (float3)(0.0f), gb = (float3)(0.0f);
-  float s2 = 0.0f;
+  __global const uint* list = nbr + (size_t)i * K;
+  /* sums of gradients over fluid and boundary, and sum_j |gradW_ij|^2 / m_j; fluid pairs eight at
+   * a time (shared/pair_loops.h), lanes summed in a fixed order, then the rest one by one */
+  float8 sx = (float8)(0.0f), sy = sx, sz = sx, s8 = sx;
   const uint nf = nbr_count[i];
-  for (uint k = 0; k < nf; ++k) {
-    const uint j = nbr[(size_t)i * K + k];
+  uint k = 0;
+  for (; k + 8 <= nf; k += 8) {
+    const uint8 j = vload8(0, list + k);
+    SPH_LOAD8(x, pos, j);
+    const float8 dx = xi.x - SPH_LANES8(x, x), dy = xi.y - SPH_LANES8(x, y), dz = xi.z - SPH_LANES8(x, z);
+    const float8 F = sph_grad_factor8(sqrt(dx * dx + dy * dy + dz * dz), H);
+    const float8 ax = F * dx, ay = F * dy, az = F * dz;
+    sx += ax;
+    sy += ay;
+    sz += az;
+    const uint8 phj = (uint8)(phase[j.s0], phase[j.s1], phase[j.s2], phase[j.s3], phase[j.s4], phase[j.s5],
+                              phase[j.s6], phase[j.s7]);
+    s8 += (ax * ax + ay * ay + az * az) / SPH_GATHER8(p.phase_mass, phj);
+  }
+  float3 gf = (float3)(sph_hsum8(sx), sph_hsum8(sy), sph_hsum8(sz));
+  float s2 = sph_hsum8(s8);
+  for (; k < nf; ++k) {
+    const uint j = list[k];
     const float3 d = xi - pos[j].xyz;
     const float3 g = sph_grad_factor(SPH_KERNEL, length(d), H) * d;
     gf += g;
     s2 += dot(g, g) / p.phase_mass[phase[j]];
   }
-  const uint nb = bnbr_count[i];
-  for (uint k = 0; k < nb; ++k) {
-    const float4 bb = bpos[bnbr[(size_t)i * K + k]];
-    const float3 d = xi - bb.xyz;
-    gb += bb.w * sph_grad_factor(SPH_KERNEL, length(d), H) * d;
-  }
+  const float4 gw = dfsph_wall_sums(xi, bnbr + (size_t)i * K, bnbr_count[i], bpos, bvel, 0, H);
+  gwall[i] = gw;
+  const float3 gb = gw.xyz;
   const float D = dot(gf + wall * gb, gf + gb) / mi + s2;
   const float delta = density[i] / mi;
   /* a particle without neighbours takes no pressure */
   alpha[i] = D > 0.0f ? delta * delta / D : 0.0f;
 }
 
-/* D delta_i / Dt (B&K 2017 eq. 2, number density): the rate at which the neighbours close in. */
+/* D delta_i / Dt (B&K 2017 eq. 2, number density): the rate at which the neighbours close in; the
+ * walls' part from the factor pass's sums gw (v_i . G_b - sum_b psi_b v_b . gradW_ib). */
 inline float dfsph_density_rate(const SimParams* p, const uint i, __global const float4* pos,
                                 __global const float4* vel, __global const uint* nbr, const uint nf,
-                                __global const float4* bpos, __global const float4* bvel,
-                                __global const uint* bnbr, const uint nb) {
+                                const float4 gw) {
   const float H = p->support;
   const float3 xi = pos[i].xyz, vi = vel[i].xyz;
   /* fluid neighbours eight at a time (shared/pair_loops.h: pocl leaves such loops scalar), the
@@ -116,13 +174,7 @@ inline float dfsph_density_rate(const SimParams* p, const uint i, __global const
     const float3 d = xi - pos[j].xyz;
     rate += sph_grad_factor(SPH_KERNEL, length(d), H) * dot(vi - vel[j].xyz, d);
   }
-  for (k = 0; k < nb; ++k) {
-    const uint b = bnbr[k];
-    const float4 bb = bpos[b];
-    const float3 d = xi - bb.xyz;
-    rate += bb.w * sph_grad_factor(SPH_KERNEL, length(d), H) * dot(vi - bvel[b].xyz, d);
-  }
-  return rate;
+  return rate + (dot(vi, gw.xyz) - gw.w);
 }
 
 /* Source of a solve and its warm start (B&K 2017 Alg. 2-3; section 4.4 for the warm start).
@@ -138,27 +190,32 @@ __kernel void dfsph_source(const SimParams p, __global const float4* pos, __glob
                            __global const uint* nbr_count, __global const float4* bpos,
                            __global const float4* bvel, __global const uint* bnbr,
                            __global const uint* bnbr_count, const int kind, const uint min_neighbours,
-                           const float warm, const int warm_all, __global float* source, __global float* pressure) {
+                           const float warm, const int warm_all, __global float* source, __global float* pressure,
+                           __global float4* xt, __global const float4* gwall) {
   const uint i = get_global_id(0);
   if (i >= p.n_fluid) return;
   const uint K = p.max_neighbours;
-  const float rate = dfsph_density_rate(&p, i, pos, vel, nbr + (size_t)i * K, nbr_count[i], bpos, bvel,
-                                        bnbr + (size_t)i * K, bnbr_count[i]);
+  const float rate = dfsph_density_rate(&p, i, pos, vel, nbr + (size_t)i * K, nbr_count[i], gwall[i]);
   const float delta = density[i] / p.phase_mass[phase[i]];
   float s = kind ? (delta + p.dt * rate) * p.rest_volume - 1.0f : p.dt * rate * p.rest_volume;
   /* divergence solve: fewer than min_neighbours neighbours (free surface, splashes): left alone */
   if (nbr_count[i] + bnbr_count[i] < min_neighbours) s = 0.0f;
   source[i] = s;
-  pressure[i] = (s > 0.0f || warm_all) ? warm * pressure[i] : 0.0f;
+  const float p0 = (s > 0.0f || warm_all) ? warm * pressure[i] : 0.0f;
+  pressure[i] = p0;
+  xt[i] = (float4)(pos[i].xyz, p0 / (delta * delta)); /* position and p / delta^2 (dfsph_force) */
 }
 
-/* The pressure force of the top of this file on particle i (unit: N), for the pressures `pr`. */
-inline float3 dfsph_force(const SimParams* p, const uint i, __global const float4* pos, __global const uint* phase,
+/* The pressure force of the top of this file on particle i (unit: N), for the pressures `pr`.
+ * Performance: the fluid neighbours' positions and p_j / delta_j^2 come packed in one float4 each,
+ * xt_j = (x_j, p_j / delta_j^2) (written with the pressures by dfsph_source and dfsph_jacobi), one
+ * gather per neighbour instead of five (position, phase, mass, density, pressure). */
+inline float3 dfsph_force(const SimParams* p, const uint i, __global const float4* xt, __global const uint* phase,
                           __global const float* density, __global const float* pr, __global const uint* list,
                           const uint nf, __global const float4* bpos, __global const uint* blist, const uint nb,
-                          const float wall, __global const float* bpr, const int use_bp) {
+                          const float wall, __global const float* bpr, const int use_bp, const float4 gw) {
   const float H = p->support;
-  const float3 xi = pos[i].xyz;
+  const float3 xi = xt[i].xyz;
   const float di = density[i] / p->phase_mass[phase[i]];
   const float ti = pr[i] / (di * di); /* p_i / delta_i^2 */
   /* fluid neighbours eight at a time (as dfsph_density_rate), then the rest one by one */
@@ -166,50 +223,40 @@ inline float3 dfsph_force(const SimParams* p, const uint i, __global const float
   uint k = 0;
   for (; k + 8 <= nf; k += 8) {
     const uint8 j = vload8(0, list + k);
-    SPH_LOAD8(x, pos, j);
+    SPH_LOAD8(x, xt, j);
     const float8 dx = xi.x - SPH_LANES8(x, x), dy = xi.y - SPH_LANES8(x, y), dz = xi.z - SPH_LANES8(x, z);
     const float8 F = sph_grad_factor8(sqrt(dx * dx + dy * dy + dz * dz), H);
-    const uint8 phj = (uint8)(phase[j.s0], phase[j.s1], phase[j.s2], phase[j.s3], phase[j.s4], phase[j.s5],
-                              phase[j.s6], phase[j.s7]);
-    const float8 dj = SPH_GATHER8(density, j) / SPH_GATHER8(p->phase_mass, phj);
-    const float8 c = (ti + SPH_GATHER8(pr, j) / (dj * dj)) * F;
+    const float8 c = (ti + SPH_LANES8(x, w)) * F;
     fx -= c * dx;
     fy -= c * dy;
     fz -= c * dz;
   }
   float3 f = (float3)(sph_hsum8(fx), sph_hsum8(fy), sph_hsum8(fz));
   for (; k < nf; ++k) {
-    const uint j = list[k];
-    const float3 d = xi - pos[j].xyz;
-    const float dj = density[j] / p->phase_mass[phase[j]];
-    f -= (ti + pr[j] / (dj * dj)) * sph_grad_factor(SPH_KERNEL, length(d), H) * d;
+    const float4 xj = xt[list[k]];
+    const float3 d = xi - xj.xyz;
+    f -= (ti + xj.w) * sph_grad_factor(SPH_KERNEL, length(d), H) * d;
   }
   /* walls: wall = 2 mirrors the pressure (p_b = p_i, delta_b = delta_i), wall = 1 is Akinci's
    * single term (p_b = 0 in the symmetric sum); extrapolated (use_bp): wall = 1 and the wall
    * particle's own pressure p_b (Adami et al. 2012 eq. 27, bpr) in the symmetric sum, over delta_i^2 */
-  const float inv_d2 = 1.0f / (di * di);
-  for (k = 0; k < nb; ++k) {
-    const uint b = blist[k];
-    const float4 bb = bpos[b];
-    const float3 d = xi - bb.xyz;
-    const float tb = use_bp ? bpr[b] * inv_d2 : 0.0f;
-    f -= bb.w * (wall * ti + tb) * sph_grad_factor(SPH_KERNEL, length(d), H) * d;
-  }
+  f -= wall * ti * gw.xyz; /* sum_b psi_b wall t_i gradW_ib = wall t_i G_b */
+  if (use_bp) f -= dfsph_wall_sums(xi, blist, nb, bpos, 0, bpr, H).xyz / (di * di);
   return f;
 }
 
 /* Pressure accelerations a_i^p = f_i / m_i of the current pressures (unit: m/s^2). */
-__kernel void dfsph_pressure_accel(const SimParams p, __global const float4* pos, __global const uint* phase,
+__kernel void dfsph_pressure_accel(const SimParams p, __global const float4* xt, __global const uint* phase,
                                    __global const float* density, __global const float* pressure,
                                    __global const uint* nbr, __global const uint* nbr_count,
                                    __global const float4* bpos, __global const uint* bnbr,
                                    __global const uint* bnbr_count, const float wall, __global const float* bpr,
-                                   const int use_bp, __global float4* accel) {
+                                   const int use_bp, __global float4* accel, __global const float4* gwall) {
   const uint i = get_global_id(0);
   if (i >= p.n_fluid) return;
   const uint K = p.max_neighbours;
-  const float3 f = dfsph_force(&p, i, pos, phase, density, pressure, nbr + (size_t)i * K, nbr_count[i], bpos,
-                               bnbr + (size_t)i * K, bnbr_count[i], wall, bpr, use_bp);
+  const float3 f = dfsph_force(&p, i, xt, phase, density, pressure, nbr + (size_t)i * K, nbr_count[i], bpos,
+                               bnbr + (size_t)i * K, bnbr_count[i], wall, bpr, use_bp, gwall[i]);
   accel[i] = (float4)(f / p.phase_mass[phase[i]], 0.0f);
 }
 
@@ -224,7 +271,9 @@ __kernel void dfsph_jacobi(const SimParams p, __global const float4* pos, __glob
                            __global const float* alpha, __global const float* source, __global const uint* nbr,
                            __global const uint* nbr_count, __global const float4* bpos, __global const uint* bnbr,
                            __global const uint* bnbr_count, const uint min_neighbours, const float omega,
-                           const int two_sided, __global float* pressure, __global float* err) {
+                           const int two_sided, __global float* pressure, __global float* err,
+                           __global const uint* phase, __global const float* density, __global float4* xt,
+                           __global const float4* gwall) {
   const uint i = get_global_id(0);
   if (i >= p.n_fluid) return;
   const uint K = p.max_neighbours;
@@ -249,12 +298,7 @@ __kernel void dfsph_jacobi(const SimParams p, __global const float4* pos, __glob
     const float3 d = xi - pos[j].xyz;
     Ap += sph_grad_factor(SPH_KERNEL, length(d), H) * dot(ai - accel[j].xyz, d);
   }
-  __global const uint* blist = bnbr + (size_t)i * K;
-  for (k = 0; k < nb; ++k) {
-    const float4 bb = bpos[blist[k]];
-    const float3 d = xi - bb.xyz;
-    Ap += bb.w * sph_grad_factor(SPH_KERNEL, length(d), H) * dot(ai, d);
-  }
+  Ap += dot(ai, gwall[i].xyz); /* sum_b psi_b a_i . gradW_ib = a_i . G_b */
   /* divergence solve: a particle with fewer than min_neighbours neighbours keeps no pressure */
   if (nf + nb < min_neighbours) {
     err[i] = 0.0f;
@@ -263,21 +307,25 @@ __kernel void dfsph_jacobi(const SimParams p, __global const float4* pos, __glob
   const float r = source[i] + p.dt * p.dt * p.rest_volume * Ap;
   const float inc = omega * r * alpha[i] / (p.dt * p.dt * p.rest_volume);
   const float p0 = pressure[i];
-  pressure[i] = fmax(p0 + inc, 0.0f);
+  const float p1 = fmax(p0 + inc, 0.0f);
+  pressure[i] = p1;
   err[i] = (two_sided && p0 > 0.0f) ? fabs(r) : fmax(r, 0.0f);
+  /* the packed position and p / delta^2 that the next pressure-force pass gathers (dfsph_force) */
+  const float di = density[i] / p.phase_mass[phase[i]];
+  xt[i] = (float4)(xi, p1 / (di * di));
 }
 
 /* The end of a solve: the velocities take the pressures, v_i += dt a_i^p. */
-__kernel void dfsph_apply_pressure(const SimParams p, __global const float4* pos, __global float4* vel,
+__kernel void dfsph_apply_pressure(const SimParams p, __global const float4* xt, __global float4* vel,
                           __global const uint* phase, __global const float* density, __global const float* pressure,
                           __global const uint* nbr, __global const uint* nbr_count, __global const float4* bpos,
                           __global const uint* bnbr, __global const uint* bnbr_count, const float wall,
-                          __global const float* bpr, const int use_bp) {
+                          __global const float* bpr, const int use_bp, __global const float4* gwall) {
   const uint i = get_global_id(0);
   if (i >= p.n_fluid) return;
   const uint K = p.max_neighbours;
-  const float3 f = dfsph_force(&p, i, pos, phase, density, pressure, nbr + (size_t)i * K, nbr_count[i], bpos,
-                               bnbr + (size_t)i * K, bnbr_count[i], wall, bpr, use_bp);
+  const float3 f = dfsph_force(&p, i, xt, phase, density, pressure, nbr + (size_t)i * K, nbr_count[i], bpos,
+                               bnbr + (size_t)i * K, bnbr_count[i], wall, bpr, use_bp, gwall[i]);
   vel[i] += (float4)(p.dt / p.phase_mass[phase[i]] * f, 0.0f);
 }
 
@@ -302,15 +350,20 @@ __kernel void dfsph_divergence_source(const SimParams p, __global const float4* 
                                       __global const uint* bnbr_count, const uint min_neighbours,
                                       const int warm, const float omega, __global const float* pprev,
                                       __global float* pinc,
-                                      __global float* err) {
+                                      __global float* err, __global const uint* phase,
+                                      __global const float* density, __global float4* xt,
+                                      __global const float4* gwall) {
   const uint i = get_global_id(0);
   if (i >= p.n_fluid) return;
   const uint K = p.max_neighbours;
   const uint nf = nbr_count[i], nb = bnbr_count[i];
-  float rate = dfsph_density_rate(&p, i, pos, vel, nbr + (size_t)i * K, nf, bpos, bvel, bnbr + (size_t)i * K, nb);
+  float rate = dfsph_density_rate(&p, i, pos, vel, nbr + (size_t)i * K, nf, gwall[i]);
   if (nf + nb < min_neighbours) rate = 0.0f;
-  pinc[i] = warm ? dfsph_warm(rate > 0.0f, pprev[i]) : fmax(omega * rate * alpha[i] / p.dt, 0.0f);
+  const float pi = warm ? dfsph_warm(rate > 0.0f, pprev[i]) : fmax(omega * rate * alpha[i] / p.dt, 0.0f);
+  pinc[i] = pi;
   err[i] = fmax(rate, 0.0f) * p.rest_volume * p.dt;
+  const float di = density[i] / p.phase_mass[phase[i]];
+  xt[i] = (float4)(pos[i].xyz, pi / (di * di)); /* packed for dfsph_apply_increments */
 }
 
 /* Source of the density solve (B&K 2017 Alg. 3, eq. 12): delta*_i = delta_i + dt D delta_i / Dt,
@@ -323,31 +376,34 @@ __kernel void dfsph_density_source(const SimParams p, __global const float4* pos
                                    __global const float4* bvel, __global const uint* bnbr,
                                    __global const uint* bnbr_count, const int warm, const float omega,
                                    __global const float* pprev,
-                                   __global float* pinc, __global float* err) {
+                                   __global float* pinc, __global float* err, __global float4* xt,
+                                   __global const float4* gwall) {
   const uint i = get_global_id(0);
   if (i >= p.n_fluid) return;
   const uint K = p.max_neighbours;
-  const float rate = dfsph_density_rate(&p, i, pos, vel, nbr + (size_t)i * K, nbr_count[i], bpos, bvel,
-                                        bnbr + (size_t)i * K, bnbr_count[i]);
+  const float rate = dfsph_density_rate(&p, i, pos, vel, nbr + (size_t)i * K, nbr_count[i], gwall[i]);
   const float delta = density[i] / p.phase_mass[phase[i]];
   const float s = (delta + p.dt * rate) * p.rest_volume - 1.0f; /* relative density error */
-  pinc[i] = warm ? dfsph_warm(s > 0.0f, pprev[i]) : fmax(omega * s / p.rest_volume * alpha[i] / (p.dt * p.dt), 0.0f);
+  const float pi = warm ? dfsph_warm(s > 0.0f, pprev[i]) : fmax(omega * s / p.rest_volume * alpha[i] / (p.dt * p.dt), 0.0f);
+  pinc[i] = pi;
   err[i] = fmax(s, 0.0f);
+  xt[i] = (float4)(pos[i].xyz, pi / (delta * delta)); /* packed for dfsph_apply_increments */
 }
 
 /* Mirrored walls (fluid.dfsph.walls: mirrored), the iteration of the first version: each
  * iteration computes increments from the velocities (the sources above) and applies them here.
  * Applies the pressures pinc: v_i += dt a_i^p (the force at the top of this file), and adds them to
  * the accumulated pressure. Reads the neighbours' pressures, writes only particle i. */
-__kernel void dfsph_apply_increments(const SimParams p, __global const float4* pos, __global float4* vel,
+__kernel void dfsph_apply_increments(const SimParams p, __global const float4* xt, __global float4* vel,
                           __global const uint* phase, __global const float* density, __global const float* pinc,
                           __global float* pacc, __global const uint* nbr, __global const uint* nbr_count,
-                          __global const float4* bpos, __global const uint* bnbr, __global const uint* bnbr_count) {
+                          __global const float4* bpos, __global const uint* bnbr, __global const uint* bnbr_count,
+                          __global const float4* gwall) {
   const uint i = get_global_id(0);
   if (i >= p.n_fluid) return;
   const uint K = p.max_neighbours;
   const float H = p.support;
-  const float3 xi = pos[i].xyz;
+  const float3 xi = xt[i].xyz;
   const float mi = p.phase_mass[phase[i]];
   const float di = density[i] / mi;
   const float ti = pinc[i] / (di * di); /* p_i / delta_i^2 */
@@ -359,30 +415,21 @@ __kernel void dfsph_apply_increments(const SimParams p, __global const float4* p
   uint k = 0;
   for (; k + 8 <= nf; k += 8) {
     const uint8 j = vload8(0, list + k);
-    SPH_LOAD8(x, pos, j);
+    SPH_LOAD8(x, xt, j); /* position and p_j / delta_j^2, packed (dfsph_force) */
     const float8 dx = xi.x - SPH_LANES8(x, x), dy = xi.y - SPH_LANES8(x, y), dz = xi.z - SPH_LANES8(x, z);
     const float8 F = sph_grad_factor8(sqrt(dx * dx + dy * dy + dz * dz), H);
-    const uint8 phj = (uint8)(phase[j.s0], phase[j.s1], phase[j.s2], phase[j.s3], phase[j.s4], phase[j.s5],
-                              phase[j.s6], phase[j.s7]);
-    const float8 dj = SPH_GATHER8(density, j) / SPH_GATHER8(p.phase_mass, phj);
-    const float8 c = (ti + SPH_GATHER8(pinc, j) / (dj * dj)) * F;
+    const float8 c = (ti + SPH_LANES8(x, w)) * F;
     fx -= c * dx;
     fy -= c * dy;
     fz -= c * dz;
   }
   f = (float3)(sph_hsum8(fx), sph_hsum8(fy), sph_hsum8(fz));
   for (; k < nf; ++k) {
-    const uint j = list[k];
-    const float3 d = xi - pos[j].xyz;
-    const float dj = density[j] / p.phase_mass[phase[j]];
-    f -= (ti + pinc[j] / (dj * dj)) * sph_grad_factor(SPH_KERNEL, length(d), H) * d;
+    const float4 xj = xt[list[k]];
+    const float3 d = xi - xj.xyz;
+    f -= (ti + xj.w) * sph_grad_factor(SPH_KERNEL, length(d), H) * d;
   }
-  const uint nb = bnbr_count[i];
-  for (k = 0; k < nb; ++k) {
-    const float4 bb = bpos[bnbr[(size_t)i * K + k]];
-    const float3 d = xi - bb.xyz;
-    f -= bb.w * 2.0f * ti * sph_grad_factor(SPH_KERNEL, length(d), H) * d;
-  }
+  f -= 2.0f * ti * gwall[i].xyz; /* walls mirror the pressure: sum_b psi_b 2 t_i gradW_ib = 2 t_i G_b */
   vel[i] += (float4)(p.dt / mi * f, 0.0f);
   pacc[i] += pinc[i];
 }

@@ -24,7 +24,7 @@ for k in $(seq 1 "$reps"); do
     steps=$(awk -v n="$steps" -v a="$it" 'BEGIN { if (a > 0) printf "%.0f", n / a }')
     echo "splishsplash,$c,$k,$(echo "$t1 - $t0" | bc),0.5,$steps,$it"
   done
-  for w in single mirrored; do
+  for w in single extrapolated mirrored; do
     t0=$(now); "$sph" run "$scene" -o "$work/sph" --set fluid.dfsph.walls=$w > "$work/sph.log" 2>&1; t1=$(now)
     done_line=$(grep '^done:' "$work/sph.log")
     sim=$(echo "$done_line" | sed -n 's/.* \([0-9.]*\) s simulated.*/\1/p')
