@@ -227,15 +227,17 @@ int forceChecks(const BenchOptions& opt) {
   std::ofstream out(csv);
   out << "# sphaptics " << SPHAPTICS_VERSION << " force checks of bodies in water (issue 15): measured against the "
          "closed form's range [expected_lo, expected_hi]; rel_error = distance outside that range / its middle "
-         "(0 inside; for a range at 0, the measured value); wall_s: the run's simulation wall time\n";
+         "(0 inside; for a range at 0, the measured value; for a range centred on 0, / its half-width); wall_s: the "
+         "run's simulation wall time\n";
   out << "check,solver,dx_m,R_over_dx,measured,expected_lo,expected_hi,rel_error,wall_s\n";
   std::printf("\n%-22s %-6s %-7s %-5s %-10s %-21s %-9s %-7s\n", "force check", "solver", "dx m", "R/dx", "measured",
               "expected", "rel err", "wall s");
   auto row = [&](const std::string& check, const std::string& solver, double dx, double r_dx, double v, double lo,
                  double hi, double wall) {
-    const double mid = 0.5 * (lo + hi);
-    // (a range at 0, the sideways force: the measured value itself)
-    const double err = mid == 0.0 ? std::abs(v) : (v < lo ? (lo - v) / mid : (v > hi ? (v - hi) / mid : 0.0));
+    const double mid = 0.5 * (lo + hi), outside = v < lo ? lo - v : (v > hi ? v - hi : 0.0);
+    // (a range at 0, the sideways force: the measured value itself; a range centred on 0, the
+    // no-slip offset: over its half-width)
+    const double err = lo == 0.0 && hi == 0.0 ? std::abs(v) : outside / (mid != 0.0 ? mid : 0.5 * (hi - lo));
     out << check << "," << solver << "," << dx << "," << r_dx << "," << v << "," << lo << "," << hi << "," << err << ","
         << wall << "\n";
     std::printf("%-22s %-6s %-7.4f %-5.1f %-10.4g [%-8.4g, %-8.4g] %-9.3f %-7.1f\n", check.c_str(), solver.c_str(), dx,
