@@ -491,7 +491,8 @@ TEST_CASE("DFSPH extrapolated walls: the hydrostatic tank within 5 % in every la
   CHECK(d.worst_probe <= 0.05);
   // Calm: each frame's reading, not only the average, within the issue's 5 % band: a layer's mean
   // pressure changes between frames (50 ms) by less than 5 % of rho0 g H. Measured 67 Pa (3.5 %);
-  // at the reference's eta = 5e-4, a mutation, 1045 Pa (55 %).
+  // at the reference's eta = 5e-4, a mutation, 1045 Pa (55 %). Not robust yet: the same run
+  // averaged over 1-2.75 s reads 7.7 % and 177 Pa, as more steps stop at max_iterations (README).
   CHECK(d.worst_change < 0.05 * d.p_bottom);
   WARN("dfsph extrapolated walls, hydrostatic tank (density bound 2e-5): worst layer " << 100 * d.worst
        << " %, frame-to-frame change " << d.worst_change << " Pa, probes " << 100 * d.worst_probe << " %, "
