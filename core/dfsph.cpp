@@ -56,6 +56,14 @@ void DfsphSolver::reorder(std::size_t n, const cl::Buffer& sorted) {
   std::swap(pdens_, scratch_b_);
 }
 
+const cl::Buffer& DfsphSolver::stepPressure(std::size_t n) {
+  // p_dens + p_div (dfsph_finish says why the sum); scratch_a_ is free between reorder and solve.
+  clCall("copying the DFSPH pressure",
+         [&] { return cl_.queue().enqueueCopyBuffer(pdens_, scratch_a_, 0, 0, std::max<std::size_t>(n, 1) * 4); });
+  if (n > 0) kernels_.call("dfsph_add", n, kLocal, static_cast<uint32_t>(n), scratch_a_, pdiv_);
+  return scratch_a_;
+}
+
 void DfsphSolver::factors(const SimParams& p, const DfsphFields& f) {
   kernels_.call("dfsph_factor", p.n_fluid, kLocal, p, *f.pos, *f.phase, *f.density, *f.snbr, *f.snbr_count, *f.bpos,
                 *f.sbnbr, *f.sbnbr_count, wallFactor(), alpha_, *f.bvel, gwall_);
@@ -72,8 +80,9 @@ void DfsphSolver::boundaryPressure(Kind kind, const SimParams& p, const DfsphFie
 }
 
 void DfsphSolver::source(Kind kind, const SimParams& p, const DfsphFields& f, cl::Buffer& pressure) {
-  // Warm start (B&K 2017 section 4.4): a share of the previous step's pressure, scaled as the
-  // reference implementation keeps it (p dt^2 for the density solve, p dt for the divergence solve).
+  // The pressure is kept in Pa, not rescaled when dt changes: the hydrostatic pressure that most
+  // of it is does not depend on dt (the reference implementation keeps p dt^2, which would scale a
+  // resting column's pressure by (dt_prev / dt)^2 after each change of step).
   const bool div = kind == Kind::Divergence;
   // Warm start (B&K 2017 section 4.4): the last step's pressure where the flow now compresses, all
   // of it (the projected iteration can lower a pressure again; half of it, as the reference, left

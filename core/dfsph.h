@@ -73,8 +73,9 @@ class DfsphSolver {
   DfsphSolveResult densitySolve(const SimParams& p, const DfsphFields& f);
   /// The pressure to export and p / delta^2 for the rigid coupling (kernels/dfsph.cl, dfsph_finish).
   void finish(const SimParams& p, const DfsphFields& f);
-  /// The density solve's pressures of the last step, following their particles (n) (unit: Pa).
-  const cl::Buffer& densityPressure() const { return pdens_; }
+  /// The pressure of the last step, both solves' (as dfsph_finish exports it), following their
+  /// particles; computed into a scratch buffer, valid until the next solve or reorder (n) (unit: Pa).
+  const cl::Buffer& stepPressure(std::size_t n);
   /// The velocities before this step's density solve: what the viscous forces saw, so that the
   /// rigid coupling's viscous reaction matches them (n x float4) (unit: m/s).
   const cl::Buffer& viscousVelocities() const { return vel_before_; }

@@ -123,7 +123,7 @@ struct DfsphSpec {
   int divergence_min_iterations = 1; ///< divergence solve: iterations at least (unit: 1)
   int divergence_max_iterations = 100;  ///< divergence solve: iterations at most (unit: 1)
   bool divergence_solve = true;      ///< make the velocity field divergence-free each step (B&K 2017 Alg. 2)
-  DfsphWalls walls = DfsphWalls::Mirrored;  ///< wall pressure and Jacobi variant (see DfsphWalls)
+  DfsphWalls walls = DfsphWalls::Extrapolated;  ///< wall pressure and Jacobi variant (see DfsphWalls)
   bool warm_start = true;            ///< start each solve from the previous step's pressure
   double relaxation = 0.5;           ///< Jacobi relaxation omega of both solves' pressure increments (unit: 1)
   double cfl = 0.4;                  ///< Courant number: dt <= cfl * dx / |v|max (unit: 1)

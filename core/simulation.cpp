@@ -478,9 +478,9 @@ void Simulation::sampleProbes() {
   const float reach = static_cast<float>(model_.support + std::min(travel_since_build_, 4.0 * model_.support));
   const uint32_t count = static_cast<uint32_t>(probes_->numPoints());
   // The pressure probed: WCSPH's equation of state of this step's density; DFSPH's the solver's
-  // pressure (the last density solve's, which moved the fluid to here; B&K 2017 eq. 12), not the
-  // equation of state the density pass also writes.
-  const cl::Buffer& pressure = dfsph_ ? dfsph_->densityPressure() : pressure_;
+  // pressure of the last step (both solves', which moved the fluid to here; B&K 2017 eq. 12 and 15;
+  // kernels/dfsph.cl dfsph_finish), not the equation of state the density pass also writes.
+  const cl::Buffer& pressure = dfsph_ ? dfsph_->stepPressure(n_) : pressure_;
   kernels_.call("probe_sample", count, kLocal, params_, count, reach, probes_->pointBuffer(), pos_[cur_], vel_[cur_],
                 phase_[cur_], density_, pressure, cell_start_, bpos_, bcell_start_, probes_->sumBuffer());
   std::vector<float> sums(8 * std::size_t(count));

@@ -430,9 +430,10 @@ std::vector<KeyDef> buildTable() {
                "pressure as warm start (right pressure at walls; more iterations); single: Akinci's single wall "
                "term, pressures projected to >= 0, the full last pressure as warm start (the reference "
                "implementation's; ~2.4x fewer iterations, the first fluid layer at a wall reads ~1.7x its pressure); "
-               "extrapolated: the wall's pressure extrapolated from the fluid (Adami et al. 2012 eq. 27, as WCSPH's "
-               "walls) in each iteration of single's solve (right pressure next to walls and on bodies, Archimedes "
-               "draft 2.4 %, ~2 wall crossings where the others have ~140; the pressure at rest wobbles)"));
+               "extrapolated (the default): the wall's pressure extrapolated from the fluid (Adami et al. 2012 eq. 27, "
+               "as WCSPH's walls) in each iteration of single's solve (right pressure next to walls and on bodies, "
+               "Archimedes draft 2.4 %, ~2 wall crossings where the others have ~140; at rest the pressure rings "
+               "within what the density bound cannot see: README \"DFSPH\")"));
   add(field<InScene>("fluid.dfsph.warm_start", [](auto& s) -> auto& { return s.fluid.dfsph.warm_start; })
           .doc("start each solve from the pressure of the previous step (where the flow compresses)"));
   add(field<InScene>("fluid.dfsph.relaxation", [](auto& s) -> auto& { return s.fluid.dfsph.relaxation; })

@@ -182,9 +182,9 @@ inline float dfsph_density_rate(const SimParams* p, const uint i, __global const
  *     the current velocities would leave at the end of the step;
  * divergence (kind 0, eq. 15): s_i = dt V0 D delta_i / Dt, the relative density change over dt.
  * The pressure starts from warm x the previous step's where the flow now compresses (everywhere
- * with warm_all: extrapolated walls, whose projected iteration lowers it again where it must), scaled by
- * (dt_prev / dt)^k (k = 2 density, 1 divergence: the reference implementation keeps p dt^k from
- * step to step), else from zero (warm = 0: no warm start). */
+ * with warm_all: extrapolated walls, whose projected iteration lowers it again where it must), in
+ * Pa as it was (not rescaled with dt: a resting column's pressure does not depend on the step),
+ * else from zero (warm = 0: no warm start). */
 __kernel void dfsph_source(const SimParams p, __global const float4* pos, __global const float4* vel,
                            __global const uint* phase, __global const float* density, __global const uint* nbr,
                            __global const uint* nbr_count, __global const float4* bpos,
@@ -454,16 +454,20 @@ __kernel void dfsph_predict(const SimParams p, __global float4* vel, __global fl
   acc[i] = (float4)(0.0f);
 }
 
-/* After both solves: the pressure to export (the density solve's, in Pa) and what the rigid
- * coupling reads, p / delta^2 of all pressure that acted this step (both solves; the reaction on
- * bodies then balances what the fluid received: Newton's third law). */
+/* After both solves: the pressure to export and what the rigid coupling reads, both of all the
+ * pressure that acted this step. Both solves apply v += dt a^p(p) at the same positions and number
+ * densities and a^p is linear in p, so the step's momentum change is that of p_div + p_dens: the
+ * physical pressure over the step (the one a WCSPH run reports) is their sum (Pa). (The density
+ * solve's alone reads low at rest, by the share of the weight the divergence solve carries: 10 % in
+ * the hydrostatic tank.) The rigid coupling reads p / delta^2 of the same sum, so the reaction on
+ * bodies balances what the fluid received: Newton's third law. */
 __kernel void dfsph_finish(const SimParams p, __global const uint* phase, __global const float* density,
                            __global const float* pdiv, __global const float* pdens, __global float* pressure,
                            __global float* pterm) {
   const uint i = get_global_id(0);
   if (i >= p.n_fluid) return;
   const float d = density[i] / p.phase_mass[phase[i]];
-  pressure[i] = pdens[i];
+  pressure[i] = pdiv[i] + pdens[i];
   pterm[i] = (pdiv[i] + pdens[i]) / (d * d);
 }
 
