@@ -24,6 +24,10 @@
 //    2 / omega_max with omega_max bounded by Gershgorin's theorem over the springs (single mass on a
 //    spring: 2 sqrt(m/k)), reduced for the dashpots (Belytschko, Liu, Moran 2000, eq. 6.3.38:
 //    dt <= 2/omega (sqrt(1 + xi^2) - xi)), is enforced by subdividing the step, never ignored.
+//    Its positions are kept as two floats, hi (the shared position buffer) + lo (ClothSim::xlo_),
+//    so that float rounding of the positions does not feed energy into stiff springs.
+//  - air drag (both solvers) is implicit on the whole velocity: at rest the springs and anchors
+//    carry the full weight (kernels/cloth.cl, cloth_xpbd_predict).
 #pragma once
 
 #include "core/cl_context.h"
