@@ -205,29 +205,37 @@ struct InCloths {
   static auto& item(S& s, std::size_t i) { return s.cloth.at(i); }
 };
 
-/// Anchors of a cloth: a list inside the cloth list (index: nestedIndex).
-struct InAnchors {
+/// Anchors of a cloth or a soft body (`Owners`: &SceneSpec::cloth or &SceneSpec::soft_bodies): a
+/// list inside the owners' list (index: nestedIndex).
+template <auto Owners>
+struct InAnchorsOf {
   using Item = ClothAnchorSpec;
   template <class S>
-  static auto& list(S& s, std::size_t parent) { return s.cloth.at(nestedParent(parent)).anchors; }
+  static auto& list(S& s, std::size_t parent) { return (s.*Owners).at(nestedParent(parent)).anchors; }
   template <class S>
   static auto& item(S& s, std::size_t i) { return list(s, i).at(nestedItem(i)); }
 };
 
-/// Keyframes of a cloth anchor: a list inside an anchor (index: nested2Index).
-struct InAnchorKeys {
+/// Keyframes of such an anchor: a list inside an anchor (index: nested2Index).
+template <auto Owners>
+struct InAnchorKeysOf {
   using Item = AnchorKeyframeSpec;
   /// `parent`: the anchor's nestedIndex (count / resize).
   template <class S>
   static auto& list(S& s, std::size_t parent) {
-    return s.cloth.at(nestedParent(parent)).anchors.at(nestedItem(parent)).keyframes;
+    return (s.*Owners).at(nestedParent(parent)).anchors.at(nestedItem(parent)).keyframes;
   }
   /// `i`: nested2Index of the key.
   template <class S>
   static auto& item(S& s, std::size_t i) {
-    return s.cloth.at(nested2Top(i)).anchors.at(nested2Middle(i)).keyframes.at(nestedItem(i));
+    return (s.*Owners).at(nested2Top(i)).anchors.at(nested2Middle(i)).keyframes.at(nestedItem(i));
   }
 };
+
+using InAnchors = InAnchorsOf<&SceneSpec::cloth>;
+using InAnchorKeys = InAnchorKeysOf<&SceneSpec::cloth>;
+using InSoftAnchors = InAnchorsOf<&SceneSpec::soft_bodies>;
+using InSoftAnchorKeys = InAnchorKeysOf<&SceneSpec::soft_bodies>;
 
 struct InSoftBodies {
   using Item = SoftBodySpec;
@@ -235,28 +243,6 @@ struct InSoftBodies {
   static auto& list(S& s) { return s.soft_bodies; }
   template <class S>
   static auto& item(S& s, std::size_t i) { return s.soft_bodies.at(i); }
-};
-
-/// Anchors of a soft body: a list inside the soft_bodies list (index: nestedIndex).
-struct InSoftAnchors {
-  using Item = ClothAnchorSpec;
-  template <class S>
-  static auto& list(S& s, std::size_t parent) { return s.soft_bodies.at(nestedParent(parent)).anchors; }
-  template <class S>
-  static auto& item(S& s, std::size_t i) { return list(s, i).at(nestedItem(i)); }
-};
-
-/// Keyframes of a soft body's anchor (index: nested2Index).
-struct InSoftAnchorKeys {
-  using Item = AnchorKeyframeSpec;
-  template <class S>
-  static auto& list(S& s, std::size_t parent) {
-    return s.soft_bodies.at(nestedParent(parent)).anchors.at(nestedItem(parent)).keyframes;
-  }
-  template <class S>
-  static auto& item(S& s, std::size_t i) {
-    return s.soft_bodies.at(nested2Top(i)).anchors.at(nested2Middle(i)).keyframes.at(nestedItem(i));
-  }
 };
 
 struct InProbePoints {
@@ -355,6 +341,25 @@ Key nested2List(const char* path) {
 std::vector<KeyDef> buildTable() {
   std::vector<KeyDef> t;
   auto add = [&t](const Key& key) { t.push_back(key.def); };
+  // The rows every cloth or soft-body anchor takes after its type's own (`p`: "cloth[].anchors" or
+  // "soft_bodies[].anchors"): the box of type box, then a constant motion or keyframes.
+  auto addAnchorMotion = [&add](auto anchors, auto keys, const std::string& p, const char* keyframes_doc) {
+    using A = decltype(anchors);
+    using K = decltype(keys);
+    add(field<A>((p + "[].min").c_str(), [](auto& a) -> auto& { return a.min; })
+            .unit("m").doc("type box: lower corner, world frame (the box must hold at least one node)"));
+    add(field<A>((p + "[].max").c_str(), [](auto& a) -> auto& { return a.max; })
+            .unit("m").doc("type box: upper corner, world frame"));
+    add(field<A>((p + "[].velocity").c_str(), [](auto& a) -> auto& { return a.velocity; })
+            .unit("m/s").doc("velocity of the anchored nodes until stop (0: fixed)"));
+    add(field<A>((p + "[].stop").c_str(), [](auto& a) -> auto& { return a.stop; })
+            .unit("s").atLeast(0).allowInfinity().doc("the anchored nodes stop moving at this time; .inf = never"));
+    add(nested2List<K>((p + "[].keyframes").c_str()).defaultNote("[]").doc(keyframes_doc));
+    add(field<K>((p + "[].keyframes[].time").c_str(), [](auto& k) -> auto& { return k.time; })
+            .unit("s").atLeast(0).required().doc("time of this key, strictly greater than the previous key's"));
+    add(field<K>((p + "[].keyframes[].offset").c_str(), [](auto& k) -> auto& { return k.offset; })
+            .unit("m").required().doc("displacement of the anchored nodes from where they were placed, world frame"));
+  };
 
   // simulation: time stepping and numerics ---------------------------------------------------
   add(section("simulation", [](SceneSpec& s) { return &s.simulation.loc; }).doc("time stepping and numerics"));
@@ -639,21 +644,9 @@ std::vector<KeyDef> buildTable() {
           .unit("1").atLeast(0).doc("type node: node index along the cloth x axis, 0 .. resolution_x - 1 (mesh cloth: the vertex index, 0-based)"));
   add(field<InAnchors>("cloth[].anchors[].j", [](auto& a) -> auto& { return a.j; })
           .unit("1").atLeast(0).doc("type node: node index along the cloth y axis, 0 .. resolution_y - 1"));
-  add(field<InAnchors>("cloth[].anchors[].min", [](auto& a) -> auto& { return a.min; })
-          .unit("m").doc("type box: lower corner, world frame (the box must hold at least one node)"));
-  add(field<InAnchors>("cloth[].anchors[].max", [](auto& a) -> auto& { return a.max; })
-          .unit("m").doc("type box: upper corner, world frame"));
-  add(field<InAnchors>("cloth[].anchors[].velocity", [](auto& a) -> auto& { return a.velocity; })
-          .unit("m/s").doc("velocity of the anchored nodes until stop (0: fixed)"));
-  add(field<InAnchors>("cloth[].anchors[].stop", [](auto& a) -> auto& { return a.stop; })
-          .unit("s").atLeast(0).allowInfinity().doc("the anchored nodes stop moving at this time; .inf = never"));
-  add(nested2List<InAnchorKeys>("cloth[].anchors[].keyframes").defaultNote("[]")
-          .doc("instead of velocity / stop: at least 1 key; the nodes' offset from their placed position is linear "
-               "in time between keys, held before the first and after the last"));
-  add(field<InAnchorKeys>("cloth[].anchors[].keyframes[].time", [](auto& k) -> auto& { return k.time; })
-          .unit("s").atLeast(0).required().doc("time of this key, strictly greater than the previous key's"));
-  add(field<InAnchorKeys>("cloth[].anchors[].keyframes[].offset", [](auto& k) -> auto& { return k.offset; })
-          .unit("m").required().doc("displacement of the anchored nodes from where they were placed, world frame"));
+  addAnchorMotion(InAnchors{}, InAnchorKeys{}, "cloth[].anchors",
+                  "instead of velocity / stop: at least 1 key; the nodes' offset from their placed position is linear "
+                  "in time between keys, held before the first and after the last");
   // soft_bodies: volumetric lattices of springs (core/cloth.h, softLattice) ---------------------
   add(list<InSoftBodies>("soft_bodies").defaultNote("[]")
           .doc("soft bodies: a box (or closed OBJ mesh) filled with a cubic lattice of nodes joined by springs along every "
@@ -711,20 +704,8 @@ std::vector<KeyDef> buildTable() {
   add(field<InSoftAnchors>("soft_bodies[].anchors[].k", [](auto& a) -> auto& { return a.k; })
           .unit("1").atLeast(0).doc("type node: lattice index along the body z axis, 0 .. cells along z (a mesh's lattice: "
                                    "only indices of nodes of cells inside the mesh)"));
-  add(field<InSoftAnchors>("soft_bodies[].anchors[].min", [](auto& a) -> auto& { return a.min; })
-          .unit("m").doc("type box: lower corner, world frame (the box must hold at least one node)"));
-  add(field<InSoftAnchors>("soft_bodies[].anchors[].max", [](auto& a) -> auto& { return a.max; })
-          .unit("m").doc("type box: upper corner, world frame"));
-  add(field<InSoftAnchors>("soft_bodies[].anchors[].velocity", [](auto& a) -> auto& { return a.velocity; })
-          .unit("m/s").doc("velocity of the anchored nodes until stop (0: fixed)"));
-  add(field<InSoftAnchors>("soft_bodies[].anchors[].stop", [](auto& a) -> auto& { return a.stop; })
-          .unit("s").atLeast(0).allowInfinity().doc("the anchored nodes stop moving at this time; .inf = never"));
-  add(nested2List<InSoftAnchorKeys>("soft_bodies[].anchors[].keyframes").defaultNote("[]")
-          .doc("instead of velocity / stop: at least 1 key; offset from the placed position, linear in time between keys"));
-  add(field<InSoftAnchorKeys>("soft_bodies[].anchors[].keyframes[].time", [](auto& k) -> auto& { return k.time; })
-          .unit("s").atLeast(0).required().doc("time of this key, strictly greater than the previous key's"));
-  add(field<InSoftAnchorKeys>("soft_bodies[].anchors[].keyframes[].offset", [](auto& k) -> auto& { return k.offset; })
-          .unit("m").required().doc("displacement of the anchored nodes from where they were placed, world frame"));
+  addAnchorMotion(InSoftAnchors{}, InSoftAnchorKeys{}, "soft_bodies[].anchors",
+                  "instead of velocity / stop: at least 1 key; offset from the placed position, linear in time between keys");
   // probes: the fluid sampled at points and along vertical gauges -----------------------------
   add(section("probes", [](SceneSpec& s) { return &s.probes.loc; })
           .doc("pressure probes and water-height gauges, sampled into probes.csv (like an experiment's gauges)"));
