@@ -7,6 +7,7 @@
 #include "core/live_frame.h"
 #include "haptics/mouse.h"
 #include "io/png.h"
+#include "tests/haptics_csv.h"
 #include "tests/run_binary.h"
 #include "tests/scene_runs.h"
 #include "tests/temp_dir.h"
@@ -28,6 +29,8 @@
 #include <vector>
 
 using namespace sph;
+using sph::testing::readHaptics;
+using sph::testing::Tick;
 
 namespace {
 
@@ -179,23 +182,11 @@ TEST_CASE("Mouse device: a press over a ball in water grabs it, a drag moves it 
   // device x -3 to 0 cm at scale 2), from haptics.csv.
   Eigen::Vector3d felt = Eigen::Vector3d::Zero();
   int n_felt = 0;
-  {
-    std::ifstream in(std::filesystem::path(o.out) / "haptics.csv");
-    std::string line;
-    while (std::getline(in, line)) {
-      if (line.empty() || line[0] == '#' || line.rfind("time", 0) == 0) continue;
-      std::replace(line.begin(), line.end(), ',', ' ');
-      std::istringstream row(line);
-      double t = 0, v[9] = {};
-      long body = -1;
-      row >> t;
-      for (double& c : v) row >> c;
-      row >> body;
-      if (t < 0.10 || t > 0.50 || v[0] < -0.03 || v[0] > 0.025) continue;
-      REQUIRE(body == 0);  // held all the way
-      felt += Eigen::Vector3d(v[6], v[7], v[8]);
-      ++n_felt;
-    }
+  for (const Tick& r : readHaptics(std::filesystem::path(o.out) / "haptics.csv")) {
+    if (r.t < 0.10 || r.t > 0.50 || r.x.x() < -0.03 || r.x.x() > 0.025) continue;
+    REQUIRE(r.body == 0);  // held all the way
+    felt += r.f;
+    ++n_felt;
   }
   INFO("ball x at 0.067 s " << x_at_010 << " m, at 0.5 s " << x_at_045 << " m; mean felt force " << (felt / std::max(n_felt, 1)).transpose()
                           << " N over " << n_felt << " ticks");
@@ -280,29 +271,16 @@ TEST_CASE("Mouse device: right after a grab the hand feels no more than the body
   double t_grab = -1, peak = 0, t_peak = 0;
   Eigen::Vector3d hang = Eigen::Vector3d::Zero();
   int n_hang = 0;
-  {
-    std::ifstream in(std::filesystem::path(o.out) / "haptics.csv");
-    std::string line;
-    while (std::getline(in, line)) {
-      if (line.empty() || line[0] == '#' || line.rfind("time", 0) == 0) continue;
-      std::replace(line.begin(), line.end(), ',', ' ');
-      std::istringstream row(line);
-      double t = 0, v[9] = {};
-      long body = -1;
-      row >> t;
-      for (double& c : v) row >> c;
-      row >> body;
-      const Eigen::Vector3d f(v[6], v[7], v[8]);
-      if (body >= 0 && t_grab < 0) t_grab = t;
-      if (t_grab >= 0 && t <= t_grab + 0.1 && f.norm() > peak) {
-        peak = f.norm();
-        t_peak = t;
-      }
-      if (t >= 0.15) {
-        REQUIRE(body == 0);  // still held
-        hang += f;
-        ++n_hang;
-      }
+  for (const Tick& r : readHaptics(std::filesystem::path(o.out) / "haptics.csv")) {
+    if (r.body >= 0 && t_grab < 0) t_grab = r.t;
+    if (t_grab >= 0 && r.t <= t_grab + 0.1 && r.f.norm() > peak) {
+      peak = r.f.norm();
+      t_peak = r.t;
+    }
+    if (r.t >= 0.15) {
+      REQUIRE(r.body == 0);  // still held
+      hang += r.f;
+      ++n_hang;
     }
   }
   REQUIRE(t_grab > 0);
