@@ -612,8 +612,13 @@ TEST_CASE("Cloth: a ball dropped on a cloth is caught, comes to rest, and a heav
   // spring damping), its bob's peak-to-peak height in the last 0.5 s is under a quarter of that
   // in 1-1.5 s and under a tenth of the ball's sag (how far below resting on the flat cloth it
   // settles, the oscillator's static displacement); over the last second the anchors carry on average the weight of
-  // ball and cloth within 10 % (momentum balance: what the anchors do not carry accelerates the
-  // ball and cloth, which on average do not move). The heavier ball sits lower on average.
+  // the ball and of the cloth's free nodes (momentum balance: what the anchors do not carry
+  // accelerates the ball and cloth, which on average do not move; the anchored nodes' own weight
+  // rests on the anchors directly, not through the springs, so it is not in anchor_force). The
+  // tolerance, 2 %: the bob left in the last second (peak to peak < sag / 10, checked) is an
+  // oscillator of stiffness M g / sag, whose force swings by at most M g / 20 (5 %), and its mean
+  // over more than three periods (f = sqrt(g / sag) / 2 pi ~ 3.5 Hz) is within 5 % / (3 pi) of zero,
+  // 0.5 %; the cloth's own ringing takes the rest. The heavier ball sits lower on average.
   ClContext cl;
   std::vector<double> mean_z;
   for (double density : {300.0, 600.0}) {
@@ -647,6 +652,9 @@ TEST_CASE("Cloth: a ball dropped on a cloth is caught, comes to rest, and a heav
     const Compiled comp = compile(s);
     Simulation sim(comp.model, comp.initial, cl);
     const double M = comp.model.bodies[0].mass, m_cloth = c.areal_density * 0.09;
+    // Equal node masses (core/cloth.cpp): the 80 edge nodes of the 441 are anchored.
+    const int nodes = c.resolution_x * c.resolution_y, anchored = 2 * c.resolution_x + 2 * (c.resolution_y - 2);
+    const double m_free = m_cloth * (nodes - anchored) / nodes;
     bool through = false;
     double z_sum = 0, carried = 0;
     double early_lo = 1, early_hi = -1, late_lo = 1, late_hi = -1;  // ball height in 1-1.5 s and 4.5-5 s
@@ -669,7 +677,7 @@ TEST_CASE("Cloth: a ball dropped on a cloth is caught, comes to rest, and a heav
     carried /= n;
     mean_z.push_back(z_sum / n);
     INFO("density " << density << ": mean ball height " << mean_z.back() << " m; anchors carry " << carried
-                    << " N on average, ball and cloth weigh " << (M + m_cloth) * kG << " N; bob peak to peak "
+                    << " N on average, ball and free cloth nodes weigh " << (M + m_free) * kG << " N; bob peak to peak "
                     << early_hi - early_lo << " m in 1-1.5 s, " << late_hi - late_lo << " m in 4.5-5 s");
     CHECK_FALSE(through);
     CHECK(late_hi - late_lo < 0.25 * (early_hi - early_lo));
@@ -677,7 +685,7 @@ TEST_CASE("Cloth: a ball dropped on a cloth is caught, comes to rest, and a heav
     INFO("sag " << sag << " m");
     CHECK(sag > 0);
     CHECK(late_hi - late_lo < 0.1 * sag);
-    CHECK(std::abs(carried - (M + m_cloth) * kG) <= 0.1 * (M + m_cloth) * kG);
+    CHECK(std::abs(carried - (M + m_free) * kG) <= 0.02 * (M + m_free) * kG);
   }
   CHECK(mean_z[1] < mean_z[0]);
 }
