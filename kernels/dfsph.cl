@@ -198,10 +198,14 @@ __kernel void dfsph_source(const SimParams p, __global const float4* pos, __glob
   const float rate = dfsph_density_rate(&p, i, pos, vel, nbr + (size_t)i * K, nbr_count[i], gwall[i]);
   const float delta = density[i] / p.phase_mass[phase[i]];
   float s = kind ? (delta + p.dt * rate) * p.rest_volume - 1.0f : p.dt * rate * p.rest_volume;
-  /* divergence solve: fewer than min_neighbours neighbours (free surface, splashes): left alone */
-  if (nbr_count[i] + bnbr_count[i] < min_neighbours) s = 0.0f;
+  /* divergence solve: fewer than min_neighbours neighbours (free surface, splashes): left alone,
+   * with no pressure (dfsph_jacobi skips it, so a warm-started pressure would stay: with warm_all a
+   * splash kept the pressure it had at an impact, ~20 kPa, and that pressure, over its few
+   * neighbours and the walls it extrapolates to, shot it off at 10-11 m/s) */
+  const bool few = nbr_count[i] + bnbr_count[i] < min_neighbours;
+  if (few) s = 0.0f;
   source[i] = s;
-  const float p0 = (s > 0.0f || warm_all) ? warm * pressure[i] : 0.0f;
+  const float p0 = (!few && (s > 0.0f || warm_all)) ? warm * pressure[i] : 0.0f;
   pressure[i] = p0;
   xt[i] = (float4)(pos[i].xyz, p0 / (delta * delta)); /* position and p / delta^2 (dfsph_force) */
 }
