@@ -507,9 +507,8 @@ __kernel void dfsph_add(const uint n, __global float* a, __global const float* b
  * (shared/pair_loops.h, sph_boundary_contact, in the spirit of Monaghan & Kajtar 2009), a linear
  * repulsion from each wall particle inside r0 = `range` dx, zero from there on:
  *     a_i += sum_b psi_b k_w (1 - r/r0) x_ib / r,    k_w = `stiffness` dx / dt^2 (unit: m/s^2),
- * its stiffness tied to the step instead of c0 (DFSPH has none): dt^2 k_w / dx = `stiffness` < 1
- * keeps it stable at any step, and it stops a particle that closes in at up to
- * sqrt(stiffness range) dx / dt (core/dfsph.cpp says why 0.3 and 0.75). Walls only (bvel.w = 0):
+ * its stiffness tied to the step instead of c0 (DFSPH has none), so that it is stable at any step
+ * (core/dfsph.cpp says why `stiffness` 0.3 and `range` 0.75, what it stops and what not). Walls only (bvel.w = 0):
  * bodies keep the solver's coupling, so Newton's third law with the rigid coupling (rigid.cl) is
  * unchanged. Added to the non-pressure accelerations before the density solve (dfsph_predict). */
 __kernel void dfsph_wall_contact(const SimParams p, __global const float4* pos, __global const float4* bpos,
