@@ -53,7 +53,10 @@
  * is left off the diagonal; w = 1.5 or 2 there were worse). The projected Jacobi iteration of
  * single, with the full last pressure as warm start everywhere (the projection lowers it where it
  * must) and the complementarity residual as error (|r_i| where p_i > 0, so that an overshoot
- * counts: with the one-sided error and full warm start the pressures ratcheted up 89 %).
+ * counts: with the one-sided error and full warm start the pressures ratcheted up 89 %). A
+ * particle the divergence solve skips (too few neighbours) keeps that warm start only while its
+ * neighbours close in (dfsph_source), and the particles the solve leaves at p = 0 at a wall get a
+ * contact force (dfsph_wall_contact).
  *
  * Neighbours: this step's lists within H (snbr, sbnbr; density.cl). */
 
