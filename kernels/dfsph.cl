@@ -511,9 +511,11 @@ __kernel void dfsph_add(const uint n, __global float* a, __global const float* b
  * repulsion from each wall particle inside r0 = `range` dx, zero from there on:
  *     a_i += sum_b psi_b k_w (1 - r/r0) x_ib / r,    k_w = `stiffness` dx / dt^2 (unit: m/s^2),
  * its stiffness tied to the step instead of c0 (DFSPH has none), so that it is stable at any step
- * (core/dfsph.cpp says why `stiffness` 0.3 and `range` 0.75, what it stops and what not). Walls only (bvel.w = 0):
- * bodies keep the solver's coupling, so Newton's third law with the rigid coupling (rigid.cl) is
- * unchanged. Added to the non-pressure accelerations before the density solve (dfsph_predict). */
+ * (core/dfsph.cpp says why `stiffness` 0.3 and `range` 0.75, what it stops and what not). It acts
+ * on any particle closer than r0 to a wall particle (at rest none is: they sit dx away), whatever
+ * its pressure. Walls only (bvel.w = 0; also cloth nodes, when cloth runs with DFSPH): bodies keep
+ * the solver's coupling, so Newton's third law with the rigid coupling (rigid.cl) is unchanged.
+ * Added to the non-pressure accelerations before the density solve (dfsph_predict). */
 __kernel void dfsph_wall_contact(const SimParams p, __global const float4* pos, __global const float4* bpos,
                                  __global const float4* bvel, __global const uint* bnbr,
                                  __global const uint* bnbr_count, const float stiffness, const float range,
