@@ -53,7 +53,10 @@
  * is left off the diagonal; w = 1.5 or 2 there were worse). The projected Jacobi iteration of
  * single, with the full last pressure as warm start everywhere (the projection lowers it where it
  * must) and the complementarity residual as error (|r_i| where p_i > 0, so that an overshoot
- * counts: with the one-sided error and full warm start the pressures ratcheted up 89 %).
+ * counts: with the one-sided error and full warm start the pressures ratcheted up 89 %). A
+ * particle the divergence solve skips (too few neighbours) keeps that warm start only while its
+ * neighbours close in (dfsph_source), and the particles the solve leaves at p = 0 at a wall get a
+ * contact force (dfsph_wall_contact).
  *
  * Neighbours: this step's lists within H (snbr, sbnbr; density.cl). */
 
@@ -199,9 +202,17 @@ __kernel void dfsph_source(const SimParams p, __global const float4* pos, __glob
   const float delta = density[i] / p.phase_mass[phase[i]];
   float s = kind ? (delta + p.dt * rate) * p.rest_volume - 1.0f : p.dt * rate * p.rest_volume;
   /* divergence solve: fewer than min_neighbours neighbours (free surface, splashes): left alone */
-  if (nbr_count[i] + bnbr_count[i] < min_neighbours) s = 0.0f;
+  const bool few = nbr_count[i] + bnbr_count[i] < min_neighbours;
+  if (few) s = 0.0f;
   source[i] = s;
-  const float p0 = (s > 0.0f || warm_all) ? warm * pressure[i] : 0.0f;
+  /* such a particle keeps its warm start (warm_all) only while its neighbours close in (rate > 0:
+   * the reference's rule), not always: dfsph_jacobi skips it, so the pressure would stay. With
+   * warm_all a splash kept the pressure it had at an impact (~20 kPa) for as long as it flew, and
+   * that pressure, over its few neighbours and the walls it extrapolated to, shot it off at 10-11
+   * m/s (the 50k dam break's "jet"). Zeroing it always (the reference) made the hydrostatic tank's
+   * top layer, at the threshold, flicker: 109 Pa between frames against 66 Pa. */
+  const bool keep = few ? (warm_all && rate > 0.0f) : (s > 0.0f || warm_all);
+  const float p0 = keep ? warm * pressure[i] : 0.0f;
   pressure[i] = p0;
   xt[i] = (float4)(pos[i].xyz, p0 / (delta * delta)); /* position and p / delta^2 (dfsph_force) */
 }
@@ -488,4 +499,43 @@ __kernel void dfsph_add(const uint n, __global float* a, __global const float* b
   const uint i = get_global_id(0);
   if (i >= n) return;
   a[i] += b[i];
+}
+
+/* Extrapolated walls: contact with the domain walls for the particles the solve leaves without
+ * pressure. A free-surface or splash particle at a wall (a thin layer spreading on the floor, the
+ * sheet running up a side wall) has a cut support, so its density stays below delta0 and the
+ * projected solve gives it p = 0; then only the walls' extrapolated pressure, about rho0 g dx,
+ * holds it, too little to carry its weight: it sank through the wall plane (the integrator put it
+ * back and counted a wall crossing; 50-100 in 0.6 s of the 50k dam break). As WCSPH's contact
+ * (shared/pair_loops.h, sph_boundary_contact, in the spirit of Monaghan & Kajtar 2009), a linear
+ * repulsion from each wall particle inside r0 = `range` dx, zero from there on:
+ *     a_i += sum_b psi_b k_w (1 - r/r0) x_ib / r,    k_w = `stiffness` dx / dt^2 (unit: m/s^2),
+ * its stiffness tied to the step instead of c0 (DFSPH has none), so that it is stable at any step
+ * (core/dfsph.cpp says why `stiffness` 0.3 and `range` 0.75, what it stops and what not). It acts
+ * on any particle closer than r0 to a wall particle (at rest none is: they sit dx away), whatever
+ * its pressure. Walls only (bvel.w = 0; also cloth nodes, when cloth runs with DFSPH): bodies keep
+ * the solver's coupling, so Newton's third law with the rigid coupling (rigid.cl) is unchanged.
+ * Added to the non-pressure accelerations before the density solve (dfsph_predict). */
+__kernel void dfsph_wall_contact(const SimParams p, __global const float4* pos, __global const float4* bpos,
+                                 __global const float4* bvel, __global const uint* bnbr,
+                                 __global const uint* bnbr_count, const float stiffness, const float range,
+                                 __global float4* acc) {
+  const uint i = get_global_id(0);
+  if (i >= p.n_fluid) return;
+  const float dx = cbrt(p.rest_volume); /* (unit: m) */
+  const float r0 = range * dx;                    /* (unit: m) */
+  const float k = stiffness * dx / (p.dt * p.dt); /* (unit: m/s^2) */
+  const float3 xi = pos[i].xyz;
+  __global const uint* list = bnbr + (size_t)i * p.max_neighbours;
+  const uint nb = bnbr_count[i];
+  float3 a = (float3)(0.0f);
+  for (uint m = 0; m < nb; ++m) {
+    const uint b = list[m];
+    if (bvel[b].w > 0.5f) continue; /* a body's particle */
+    const float4 bb = bpos[b];
+    const float3 d = xi - bb.xyz;
+    const float r = length(d);
+    if (r < r0 && r > 1e-6f * dx) a += bb.w * k * (1.0f - r / r0) / r * d;
+  }
+  acc[i] += (float4)(a, 0.0f);
 }
