@@ -40,6 +40,9 @@ DfsphSolver::DfsphSolver(ClContext& cl, KernelSet& kernels, std::size_t capacity
   const std::size_t nb = spec.walls == DfsphWalls::Extrapolated ? boundary : 0;
   bp_div_ = makeBuffer(nb * 4);
   bp_dens_ = makeBuffer(nb * 4);
+  // ... and each wall particle's fluid neighbours for the step (kernels/dfsph.cl, dfsph_wall_lists).
+  wall_list_ = makeBuffer(nb * kWallSlots * 4);
+  wall_count_ = makeBuffer(nb * 4);
   // No pressure before the first step (and particles emitted later start from zero: slots past
   // the active count are never written).
   clCall("clearing the DFSPH pressures", [&] {
@@ -67,6 +70,11 @@ const cl::Buffer& DfsphSolver::stepPressure(std::size_t n) {
 void DfsphSolver::factors(const SimParams& p, const DfsphFields& f) {
   kernels_.call("dfsph_factor", p.n_fluid, kLocal, p, *f.pos, *f.phase, *f.density, *f.snbr, *f.snbr_count, *f.bpos,
                 *f.sbnbr, *f.sbnbr_count, wallFactor(), alpha_, *f.bvel, gwall_);
+  // Extrapolated walls: the fluid near each wall particle, listed once per step for the wall
+  // pressure of every iteration (positions do not change during the solves).
+  if (extrapolated() && f.n_boundary > 0)
+    kernels_.call("dfsph_wall_lists", f.n_boundary, kLocal, p, f.n_boundary, f.stamp, *f.bpos, *f.bmark, *f.pos,
+                  *f.cell_start, kWallSlots, wall_list_, wall_count_);
 }
 
 void DfsphSolver::boundaryPressure(Kind kind, const SimParams& p, const DfsphFields& f, const cl::Buffer& pressure) {
@@ -75,8 +83,9 @@ void DfsphSolver::boundaryPressure(Kind kind, const SimParams& p, const DfsphFie
   // rho_f r_bf W_bf) / sum_f W_bf, projected to >= 0; the divergence solve's without gravity.
   SimParams q = p;
   if (kind == Kind::Divergence) q.gravity[0] = q.gravity[1] = q.gravity[2] = 0.0f;
-  kernels_.call("boundary_pressure", f.n_boundary, kLocal, q, f.n_boundary, f.stamp, *f.bpos, *f.bmark, *f.pos,
-                *f.density, pressure, *f.cell_start, wallPressure(kind));
+  // The pairs come from this step's lists (dfsph_wall_lists): bitwise boundary_pressure's p_b.
+  kernels_.call("dfsph_wall_list_pressure", f.n_boundary, kLocal, q, f.n_boundary, f.stamp, *f.bpos, *f.bmark,
+                *f.pos, *f.density, pressure, *f.cell_start, kWallSlots, wall_list_, wall_count_, wallPressure(kind));
 }
 
 void DfsphSolver::source(Kind kind, const SimParams& p, const DfsphFields& f, cl::Buffer& pressure) {
