@@ -197,12 +197,13 @@ DfsphSolveResult DfsphSolver::solve(Kind kind, const SimParams& p, const DfsphFi
   // The source from the velocities the solve starts with, and the starting pressure.
   source(kind, p, f, pressure);
   // Relaxed Jacobi iterations on the pressures (velocities fixed), until the average error of the
-  // pressures found is within the bound; at least min_it (at least one), at most max_it.
+  // pressures found is within the bound; at least min_it (at least one), at most max_it. The error
+  // is read (a wait for the device) only where it can stop the solve: not before min_it.
   DfsphSolveResult r;
   do {
     iterate(kind, p, f, pressure);
-    r.error = averageError(n);
     ++r.iterations;
+    if (r.iterations >= min_it || r.iterations >= max_it) r.error = averageError(n);
   } while ((r.iterations < min_it || r.error > bound) && r.iterations < max_it);
   r.converged = r.error <= bound;
   // The velocities take the pressures found.
