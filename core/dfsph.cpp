@@ -52,6 +52,9 @@ DfsphSolver::DfsphSolver(ClContext& cl, KernelSet& kernels, std::size_t capacity
   const std::size_t nb = spec.walls == DfsphWalls::Extrapolated ? boundary : 0;
   bp_div_ = makeBuffer(nb * 4);
   bp_dens_ = makeBuffer(nb * 4);
+  // ... and each wall particle's fluid neighbours for the step (kernels/dfsph.cl, dfsph_wall_lists).
+  wall_list_ = makeBuffer(nb * kWallSlots * 4);
+  wall_count_ = makeBuffer(nb * 4);
   // No pressure before the first step (and particles emitted later start from zero: slots past
   // the active count are never written).
   clCall("clearing the DFSPH pressures", [&] {
@@ -79,6 +82,11 @@ const cl::Buffer& DfsphSolver::stepPressure(std::size_t n) {
 void DfsphSolver::factors(const SimParams& p, const DfsphFields& f) {
   kernels_.call("dfsph_factor", p.n_fluid, kLocal, p, *f.pos, *f.phase, *f.density, *f.snbr, *f.snbr_count, *f.bpos,
                 *f.sbnbr, *f.sbnbr_count, wallFactor(), alpha_, *f.bvel, gwall_);
+  // Extrapolated walls: the fluid near each wall particle, listed once per step for the wall
+  // pressure of every iteration (positions do not change during the solves).
+  if (extrapolated() && f.n_boundary > 0)
+    kernels_.call("dfsph_wall_lists", f.n_boundary, kLocal, p, f.n_boundary, f.stamp, *f.bpos, *f.bmark, *f.pos,
+                  *f.cell_start, kWallSlots, wall_list_, wall_count_);
 }
 
 void DfsphSolver::boundaryPressure(Kind kind, const SimParams& p, const DfsphFields& f, const cl::Buffer& pressure) {
@@ -87,8 +95,9 @@ void DfsphSolver::boundaryPressure(Kind kind, const SimParams& p, const DfsphFie
   // rho_f r_bf W_bf) / sum_f W_bf, projected to >= 0; the divergence solve's without gravity.
   SimParams q = p;
   if (kind == Kind::Divergence) q.gravity[0] = q.gravity[1] = q.gravity[2] = 0.0f;
-  kernels_.call("boundary_pressure", f.n_boundary, kLocal, q, f.n_boundary, f.stamp, *f.bpos, *f.bmark, *f.pos,
-                *f.density, pressure, *f.cell_start, wallPressure(kind));
+  // The pairs come from this step's lists (dfsph_wall_lists): bitwise boundary_pressure's p_b.
+  kernels_.call("dfsph_wall_list_pressure", f.n_boundary, kLocal, q, f.n_boundary, f.stamp, *f.bpos, *f.bmark,
+                *f.pos, *f.density, pressure, *f.cell_start, kWallSlots, wall_list_, wall_count_, wallPressure(kind));
 }
 
 void DfsphSolver::source(Kind kind, const SimParams& p, const DfsphFields& f, cl::Buffer& pressure) {
@@ -200,12 +209,13 @@ DfsphSolveResult DfsphSolver::solve(Kind kind, const SimParams& p, const DfsphFi
   // The source from the velocities the solve starts with, and the starting pressure.
   source(kind, p, f, pressure);
   // Relaxed Jacobi iterations on the pressures (velocities fixed), until the average error of the
-  // pressures found is within the bound; at least min_it (at least one), at most max_it.
+  // pressures found is within the bound; at least min_it (at least one), at most max_it. The error
+  // is read (a wait for the device) only where it can stop the solve: not before min_it.
   DfsphSolveResult r;
   do {
     iterate(kind, p, f, pressure);
-    r.error = averageError(n);
     ++r.iterations;
+    if (r.iterations >= min_it || r.iterations >= max_it) r.error = averageError(n);
   } while ((r.iterations < min_it || r.error > bound) && r.iterations < max_it);
   r.converged = r.error <= bound;
   // The velocities take the pressures found.

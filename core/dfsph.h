@@ -128,6 +128,11 @@ class DfsphSolver {
   double prev_dt_div_ = 0.0, prev_dt_dens_ = 0.0;  // step of the last solve of each kind (unit: s)
   cl::Buffer vel_before_;                  // velocities before the density solve (unit: m/s)
   cl::Buffer bp_div_, bp_dens_;            // extrapolated walls: each solve's wall pressures (unit: Pa)
+  // Extrapolated walls: each wall particle's fluid neighbours within H for the step, in grid order
+  // (kernels/dfsph.cl, dfsph_wall_lists; n_boundary x kWallSlots), and their counts (n_boundary).
+  // A wall particle in a fluid at rest has ~15-20; one with more than kWallSlots scans the cells.
+  static constexpr uint32_t kWallSlots = 32;
+  cl::Buffer wall_list_, wall_count_;
   cl::Buffer scratch_a_, scratch_b_;       // reorder targets (swapped with pdiv_, pdens_); mirrored: a holds the previous pressure in a warm start
 };
 

@@ -1033,6 +1033,49 @@ TEST_CASE("pressure_force equals the brute-force reference (fluid, boundary and 
   }
 }
 
+// DFSPH's extrapolated walls read each iteration's wall pressure from per-step lists of the fluid
+// near each wall particle (kernels/dfsph.cl, dfsph_wall_lists, dfsph_wall_list_pressure): the same
+// pairs in the same order as boundary_pressure, so the same bits; a list longer than its slots
+// falls back to the cells.
+TEST_CASE("dfsph_wall_list_pressure equals boundary_pressure bitwise (listed and overflowing lists)", "[kernels]") {
+  for (const DensityCase& c : {DensityCase{SPH_KERNEL_CUBIC_SPLINE, 2.0f, true, SPH_EOS_LINEAR, false, 0.49f},
+                               DensityCase{SPH_KERNEL_WENDLAND_C2, 3.0f, true, SPH_EOS_TAIT, true}}) {
+    INFO(kindName(c.kind) << ", H = " << c.ratio << " dx, clamp " << c.clamp << ", moved " << c.move << " skin");
+    const Scene s = makeScene(c.kind, c.ratio, c.boundary, c.eos, c.clamp, 23);
+    Device d(kernelSet(c.kind, false), s);
+    runDensity(d, c.move * (d.P.cell_size - d.P.support));
+    REQUIRE(d.nb > 0u);
+    d.boundaryPressure();
+    const auto reference = fromDevice<float>(d.bpressure, d.nb);
+    for (const uint32_t slots : {32u, 4u}) {
+      INFO("slots " << slots);
+      cl::Buffer wlist = toDevice(std::vector<uint32_t>(std::size_t(d.nb) * slots, 0xffffffffu));
+      cl::Buffer wcount = toDevice(std::vector<uint32_t>(d.nb, 0xdeadbeefu));  // every entry written
+      cl::Buffer out = toDevice(std::vector<float>(d.nb, -1.0f));
+      d.ks.call("dfsph_wall_lists", d.nb, kLocal, d.P, d.nb, d.stamp, d.bpos, d.bmark, d.pos[d.cur], d.cell_start,
+                slots, wlist, wcount);
+      d.ks.call("dfsph_wall_list_pressure", d.nb, kLocal, d.P, d.nb, d.stamp, d.bpos, d.bmark, d.pos[d.cur],
+                d.density, d.pressure, d.cell_start, slots, wlist, wcount, out);
+      const auto got = fromDevice<float>(out, d.nb);
+      const auto count = fromDevice<uint32_t>(wcount, d.nb);
+      std::size_t listed = 0, overflowing = 0, pressed = 0;
+      Failures f;
+      for (uint32_t b = 0; b < d.nb; ++b) {
+        listed += count[b] > 0 && count[b] <= slots;
+        overflowing += count[b] > slots;
+        pressed += reference[b] != 0.0f;
+        if (std::memcmp(&got[b], &reference[b], 4) != 0)
+          f.add([&](auto& o) { o << "boundary particle " << b << " (" << count[b] << " listed): " << got[b] << " Pa, boundary_pressure " << reference[b]; });
+      }
+      CHECK_NO_FAILURES(f);
+      // both paths ran: lists within their slots, and (with 4 slots) lists that overflowed
+      CHECK(listed > 10u);
+      CHECK(pressed > 10u);
+      if (slots == 4u) CHECK(overflowing > 10u);
+    }
+  }
+}
+
 TEST_CASE("gravity_only writes gravity", "[kernels]") {
   KernelSet& ks = kernelSet(SPH_KERNEL_CUBIC_SPLINE, false);
   SimParams P{};
