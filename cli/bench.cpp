@@ -280,7 +280,9 @@ int forceChecks(const BenchOptions& opt) {
         const ReleaseMassCheck m = releasedBallAddedMass(release, dx, 500.0, 0.01, s2, opt.device);
         const std::string name = floor ? "release_Cm_floor" : "release_Cm_midwater";
         if (m.exit_code != 0) std::printf("%s at dx %g (%s): %s\n", name.c_str(), dx, solver.c_str(), m.message.c_str());
-        else row(name, solver, dx, m.radius / dx, m.cm, 0.5, floor ? m.cm_floor : m.cm_confined, m.wall_seconds);
+        else
+          row(name, solver, dx, m.radius / dx, m.cm, floor ? m.cm_floor_lo : 0.5, floor ? m.cm_floor_hi : m.cm_confined,
+              m.wall_seconds);
       }
     }
     for (double dx : {0.01, 0.008, 0.2 / 30}) {
@@ -359,6 +361,23 @@ int forceChecks(const BenchOptions& opt) {
       row("stokes_fall_held_buoyancy", solver, dx, f.radius / dx, f.ratio_held, f.expected_lo, f.expected_hi,
           f.wall_seconds);
     }
+  }
+  // Moderate Re in a long tank, DFSPH (scenes/tests/tow_re20.yaml sets the solver): the ball towed
+  // 10 diameters at Re = 20 after a smooth start, the drag averaged over the second half (1-2 s)
+  // against Schiller-Naumann with the duct's confinement (moderateReBand). Not a test: at R/dx = 4
+  // a run takes minutes (README, Forces on bodies).
+  const std::string tow20 = sourcePath("scenes/tests/tow_re20.yaml");
+  for (double dx : {0.01, 0.2 / 27}) {
+    const TowCheck t = towedBall(tow20, dx, {}, opt.device);
+    if (t.exit_code != 0) {
+      std::printf("Re 20 drag, long tank, at dx %g: %s\n", dx, t.message.c_str());
+      continue;
+    }
+    double lo = 0, hi = 0;
+    moderateReBand(t.radius, dx, t.box, t.speed, 2.0 * t.radius * t.speed / t.reynolds, lo, hi);
+    row("re20_long_drag_over_6piMuRU", "dfsph", dx, t.radius / dx, t.drag / t.stokes, lo, hi, t.wall_seconds);
+    row("re20_long_drag_se_over_6piMuRU", "dfsph", dx, t.radius / dx, t.drag_noise / t.stokes, 0.0, 0.0, t.wall_seconds);
+    row("re20_long_sideways_over_drag", "dfsph", dx, t.radius / dx, t.side / t.drag, 0.0, 0.0, t.wall_seconds);
   }
   std::cout << "wrote " << csv.string() << " (wall times on this machine; a shared machine adds noise)\n";
   return kExitOk;

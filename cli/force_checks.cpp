@@ -141,6 +141,21 @@ ReleaseCheck releasedBall(const std::string& scene, double dx, double rho_b, dou
   return c;
 }
 
+double sphereWallAddedMass(double h_over_r) {
+  // Lengths in units of R. The k-th doublet inside the sphere (strength m_k relative to the
+  // sphere's own m_0, at z_k <= 0 on the axis towards the wall) has its wall image at distance
+  // c = 2 h + z_k from the centre; that image's image in the sphere is m_{k+1} = m_k / c^3 at
+  // z_{k+1} = -1 / c. The terms fall at least as (1 / (2h - 1))^3 per step: 200 are plenty.
+  double m = 1.0, z = 0.0, sum = 0.0;
+  for (int k = 0; k < 200; ++k) {
+    const double c = 2.0 * h_over_r + z;
+    m /= c * c * c;
+    z = -1.0 / c;
+    sum += m;
+  }
+  return 0.5 * (1.0 + 3.0 * sum);
+}
+
 ReleaseMassCheck releasedBallAddedMass(const std::string& scene, double dx, double rho_b, double window,
                                        const std::vector<std::string>& sets, const std::string& device) {
   ReleaseMassCheck c;
@@ -160,7 +175,9 @@ ReleaseMassCheck releasedBallAddedMass(const std::string& scene, double dx, doub
   const std::vector<StepForce>& held_log = held_run.log;
   const double l3 = std::pow(c.radius / nearest, 3);
   c.cm_confined = (1.0 + 2.0 * l3) / (2.0 * (1.0 - l3));
-  c.cm_floor = 0.5 + 0.1875 * std::pow(c.radius / floor_height, 3);
+  c.cm_floor = sphereWallAddedMass(floor_height / c.radius);
+  c.cm_floor_lo = sphereWallAddedMass((floor_height + 0.5 * dx) / c.radius);
+  c.cm_floor_hi = sphereWallAddedMass(std::max(floor_height - 0.5 * dx, c.radius) / c.radius);
   c.a0_still = (rho_w - rho_b) * g / (rho_b + 0.5 * rho_w);
   // The held force at time t, linear between its steps (the two runs' steps may differ after the release).
   auto heldAt = [&](double t) {
@@ -276,11 +293,8 @@ TowCheck towedBall(const std::string& scene, double dx, const std::vector<std::s
   if (!ran(b, c)) return c;
   const double duration = b.duration, nu = b.nu, rho = b.rho, box = b.box;
   const std::vector<StepForce>& log = b.log;
-  c.speed = b.speed;
   c.box = box;
   c.mu = rho * nu;
-  c.reynolds = 2.0 * c.radius * c.speed / nu;
-  c.stokes = 6.0 * M_PI * c.mu * c.radius * c.speed;
   // Wall factor of the cubic box (side L) bracketed by two spherical containers: the inscribed
   // one (b = L/2, less liquid than the box: K too high) and the one of the box's volume
   // (b = L (3 / 4 pi)^(1/3), the corners counted as near as the faces: K too low).
@@ -296,6 +310,14 @@ TowCheck towedBall(const std::string& scene, double dx, const std::vector<std::s
     c.message = "too few steps in the window";
     return c;
   }
+  // U: the constant motion's speed, or for a keyframed tow the mean speed over the window.
+  c.speed = b.speed;
+  if (c.speed == 0.0) {
+    for (const StepForce* f : win) c.speed += f->v.norm();
+    c.speed /= static_cast<double>(win.size());
+  }
+  c.reynolds = 2.0 * c.radius * c.speed / nu;
+  c.stokes = 6.0 * M_PI * c.mu * c.radius * c.speed;
   double fx = 0;
   Eigen::Vector2d side = Eigen::Vector2d::Zero();
   for (const StepForce* f : win) {
@@ -326,6 +348,31 @@ TowCheck towedBall(const std::string& scene, double dx, const std::vector<std::s
   }
   c.side_noise = noise;
   return c;
+}
+
+double schillerNaumann(double re) { return 1.0 + 0.15 * std::pow(re, 0.687); }
+
+double diFeliceWallFactor(double lambda, double re) {
+  // Di Felice (1996): U_t / U_inf = ((1 - lambda) / (1 - 0.33 lambda))^alpha at the same force,
+  // alpha = (3.3 + 0.085 Re) / (1 + 0.1 Re).
+  const double alpha = (3.3 + 0.085 * re) / (1.0 + 0.1 * re);
+  const double f = std::pow((1.0 - lambda) / (1.0 - 0.33 * lambda), alpha);
+  // The same as a drag factor at the same speed: F_inf(U_inf) = K F_inf(U_t), with F_inf ~ U^n
+  // locally, n = dln F / dln U of Schiller-Naumann's F = 6 pi mu R U (1 + 0.15 Re^0.687).
+  const double sn = schillerNaumann(re), n = 1.0 + 0.687 * (sn - 1.0) / sn;
+  return std::pow(f, -n);
+}
+
+void moderateReBand(double radius, double dx, double side, double speed, double nu, double& lo, double& hi) {
+  // The no-slip surface within R -+ dx/2 (as stokesBand); the square duct between the circular
+  // tube of the same cross-section (D = 2 side / sqrt(pi): the corners counted as near as the
+  // faces, the smaller factor) and the inscribed one (D = side, the larger).
+  auto value = [&](double r, double tube) {
+    const double re = 2.0 * r * speed / nu;
+    return r / radius * schillerNaumann(re) * diFeliceWallFactor(2.0 * r / tube, re);
+  };
+  lo = value(radius - 0.5 * dx, 2.0 * side / std::sqrt(M_PI));
+  hi = value(radius + 0.5 * dx, side);
 }
 
 double sinkingDragBound(double radius, double dx, double tank) {
