@@ -340,7 +340,7 @@ int forceChecks(const BenchOptions& opt) {
       // largest distance outside that envelope (ringing margin included) over the 0.2 s; the
       // mean C_d over the 0.2 s from momentum against 0 .. that bound.
       const double cd_hi = sinkingDragBound(0.03, dx, 0.2);
-      const SinkCheck k = sinkingBall(sink, dx, 0.02, 0.2, 0.375, 0.725, 0.0, cd_hi, sets, opt.device);
+      const SinkCheck k = sinkingBallHeldDrag(sink, dx, 0.02, 0.2, 0.375, 0.725, 0.0, cd_hi, sets, opt.device);
       if (k.exit_code != 0) {
         std::printf("sinking ball at dx %g (%s): %s\n", dx, solver.c_str(), k.message.c_str());
         continue;
@@ -348,6 +348,10 @@ int forceChecks(const BenchOptions& opt) {
       row("sink_speed_0.2s_mps", solver, dx, k.radius / dx, k.v_end, k.v_lo, k.v_hi, k.wall_seconds);
       row("sink_outside_envelope_mps", solver, dx, k.radius / dx, k.worst, 0.0, 0.0, k.wall_seconds);
       row("sink_mean_Cd", solver, dx, k.radius / dx, k.cd_effective, 0.0, cd_hi, k.wall_seconds);
+      // The ringing margin as a margin on that C_d (the envelope's), and the C_d with the ringing
+      // and the sampled buoyancy taken out by the same ball held throughout.
+      row("sink_mean_Cd_ringing_margin", solver, dx, k.radius / dx, k.cd_ringing, 0.0, 0.0, k.wall_seconds);
+      row("sink_mean_Cd_held_subtracted", solver, dx, k.radius / dx, k.cd_held_subtracted, 0.0, cd_hi, k.wall_seconds);
     }
     for (double dx : {0.01, 0.008}) {
       // Stokes terminal velocity: (m - rho V) g / (6 pi mu R U) against the towed ball's band.

@@ -390,12 +390,13 @@ double sinkingSpeed(double t, double m, double V, double R, double rho, double g
   return vt * std::tanh(a0 * t / vt);
 }
 
-SinkCheck sinkingBall(const std::string& scene, double dx, double skip, double until, double cm_lo, double cm_hi,
-                      double cd_lo,
-                      double cd_hi, const std::vector<std::string>& sets, const std::string& device) {
+namespace {
+
+/// sinkingBall's check of one run `b` at spacing dx.
+SinkCheck sinkFromRun(const BallRun& b, double dx, double skip, double until, double cm_lo, double cm_hi, double cd_lo,
+                      double cd_hi) {
   SinkCheck c;
   c.dx = dx;
-  const BallRun b = runBall(checkRun(scene, dx, {}, sets, device));
   if (!ran(b, c)) return c;
   const double hold = b.hold, end = b.duration, rho = b.rho, g = b.g, volume = b.volume, mass = b.mass, nu = b.nu;
   const std::vector<StepForce>& log = b.log;
@@ -448,9 +449,12 @@ SinkCheck sinkingBall(const std::string& scene, double dx, double skip, double u
     c.lo.push_back(lo);
     c.hi.push_back(hi);
   }
-  if (v2_int > 0.0)
+  c.held_over_buoyancy = held / (rho * g * volume);
+  if (v2_int > 0.0) {
     c.cd_effective = ((mass - rho * volume) * g * T - (mass + 0.5 * rho * volume) * v_T) /
                      (0.5 * rho * M_PI * c.radius * c.radius * v2_int);
+    c.cd_ringing = (mass + 0.5 * rho * volume) * c.ringing / (0.5 * rho * M_PI * c.radius * c.radius * v2_int);
+  }
   if (c.t.size() < 3) {
     c.exit_code = 1;
     c.message = "too few steps after the release";
@@ -460,6 +464,53 @@ SinkCheck sinkingBall(const std::string& scene, double dx, double skip, double u
   c.v_lo = c.lo.back();
   c.v_hi = c.hi.back();
   c.reynolds = 2.0 * c.radius * c.v_end / nu;
+  return c;
+}
+
+}  // namespace
+
+SinkCheck sinkingBall(const std::string& scene, double dx, double skip, double until, double cm_lo, double cm_hi,
+                      double cd_lo, double cd_hi, const std::vector<std::string>& sets, const std::string& device) {
+  return sinkFromRun(runBall(checkRun(scene, dx, {}, sets, device)), dx, skip, until, cm_lo, cm_hi, cd_lo, cd_hi);
+}
+
+SinkCheck sinkingBallHeldDrag(const std::string& scene, double dx, double skip, double until, double cm_lo, double cm_hi,
+                              double cd_lo, double cd_hi, const std::vector<std::string>& sets, const std::string& device) {
+  // The free run, checked as sinkingBall, and the same ball held throughout.
+  const BallRun f = runBall(checkRun(scene, dx, {}, sets, device));
+  SinkCheck c = sinkFromRun(f, dx, skip, until, cm_lo, cm_hi, cd_lo, cd_hi);
+  if (c.exit_code != 0) return c;
+  RunOptions held_options = checkRun(scene, dx, {}, sets, device);
+  held_options.sets.push_back("rigid_bodies[0].hold_until=1e6");
+  const BallRun h = runBall(held_options);
+  if (h.result.exit_code != 0 || h.log.empty()) {
+    c.exit_code = h.result.exit_code != 0 ? h.result.exit_code : 1;
+    c.message = h.result.exit_code != 0 ? h.result.message : "no steps logged in the held run";
+    return c;
+  }
+  c.wall_seconds += h.result.wall_seconds;
+  // The held force at time t, linear between its steps.
+  auto heldAt = [&](double t) {
+    auto it = std::lower_bound(h.log.begin(), h.log.end(), t, [](const StepForce& s, double x) { return s.time < x; });
+    if (it == h.log.begin()) return it->force.z();
+    if (it == h.log.end()) return h.log.back().force.z();
+    const StepForce& b = *it;
+    const StepForce& a = *(it - 1);
+    return a.force.z() + (b.force.z() - a.force.z()) * (t - a.time) / (b.time - a.time);
+  };
+  // Upward fluid force on the sinking ball = held force + C_m rho V dv/dt + D (v, D: downward
+  // speed and upward drag), so int D dt = int (F_free - F_held) dt - C_m rho V v(T).
+  double impulse = 0, v2_int = 0, v_T = 0;
+  for (std::size_t k = 0; k + 1 < f.log.size(); ++k) {
+    const StepForce& s = f.log[k];
+    if (s.time < f.hold - 1e-12) continue;
+    const double dt = f.log[k + 1].time - s.time;
+    impulse += (s.force.z() - heldAt(s.time)) * dt;
+    v2_int += s.v.z() * s.v.z() * dt;
+    v_T = -f.log[k + 1].v.z();
+  }
+  if (v2_int > 0.0)
+    c.cd_held_subtracted = (impulse - 0.5 * f.rho * f.volume * v_T) / (0.5 * f.rho * M_PI * c.radius * c.radius * v2_int);
   return c;
 }
 

@@ -165,6 +165,14 @@ struct SinkCheck {
   /// C_d = ((m - rho V) g T - (m + rho V / 2) v(T)) / (1/2 rho pi R^2 int v^2 dt) (unit: 1)
   double cd_effective = 0;
   double reynolds = 0;        ///< 2 R v_end / nu (unit: 1)
+  /// the ringing margin as a margin on cd_effective: (m + rho V / 2) ringing / (1/2 rho pi R^2 int v^2 dt) (unit: 1)
+  double cd_ringing = 0;
+  double held_over_buoyancy = 0;  ///< mean force over the last 0.1 s of the hold / rho g V (unit: 1)
+  /// sinkingBallHeldDrag only: the mean drag coefficient with the tank's ringing and the sampled
+  /// buoyancy taken out, from the same ball held throughout (the two runs are bitwise equal up to the
+  /// release): int D dt = int (F_free - F_held) dt - C_m rho V v(T), C_m = 1/2,
+  /// C_d = int D dt / (1/2 rho pi R^2 int v^2 dt) (unit: 1)
+  double cd_held_subtracted = 0;
   std::vector<double> t, v, lo, hi;  ///< the samples: time after release (s), speed, envelope (m/s)
   double wall_seconds = 0;    ///< (unit: s)
 };
@@ -179,6 +187,12 @@ double sinkingSpeed(double t, double m, double V, double R, double rho, double g
 SinkCheck sinkingBall(const std::string& scene, double dx, double skip, double until, double cm_lo, double cm_hi,
                       double cd_lo,
                       double cd_hi, const std::vector<std::string>& sets = {}, const std::string& device = "");
+
+/// sinkingBall, and the same scene with the ball held throughout, for SinkCheck::cd_held_subtracted
+/// (three runs: twice the free run, once the held one).
+SinkCheck sinkingBallHeldDrag(const std::string& scene, double dx, double skip, double until, double cm_lo, double cm_hi,
+                              double cd_lo, double cd_hi, const std::vector<std::string>& sets = {},
+                              const std::string& device = "");
 
 /// The upper end of a sampled sphere's mean drag coefficient in a tank at Re ~ 1e3 .. 1e5: a
 /// sphere's 0.5 (Newton regime; started from rest its wake forms over several diameters, so its
