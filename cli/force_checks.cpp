@@ -328,6 +328,7 @@ TowCheck towedBall(const std::string& scene, double dx, const std::vector<std::s
   c.drag = -fx / n;
   side /= n;
   c.side = side.cwiseAbs().maxCoeff();
+  c.side_y = std::abs(side.x());
   // Noise of the sideways mean: the spread of 6 block means (blocks longer than the force's
   // correlation time), standard error = sd / sqrt(6).
   const int blocks = 6;

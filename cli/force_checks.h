@@ -118,6 +118,7 @@ struct TowCheck {
   double expected_lo = 0;
   double expected_hi = 0;      ///< (unit: 1)
   double side = 0;             ///< largest mean sideways component |F_y|, |F_z| over the window (unit: N)
+  double side_y = 0;           ///< |mean F_y| alone, for a tow under gravity (F_z then carries the buoyancy) (unit: N)
   double side_noise = 0;       ///< standard error of that mean, from 6 block means (unit: N)
   double drag_noise = 0;       ///< standard error of the drag's mean, from 6 block means (unit: N)
   double wall_seconds = 0;     ///< (unit: s)

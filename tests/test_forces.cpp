@@ -7,6 +7,8 @@
 // coupling force (kernels/rigid.cl, rigid_fluid_forces) is halved (README, Forces on bodies).
 #include "cli/force_checks.h"
 #include "cli/runner.h"
+#include "core/model.h"
+#include "io/scene_loader.h"
 #include "tests/scene_runs.h"
 
 #include <catch2/catch.hpp>
@@ -345,4 +347,17 @@ TEST_CASE("Forces: the method of images' added mass of a sphere moving normal to
   const double e = 0.25;
   CHECK(app::sphereWallAddedMass(4.0) == Approx(0.5 * (1 + 0.375 * std::pow(e, 3) + 3.0 / 64.0 * std::pow(e, 6))).margin(1e-5));
   CHECK(app::sphereWallAddedMass(1.0) == Approx(0.803).margin(0.001));
+}
+
+TEST_CASE("Forces: DFSPH takes the no-slip ghost velocities only when boundary_velocity: ghost is set", "[forces]") {
+  // scenes/tests/tow_re20.yaml (dfsph, laminar, boundary_velocity: ghost): the ghost velocities
+  // (Adami, Hu & Adams 2012 eq. 22-23) for every boundary particle; with `auto` DFSPH keeps the
+  // walls' and bodies' own velocities (as before session 8); WCSPH's `auto` with the laminar
+  // model takes them. At Re = 20 in that scene the drag is 3.20 x 6 pi mu R U with them and lower
+  // without (README, Forces on bodies; a bench row, minutes per run).
+  const std::string scene = scenePath("tow_re20.yaml");
+  CHECK(compile(io::loadScene(scene)).model.ghost_velocity_mode == 1u);
+  CHECK(compile(io::loadScene(scene, {"fluid.boundary_velocity=auto"})).model.ghost_velocity_mode == 0u);
+  CHECK(compile(io::loadScene(scene, {"fluid.boundary_velocity=auto", "fluid.solver=wcsph"})).model.ghost_velocity_mode ==
+        1u);
 }
