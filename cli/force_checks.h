@@ -64,12 +64,11 @@ struct ReleaseMassCheck {
 
 /// The added mass coefficient of a sphere (radius R) moving normal to a plane wall in ideal fluid,
 /// its centre at distance h from the wall, by the method of images (Milne-Thomson, Theoretical
-/// Hydrodynamics, 1968, sec. 16.31 for the image of an axial doublet in a sphere; Kharlamov,
-/// Chara & Vlasak 2007 for the series): the sphere's doublet, its image in the wall, that image's
-/// image in the sphere (a doublet of strength m (R / c)^3 at the inverse point R^2 / c, c its
-/// distance from the centre), and so on; C_m = 1/2 (1 + 3 sum_k m_k / m_0) = 1/2 (1 + 3/8 (R/h)^3
+/// Hydrodynamics, the image of an axial doublet in a sphere): the sphere's doublet, its image in
+/// the wall, that image's image in the sphere (a doublet of strength m (R / c)^3 at the inverse
+/// point R^2 / c, c its distance from the centre), and so on; C_m = 1/2 (1 + 3 sum_k m_k / m_0) = 1/2 (1 + 3/8 (R/h)^3
 /// + 3/64 (R/h)^6 + ...). 0.5 far from the wall, 0.5 + 3/16 (R/h)^3 to leading order, 0.803 at
-/// contact (h = R). h_over_r = h / R >= 1 (unit: 1).
+/// contact (h = R; finite: J. Appl. Mech. 44, 166, 1977). h_over_r = h / R >= 1 (unit: 1).
 double sphereWallAddedMass(double h_over_r);
 
 /// Runs `scene` (release_ball.yaml) at spacing dx, ball density rho_b (unit: kg/m^3), free and

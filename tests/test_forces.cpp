@@ -342,7 +342,8 @@ TEST_CASE("Forces: the method of images' added mass of a sphere moving normal to
   // app::sphereWallAddedMass against its known limits: 1/2 far from the wall; the series'
   // leading terms 1/2 (1 + 3/8 e^3 + 3/64 e^6), e = R / h, where the rest is O(e^8) (h = 4 R); and
   // the value at contact, 0.803 (the sphere touching the wall, moving normal to it: finite, as
-  // the bispherical solution shows; Kharlamov, Chara & Vlasak 2007 quote 0.803).
+  // the closed-form solution near contact shows, "The virtual mass of a sphere moving toward a
+  // plane wall", J. Appl. Mech. 44, 166, 1977; 0.803 is the value the bubble-wall literature uses).
   CHECK(app::sphereWallAddedMass(1e3) == Approx(0.5).margin(1e-9));
   const double e = 0.25;
   CHECK(app::sphereWallAddedMass(4.0) == Approx(0.5 * (1 + 0.375 * std::pow(e, 3) + 3.0 / 64.0 * std::pow(e, 6))).margin(1e-5));
