@@ -189,7 +189,7 @@ SinkCheck sinkingBall(const std::string& scene, double dx, double skip, double u
                       double cd_hi, const std::vector<std::string>& sets = {}, const std::string& device = "");
 
 /// sinkingBall, and the same scene with the ball held throughout, for SinkCheck::cd_held_subtracted
-/// (three runs: twice the free run, once the held one).
+/// (two runs: the free one and the held one).
 SinkCheck sinkingBallHeldDrag(const std::string& scene, double dx, double skip, double until, double cm_lo, double cm_hi,
                               double cd_lo, double cd_hi, const std::vector<std::string>& sets = {},
                               const std::string& device = "");
