@@ -252,7 +252,7 @@ int forceChecks(const BenchOptions& opt) {
   for (const std::string& solver : opt.force_solvers) {
     // DFSPH with extrapolated walls: the wall's pressure from the fluid, as WCSPH's (the right
     // pressure on bodies: README, Forces on bodies); its viscous terms see the walls' and bodies'
-    // own velocities (no ghost velocities: they are WCSPH's).
+    // own velocities (`boundary_velocity: auto` is `wall` with DFSPH; `ghost` only when set).
     std::vector<std::string> sets = {"fluid.solver=" + solver};
     if (solver == "dfsph") sets.push_back("fluid.dfsph.walls=extrapolated");
     for (double dx : {0.01, 0.0075, 0.006}) {

@@ -306,8 +306,8 @@ TEST_CASE("Forces with DFSPH and extrapolated walls: a free body feels its held 
           "[forces]") {
   // The WCSPH checks above with `fluid.solver: dfsph`, `fluid.dfsph.walls: extrapolated` (the
   // wall's pressure extrapolated from the fluid, Adami et al. 2012 eq. 27, as WCSPH's walls; the
-  // viscous terms see the walls' and bodies' own velocities: the no-slip ghost velocities are
-  // WCSPH's), R / dx = 3, with the same closed forms and tolerances:
+  // viscous terms see the walls' and bodies' own velocities: `boundary_velocity: auto` is `wall`
+  // with DFSPH; `ghost` only when set), R / dx = 3, with the same closed forms and tolerances:
   //  - the neutral ball of release_ball.yaml: held force against rho g V and free against held,
   //    8 % (measured 0.95 and 1.03);
   //  - the dense ball of sink_ball.yaml: every step inside the envelope of added mass (C_m 0.375 ..
