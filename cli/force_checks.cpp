@@ -141,6 +141,21 @@ ReleaseCheck releasedBall(const std::string& scene, double dx, double rho_b, dou
   return c;
 }
 
+double sphereWallAddedMass(double h_over_r) {
+  // Lengths in units of R. The k-th doublet inside the sphere (strength m_k relative to the
+  // sphere's own m_0, at z_k <= 0 on the axis towards the wall) has its wall image at distance
+  // c = 2 h + z_k from the centre; that image's image in the sphere is m_{k+1} = m_k / c^3 at
+  // z_{k+1} = -1 / c. The terms fall at least as (1 / (2h - 1))^3 per step: 200 are plenty.
+  double m = 1.0, z = 0.0, sum = 0.0;
+  for (int k = 0; k < 200; ++k) {
+    const double c = 2.0 * h_over_r + z;
+    m /= c * c * c;
+    z = -1.0 / c;
+    sum += m;
+  }
+  return 0.5 * (1.0 + 3.0 * sum);
+}
+
 ReleaseMassCheck releasedBallAddedMass(const std::string& scene, double dx, double rho_b, double window,
                                        const std::vector<std::string>& sets, const std::string& device) {
   ReleaseMassCheck c;
@@ -160,7 +175,9 @@ ReleaseMassCheck releasedBallAddedMass(const std::string& scene, double dx, doub
   const std::vector<StepForce>& held_log = held_run.log;
   const double l3 = std::pow(c.radius / nearest, 3);
   c.cm_confined = (1.0 + 2.0 * l3) / (2.0 * (1.0 - l3));
-  c.cm_floor = 0.5 + 0.1875 * std::pow(c.radius / floor_height, 3);
+  c.cm_floor = sphereWallAddedMass(floor_height / c.radius);
+  c.cm_floor_lo = sphereWallAddedMass((floor_height + 0.5 * dx) / c.radius);
+  c.cm_floor_hi = sphereWallAddedMass(std::max(floor_height - 0.5 * dx, c.radius) / c.radius);
   c.a0_still = (rho_w - rho_b) * g / (rho_b + 0.5 * rho_w);
   // The held force at time t, linear between its steps (the two runs' steps may differ after the release).
   auto heldAt = [&](double t) {
@@ -276,11 +293,8 @@ TowCheck towedBall(const std::string& scene, double dx, const std::vector<std::s
   if (!ran(b, c)) return c;
   const double duration = b.duration, nu = b.nu, rho = b.rho, box = b.box;
   const std::vector<StepForce>& log = b.log;
-  c.speed = b.speed;
   c.box = box;
   c.mu = rho * nu;
-  c.reynolds = 2.0 * c.radius * c.speed / nu;
-  c.stokes = 6.0 * M_PI * c.mu * c.radius * c.speed;
   // Wall factor of the cubic box (side L) bracketed by two spherical containers: the inscribed
   // one (b = L/2, less liquid than the box: K too high) and the one of the box's volume
   // (b = L (3 / 4 pi)^(1/3), the corners counted as near as the faces: K too low).
@@ -296,6 +310,14 @@ TowCheck towedBall(const std::string& scene, double dx, const std::vector<std::s
     c.message = "too few steps in the window";
     return c;
   }
+  // U: the constant motion's speed, or for a keyframed tow the mean speed over the window.
+  c.speed = b.speed;
+  if (c.speed == 0.0) {
+    for (const StepForce* f : win) c.speed += f->v.norm();
+    c.speed /= static_cast<double>(win.size());
+  }
+  c.reynolds = 2.0 * c.radius * c.speed / nu;
+  c.stokes = 6.0 * M_PI * c.mu * c.radius * c.speed;
   double fx = 0;
   Eigen::Vector2d side = Eigen::Vector2d::Zero();
   for (const StepForce* f : win) {
@@ -306,6 +328,7 @@ TowCheck towedBall(const std::string& scene, double dx, const std::vector<std::s
   c.drag = -fx / n;
   side /= n;
   c.side = side.cwiseAbs().maxCoeff();
+  c.side_y = std::abs(side.x());
   // Noise of the sideways mean: the spread of 6 block means (blocks longer than the force's
   // correlation time), standard error = sd / sqrt(6).
   const int blocks = 6;
@@ -328,6 +351,31 @@ TowCheck towedBall(const std::string& scene, double dx, const std::vector<std::s
   return c;
 }
 
+double schillerNaumann(double re) { return 1.0 + 0.15 * std::pow(re, 0.687); }
+
+double diFeliceWallFactor(double lambda, double re) {
+  // Di Felice (1996): U_t / U_inf = ((1 - lambda) / (1 - 0.33 lambda))^alpha at the same force,
+  // alpha = (3.3 + 0.085 Re) / (1 + 0.1 Re).
+  const double alpha = (3.3 + 0.085 * re) / (1.0 + 0.1 * re);
+  const double f = std::pow((1.0 - lambda) / (1.0 - 0.33 * lambda), alpha);
+  // The same as a drag factor at the same speed: F_inf(U_inf) = K F_inf(U_t), with F_inf ~ U^n
+  // locally, n = dln F / dln U of Schiller-Naumann's F = 6 pi mu R U (1 + 0.15 Re^0.687).
+  const double sn = schillerNaumann(re), n = 1.0 + 0.687 * (sn - 1.0) / sn;
+  return std::pow(f, -n);
+}
+
+void moderateReBand(double radius, double dx, double side, double speed, double nu, double& lo, double& hi) {
+  // The no-slip surface within R -+ dx/2 (as stokesBand); the square duct between the circular
+  // tube of the same cross-section (D = 2 side / sqrt(pi): the corners counted as near as the
+  // faces, the smaller factor) and the inscribed one (D = side, the larger).
+  auto value = [&](double r, double tube) {
+    const double re = 2.0 * r * speed / nu;
+    return r / radius * schillerNaumann(re) * diFeliceWallFactor(2.0 * r / tube, re);
+  };
+  lo = value(radius - 0.5 * dx, 2.0 * side / std::sqrt(M_PI));
+  hi = value(radius + 0.5 * dx, side);
+}
+
 double sinkingDragBound(double radius, double dx, double tank) {
   const double resolution = std::pow(1.0 + 0.5 * dx / radius, 2);
   const double wall = 1.0 / std::pow(1.0 - std::pow(2.0 * radius / tank, 1.5), 2);
@@ -343,12 +391,13 @@ double sinkingSpeed(double t, double m, double V, double R, double rho, double g
   return vt * std::tanh(a0 * t / vt);
 }
 
-SinkCheck sinkingBall(const std::string& scene, double dx, double skip, double until, double cm_lo, double cm_hi,
-                      double cd_lo,
-                      double cd_hi, const std::vector<std::string>& sets, const std::string& device) {
+namespace {
+
+/// sinkingBall's check of one run `b` at spacing dx.
+SinkCheck sinkFromRun(const BallRun& b, double dx, double skip, double until, double cm_lo, double cm_hi, double cd_lo,
+                      double cd_hi) {
   SinkCheck c;
   c.dx = dx;
-  const BallRun b = runBall(checkRun(scene, dx, {}, sets, device));
   if (!ran(b, c)) return c;
   const double hold = b.hold, end = b.duration, rho = b.rho, g = b.g, volume = b.volume, mass = b.mass, nu = b.nu;
   const std::vector<StepForce>& log = b.log;
@@ -401,9 +450,12 @@ SinkCheck sinkingBall(const std::string& scene, double dx, double skip, double u
     c.lo.push_back(lo);
     c.hi.push_back(hi);
   }
-  if (v2_int > 0.0)
+  c.held_over_buoyancy = held / (rho * g * volume);
+  if (v2_int > 0.0) {
     c.cd_effective = ((mass - rho * volume) * g * T - (mass + 0.5 * rho * volume) * v_T) /
                      (0.5 * rho * M_PI * c.radius * c.radius * v2_int);
+    c.cd_ringing = (mass + 0.5 * rho * volume) * c.ringing / (0.5 * rho * M_PI * c.radius * c.radius * v2_int);
+  }
   if (c.t.size() < 3) {
     c.exit_code = 1;
     c.message = "too few steps after the release";
@@ -413,6 +465,53 @@ SinkCheck sinkingBall(const std::string& scene, double dx, double skip, double u
   c.v_lo = c.lo.back();
   c.v_hi = c.hi.back();
   c.reynolds = 2.0 * c.radius * c.v_end / nu;
+  return c;
+}
+
+}  // namespace
+
+SinkCheck sinkingBall(const std::string& scene, double dx, double skip, double until, double cm_lo, double cm_hi,
+                      double cd_lo, double cd_hi, const std::vector<std::string>& sets, const std::string& device) {
+  return sinkFromRun(runBall(checkRun(scene, dx, {}, sets, device)), dx, skip, until, cm_lo, cm_hi, cd_lo, cd_hi);
+}
+
+SinkCheck sinkingBallHeldDrag(const std::string& scene, double dx, double skip, double until, double cm_lo, double cm_hi,
+                              double cd_lo, double cd_hi, const std::vector<std::string>& sets, const std::string& device) {
+  // The free run, checked as sinkingBall, and the same ball held throughout.
+  const BallRun f = runBall(checkRun(scene, dx, {}, sets, device));
+  SinkCheck c = sinkFromRun(f, dx, skip, until, cm_lo, cm_hi, cd_lo, cd_hi);
+  if (c.exit_code != 0) return c;
+  RunOptions held_options = checkRun(scene, dx, {}, sets, device);
+  held_options.sets.push_back("rigid_bodies[0].hold_until=1e6");
+  const BallRun h = runBall(held_options);
+  if (h.result.exit_code != 0 || h.log.empty()) {
+    c.exit_code = h.result.exit_code != 0 ? h.result.exit_code : 1;
+    c.message = h.result.exit_code != 0 ? h.result.message : "no steps logged in the held run";
+    return c;
+  }
+  c.wall_seconds += h.result.wall_seconds;
+  // The held force at time t, linear between its steps.
+  auto heldAt = [&](double t) {
+    auto it = std::lower_bound(h.log.begin(), h.log.end(), t, [](const StepForce& s, double x) { return s.time < x; });
+    if (it == h.log.begin()) return it->force.z();
+    if (it == h.log.end()) return h.log.back().force.z();
+    const StepForce& b = *it;
+    const StepForce& a = *(it - 1);
+    return a.force.z() + (b.force.z() - a.force.z()) * (t - a.time) / (b.time - a.time);
+  };
+  // Upward fluid force on the sinking ball = held force + C_m rho V dv/dt + D (v, D: downward
+  // speed and upward drag), so int D dt = int (F_free - F_held) dt - C_m rho V v(T).
+  double impulse = 0, v2_int = 0, v_T = 0;
+  for (std::size_t k = 0; k + 1 < f.log.size(); ++k) {
+    const StepForce& s = f.log[k];
+    if (s.time < f.hold - 1e-12) continue;
+    const double dt = f.log[k + 1].time - s.time;
+    impulse += (s.force.z() - heldAt(s.time)) * dt;
+    v2_int += s.v.z() * s.v.z() * dt;
+    v_T = -f.log[k + 1].v.z();
+  }
+  if (v2_int > 0.0)
+    c.cd_held_subtracted = (impulse - 0.5 * f.rho * f.volume * v_T) / (0.5 * f.rho * M_PI * c.radius * c.radius * v2_int);
   return c;
 }
 

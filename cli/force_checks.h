@@ -45,9 +45,12 @@ struct ReleaseMassCheck {
   double radius = 0;          ///< (unit: m)
   double cm = 0;              ///< C_m = -int (F_free - F_held) dt / (rho V v(T)) over the window T (unit: 1)
   double cm_confined = 0;     ///< Lamb's concentric sphere at the nearest wall or surface, as AccelCheck (unit: 1)
-  /// a sphere moving normal to the floor at centre height h, to leading order in (R / h)^3:
-  /// 1/2 + 3/16 (R / h)^3 (Brennen 1982, A review of added mass and fluid inertial forces) (unit: 1)
+  /// a sphere moving normal to the floor at centre height h: the method of images' series
+  /// (sphereWallAddedMass), 1/2 (1 + 3/8 (R / h)^3 + ...) (unit: 1)
   double cm_floor = 0;
+  /// the same with the gap h - R known to dx/2 (where the sampled ball's and the floor's surfaces
+  /// lie): sphereWallAddedMass at h + dx/2 (lo) and h - dx/2 (hi) (unit: 1)
+  double cm_floor_lo = 0, cm_floor_hi = 0;
   double a0 = 0;              ///< mean acceleration of the ball over the window: v(T) / T (unit: m/s^2; by momentum,
                               ///< a0 (m + C_m rho V) = mean F_held - m g: the same check as cm, in the issue's terms)
   /// the same expected from the held force over the window: (mean F_held - m g) / (m + C_m rho V),
@@ -58,6 +61,15 @@ struct ReleaseMassCheck {
   double held_over_buoyancy = 0;  ///< mean held force over the window / rho g V: the ringing's phase at the release (unit: 1)
   double wall_seconds = 0;    ///< both runs (unit: s)
 };
+
+/// The added mass coefficient of a sphere (radius R) moving normal to a plane wall in ideal fluid,
+/// its centre at distance h from the wall, by the method of images (Milne-Thomson, Theoretical
+/// Hydrodynamics, the image of an axial doublet in a sphere): the sphere's doublet, its image in
+/// the wall, that image's image in the sphere (a doublet of strength m (R / c)^3 at the inverse
+/// point R^2 / c, c its distance from the centre), and so on; C_m = 1/2 (1 + 3 sum_k m_k / m_0) = 1/2 (1 + 3/8 (R/h)^3
+/// + 3/64 (R/h)^6 + ...). 0.5 far from the wall, 0.5 + 3/16 (R/h)^3 to leading order, 0.803 at
+/// contact (h = R; finite: J. Appl. Mech. 44, 166, 1977). h_over_r = h / R >= 1 (unit: 1).
+double sphereWallAddedMass(double h_over_r);
 
 /// Runs `scene` (release_ball.yaml) at spacing dx, ball density rho_b (unit: kg/m^3), free and
 /// held, and fits over `window` seconds after the release.
@@ -90,7 +102,7 @@ struct TowCheck {
   std::string message;
   double dx = 0;               ///< (unit: m)
   double radius = 0;           ///< (unit: m)
-  double speed = 0;            ///< U (unit: m/s)
+  double speed = 0;            ///< U: the constant motion's, or a keyframed tow's mean speed over the window (unit: m/s)
   double box = 0;              ///< the domain's smallest side (unit: m)
   double mu = 0;               ///< dynamic viscosity rho nu (unit: Pa s)
   double reynolds = 0;         ///< 2 R U / nu (unit: 1)
@@ -105,6 +117,7 @@ struct TowCheck {
   double expected_lo = 0;
   double expected_hi = 0;      ///< (unit: 1)
   double side = 0;             ///< largest mean sideways component |F_y|, |F_z| over the window (unit: N)
+  double side_y = 0;           ///< |mean F_y| alone, for a tow under gravity (F_z then carries the buoyancy) (unit: N)
   double side_noise = 0;       ///< standard error of that mean, from 6 block means (unit: N)
   double drag_noise = 0;       ///< standard error of the drag's mean, from 6 block means (unit: N)
   double wall_seconds = 0;     ///< (unit: s)
@@ -152,6 +165,14 @@ struct SinkCheck {
   /// C_d = ((m - rho V) g T - (m + rho V / 2) v(T)) / (1/2 rho pi R^2 int v^2 dt) (unit: 1)
   double cd_effective = 0;
   double reynolds = 0;        ///< 2 R v_end / nu (unit: 1)
+  /// the ringing margin as a margin on cd_effective: (m + rho V / 2) ringing / (1/2 rho pi R^2 int v^2 dt) (unit: 1)
+  double cd_ringing = 0;
+  double held_over_buoyancy = 0;  ///< mean force over the last 0.1 s of the hold / rho g V (unit: 1)
+  /// sinkingBallHeldDrag only: the mean drag coefficient with the tank's ringing and the sampled
+  /// buoyancy taken out, from the same ball held throughout (the two runs are bitwise equal up to the
+  /// release): int D dt = int (F_free - F_held) dt - C_m rho V v(T), C_m = 1/2,
+  /// C_d = int D dt / (1/2 rho pi R^2 int v^2 dt) (unit: 1)
+  double cd_held_subtracted = 0;
   std::vector<double> t, v, lo, hi;  ///< the samples: time after release (s), speed, envelope (m/s)
   double wall_seconds = 0;    ///< (unit: s)
 };
@@ -167,6 +188,12 @@ SinkCheck sinkingBall(const std::string& scene, double dx, double skip, double u
                       double cd_lo,
                       double cd_hi, const std::vector<std::string>& sets = {}, const std::string& device = "");
 
+/// sinkingBall, and the same scene with the ball held throughout, for SinkCheck::cd_held_subtracted
+/// (two runs: the free one and the held one).
+SinkCheck sinkingBallHeldDrag(const std::string& scene, double dx, double skip, double until, double cm_lo, double cm_hi,
+                              double cd_lo, double cd_hi, const std::vector<std::string>& sets = {},
+                              const std::string& device = "");
+
 /// The upper end of a sampled sphere's mean drag coefficient in a tank at Re ~ 1e3 .. 1e5: a
 /// sphere's 0.5 (Newton regime; started from rest its wake forms over several diameters, so its
 /// mean is lower), times the resolution's (1 + dx / 2R)^2 (the pressure surface of a ball sampled
@@ -176,6 +203,25 @@ SinkCheck sinkingBall(const std::string& scene, double dx, double skip, double u
 /// 101, 288), so C_d x 1 / (1 - (d/D)^1.5)^2; for a square tank D is its side (the hydraulic
 /// diameter: the larger factor). R, dx, D in m (unit: 1).
 double sinkingDragBound(double radius, double dx, double tank);
+
+/// Schiller & Naumann (1933): a sphere's drag over Stokes' at Reynolds number Re = 2 R U / nu
+/// (Re < ~800), C_D = 24/Re (1 + 0.15 Re^0.687), i.e. F / (6 pi mu R U) = 1 + 0.15 Re^0.687 (unit: 1).
+double schillerNaumann(double re);
+
+/// The confinement of a sphere (diameter d) moving along a circular tube (diameter D) at Reynolds
+/// number Re, lambda = d / D: Di Felice's (1996, Int. J. Multiphase Flow 22, 527) correlation for
+/// the settling velocity, U_t / U_inf = ((1 - lambda) / (1 - 0.33 lambda))^alpha with alpha =
+/// (3.3 + 0.085 Re) / (1 + 0.1 Re) (alpha -> 3.3 in Stokes flow: close to Haberman & Sayre's tube
+/// factor), turned into a drag factor at the same speed with the local slope of Schiller-Naumann's
+/// drag, K = (U_t / U_inf)^-n, n = dln F / dln U (unit: 1).
+double diFeliceWallFactor(double lambda, double re);
+
+/// The drag over 6 pi mu R U expected of a ball of radius R (m) sampled at spacing dx (m), towed at
+/// U (m/s) through a liquid of kinematic viscosity nu (m^2/s) along a square duct of side `side`
+/// (m): (R_eff / R) schillerNaumann(Re_eff) diFeliceWallFactor(d_eff / D, Re_eff), the no-slip
+/// surface within R -+ dx/2, the duct between the tube of its cross-section's area and the
+/// inscribed tube: lo with R - dx/2 and the equal-area tube, hi with R + dx/2 and the inscribed one.
+void moderateReBand(double radius, double dx, double side, double speed, double nu, double& lo, double& hi);
 
 /// The drag over 6 pi mu R U expected of a ball of radius R (m) sampled at spacing dx (m) at the
 /// centre of a closed cubic box of side L (m): TowCheck::expected_lo/hi (unit: 1).

@@ -838,9 +838,11 @@ Compiled compile(const SceneSpec& spec, const ResourceLimits& limits) {
   // No-slip ghost velocities (Adami et al. 2012 eq. 22-23) where the fluid-boundary viscous term
   // is the laminar (physical) one: every boundary particle with the laminar model, the bodies'
   // with body_viscosity physical (the artificial term stays with the wall's velocity: it is a
-  // numerical viscosity). WCSPH only: DFSPH's viscous pass (dfsph.cl) reads the wall's velocity.
+  // numerical viscosity). DFSPH: only when `boundary_velocity: ghost` is set (its viscous pass and
+  // the bodies' viscous reaction then read the ghost velocities, as WCSPH's); `auto` keeps the
+  // wall's velocity there (the DFSPH scenes and tests were set up with it).
   const BoundaryVelocity bv = fl.boundary_velocity;
-  if (dfsph || bv == BoundaryVelocity::Wall) m.ghost_velocity_mode = 0;
+  if (bv == BoundaryVelocity::Wall || (dfsph && bv == BoundaryVelocity::Auto)) m.ghost_velocity_mode = 0;
   else if (bv == BoundaryVelocity::Ghost || laminar) m.ghost_velocity_mode = 1;
   else m.ghost_velocity_mode = fl.body_viscosity == BodyViscosity::Physical ? 2u : 0u;
   m.stages.set(Stage::Integrate, true);

@@ -7,6 +7,8 @@
 // coupling force (kernels/rigid.cl, rigid_fluid_forces) is halved (README, Forces on bodies).
 #include "cli/force_checks.h"
 #include "cli/runner.h"
+#include "core/model.h"
+#include "io/scene_loader.h"
 #include "tests/scene_runs.h"
 
 #include <catch2/catch.hpp>
@@ -158,23 +160,29 @@ TEST_CASE("Forces: a buoyant ball released from rest mid-water accelerates with 
 
 TEST_CASE("Forces: a buoyant ball released one spacing above the floor accelerates with the wall's added mass", "[forces]") {
   // As the mid-water test, with the ball's underside one spacing dx above the floor (centre at
-  // h = 4 cm = 1.33 R). Near a wall the added mass for motion normal to it grows: C_m = 1/2 +
-  // 3/16 (R / h)^3 = 0.58 to leading order (Brennen 1982; the next terms add ~2 %), so expected
-  // 1/2 .. 0.58 with the same 25 % (R / dx = 3, and only one fluid layer under the ball). Measured
-  // 0.59 over 10 ms (0.69 with the body contact range dx, before issue 15's fix, and 0.75 then at
-  // R / dx = 4: the contact's drag on the fluid drawn into the gap; leaving the one-spacing gap
-  // the ball also pulls fluid in against the squeeze-film drag of the artificial viscosity,
-  // alpha = 0.1, mu_eff ~ 1.5 Pa s, which the held run has not; README).
+  // h = 4 cm = 1.33 R). Near a wall the added mass for motion normal to it grows: the method of
+  // images (app::sphereWallAddedMass; Milne-Thomson's doublet image in a sphere) gives C_m = 1/2
+  // (1 + 3/8 (R/h)^3 + 3/64 (R/h)^6 + ...) = 0.586 here (0.579 to leading order, 0.803 at contact).
+  // Resolution: the gap h - R is known to dx/2 (the sampled ball's surface within R -+ dx/2, as the
+  // Stokes checks; the floor's at its wall), so C_m(h + dx/2) .. C_m(h - dx/2) = 0.559 .. 0.639,
+  // and 10 % beyond (the shaken ball's: the sampled ball's displaced volume is known to ~7 % at
+  // R / dx = 3). Measured 0.594 (session 7). At R / dx = 4 (bench) 0.693 against 0.578 .. 0.660:
+  // 5 % over, inside the 10 %. Why it is above the centre value and grows with resolution (README,
+  // Forces on bodies): not the artificial viscosity's squeeze film (laminar water gives 0.75 at
+  // R / dx = 4, measured), but the 10 ms window: the estimate moves with it (0.59, 0.69, 0.78,
+  // 0.84 over 5, 10, 15, 20 ms at R / dx = 4 with alpha = 0.1; laminar 0.64, 0.75, 0.53, 0.55 as
+  // the ball rings on the liquid's compressibility).
   // Halving the coupling force: the ball does not rise.
   const app::ReleaseMassCheck c = app::releasedBallAddedMass(scenePath("release_ball.yaml"), 0.01, 500.0, 0.01,
                                                              {"rigid_bodies[0].position=[0.1, 0.1, 0.04]"});
   INFO(c.message);
   REQUIRE(c.exit_code == 0);
-  INFO("R/dx " << c.radius / c.dx << ": C_m " << c.cm << " (expected 0.5 .. " << c.cm_floor << "); a0 " << c.a0
-               << " m/s^2 (expected from the held force " << c.a0_expected_lo << " .. " << c.a0_expected_hi
-               << "); held force " << c.held_over_buoyancy << " rho g V; " << c.wall_seconds << " s");
-  CHECK(c.cm > 0.75 * 0.5);
-  CHECK(c.cm < 1.25 * c.cm_floor);
+  INFO("R/dx " << c.radius / c.dx << ": C_m " << c.cm << " (images " << c.cm_floor << ", gap -+ dx/2: " << c.cm_floor_lo
+               << " .. " << c.cm_floor_hi << "); a0 " << c.a0 << " m/s^2 (expected from the held force "
+               << c.a0_expected_lo << " .. " << c.a0_expected_hi << "); held force " << c.held_over_buoyancy
+               << " rho g V; " << c.wall_seconds << " s");
+  CHECK(c.cm > 0.9 * c.cm_floor_lo);
+  CHECK(c.cm < 1.1 * c.cm_floor_hi);
 }
 
 TEST_CASE("Forces: a released buoyant ball rises and floats at its Archimedes draft with a damped heave", "[forces]") {
@@ -298,8 +306,8 @@ TEST_CASE("Forces with DFSPH and extrapolated walls: a free body feels its held 
           "[forces]") {
   // The WCSPH checks above with `fluid.solver: dfsph`, `fluid.dfsph.walls: extrapolated` (the
   // wall's pressure extrapolated from the fluid, Adami et al. 2012 eq. 27, as WCSPH's walls; the
-  // viscous terms see the walls' and bodies' own velocities: the no-slip ghost velocities are
-  // WCSPH's), R / dx = 3, with the same closed forms and tolerances:
+  // viscous terms see the walls' and bodies' own velocities: `boundary_velocity: auto` is `wall`
+  // with DFSPH; `ghost` only when set), R / dx = 3, with the same closed forms and tolerances:
   //  - the neutral ball of release_ball.yaml: held force against rho g V and free against held,
   //    8 % (measured 0.95 and 1.03);
   //  - the dense ball of sink_ball.yaml: every step inside the envelope of added mass (C_m 0.375 ..
@@ -328,4 +336,29 @@ TEST_CASE("Forces with DFSPH and extrapolated walls: a free body feels its held 
   CHECK(c.v_end > 0.4);
   CHECK(c.worst == 0.0);
   CHECK(c.above <= 0.0);
+}
+
+TEST_CASE("Forces: the method of images' added mass of a sphere moving normal to a wall", "[forces]") {
+  // app::sphereWallAddedMass against its known limits: 1/2 far from the wall; the series'
+  // leading terms 1/2 (1 + 3/8 e^3 + 3/64 e^6), e = R / h, where the rest is O(e^8) (h = 4 R); and
+  // the value at contact, 0.803 (the sphere touching the wall, moving normal to it: finite, as
+  // the closed-form solution near contact shows, "The virtual mass of a sphere moving toward a
+  // plane wall", J. Appl. Mech. 44, 166, 1977; 0.803 is the value the bubble-wall literature uses).
+  CHECK(app::sphereWallAddedMass(1e3) == Approx(0.5).margin(1e-9));
+  const double e = 0.25;
+  CHECK(app::sphereWallAddedMass(4.0) == Approx(0.5 * (1 + 0.375 * std::pow(e, 3) + 3.0 / 64.0 * std::pow(e, 6))).margin(1e-5));
+  CHECK(app::sphereWallAddedMass(1.0) == Approx(0.803).margin(0.001));
+}
+
+TEST_CASE("Forces: DFSPH takes the no-slip ghost velocities only when boundary_velocity: ghost is set", "[forces]") {
+  // scenes/tests/tow_re20.yaml (dfsph, laminar, boundary_velocity: ghost): the ghost velocities
+  // (Adami, Hu & Adams 2012 eq. 22-23) for every boundary particle; with `auto` DFSPH keeps the
+  // walls' and bodies' own velocities (as before session 8); WCSPH's `auto` with the laminar
+  // model takes them. At Re = 20 in that scene the drag is 3.20 x 6 pi mu R U with them and lower
+  // without (README, Forces on bodies; a bench row, minutes per run).
+  const std::string scene = scenePath("tow_re20.yaml");
+  CHECK(compile(io::loadScene(scene)).model.ghost_velocity_mode == 1u);
+  CHECK(compile(io::loadScene(scene, {"fluid.boundary_velocity=auto"})).model.ghost_velocity_mode == 0u);
+  CHECK(compile(io::loadScene(scene, {"fluid.boundary_velocity=auto", "fluid.solver=wcsph"})).model.ghost_velocity_mode ==
+        1u);
 }
