@@ -548,3 +548,44 @@ TEST_CASE("DFSPH coupling: Archimedes: the block floats at half its height (extr
   // the pressure's wobble of the tank test above; not checked.
   CHECK(std::abs(b.step_force - b.weight) < 0.02 * b.weight);
 }
+
+
+TEST_CASE("DFSPH two-level solve: the hydrostatic tank at the reference's density bound is calm", "[dfsph]") {
+  // fluid.dfsph.coarse_interval: 4 (kernels/dfsph_coarse.cl): a Galerkin coarse-grid correction on
+  // aggregates of one support H after Jacobi iterations 1, 5, 9, ... of both solves removes the
+  // pressure errors smooth over the column that the average-error stop cannot see: up to
+  // dp_eta = rho0 eta (2H / pi)^2 / dt^2 = 324 Pa (17 % of rho0 g H) at the reference's eta = 5e-4
+  // (the extrapolated test above derives it). The calm criterion is that test's: a layer's mean
+  // pressure changes between frames (50 ms) by less than 5 % of rho0 g H, so that each frame's
+  // reading stays within the issue's 5 % band around its average. Measured 60 Pa (3.2 %) in 3.7
+  // density iterations per step; with the correction off (coarse_interval 0, a mutation) 1,045 Pa
+  // (55 %), fails. Not yet accurate: the layers' averages read 5-9 % high (the floor layer 17 %),
+  // reported below, not checked (README "DFSPH"; the reference library reads 5-11 % high here).
+  const TankResult d = hydrostaticTank("dfsph", {"fluid.dfsph.coarse_interval=4"});
+  REQUIRE(d.exit_code == 0);
+  INFO("two-level: " << d.compared << " layers, worst pressure error " << 100 * d.worst << " %, largest "
+                     << "frame-to-frame change " << d.worst_change << " Pa (rho0 g H = " << d.p_bottom << " Pa), probes "
+                     << 100 * d.worst_probe << " %, " << d.density_iterations_per_step << " density iterations per step");
+  CHECK(d.compared >= 15);
+  CHECK(d.worst_change < 0.05 * d.p_bottom);
+  // Fewer iterations than plain Jacobi's 45 per step at this bound (the coarse solve is counted
+  // apart: one per four iterations); measured 3.7.
+  CHECK(d.density_iterations_per_step < 10);
+  CHECK_NOFAIL(d.worst <= 0.05);
+  CHECK_NOFAIL(d.worst_probe <= 0.05);
+  WARN("dfsph two-level solve, hydrostatic tank (density bound 5e-4): worst layer " << 100 * d.worst
+       << " %, frame-to-frame change " << d.worst_change << " Pa, probes " << 100 * d.worst_probe << " %, "
+       << d.density_iterations_per_step << " density iterations per step");
+  // Deterministic: the coarse operator and right-hand side are summed in particle order and solved
+  // by sparse LU on the host; the same run twice gives bitwise equal states.
+  app::RunOptions o = quietRun("tiny_tank.yaml", {"fluid.solver=dfsph", "fluid.dfsph.coarse_interval=2"});
+  o.duration = 0.1;
+  const app::RunResult a = app::runScene(o);
+  const app::RunResult b = app::runScene(o);
+  REQUIRE(a.exit_code == 0);
+  CHECK(a.state_hash == b.state_hash);
+  CHECK(a.profile.density_iterations == b.profile.density_iterations);
+  o.sets = {"fluid.solver=dfsph"};
+  const app::RunResult c = app::runScene(o);
+  CHECK(c.state_hash != a.state_hash);  // and the correction acts
+}
