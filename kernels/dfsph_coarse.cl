@@ -10,9 +10,10 @@
  * "A Multigrid Tutorial", ch. 3 and 5: smoothing plus coarse-grid correction; Vanek, Mandel &
  * Brezina 1996: aggregation) solves the smooth part on aggregates instead:
  *
- *   aggregates: the fluid particles in one cell of size H (the kernel support) of the grid from
- *   grid_origin, only the particles in the active set of the complementarity problem (p_i > 0
- *   or r_i > 0; the divergence solve's free-surface particles with too few neighbours are out);
+ *   aggregates: the fluid particles in one cell of size H (the kernel support) of cells aligned
+ *   with the domain box, only the particles in the active set of the complementarity problem
+ *   (p_i > 0 or r_i > 0; the divergence solve's free-surface particles with too few neighbours
+ *   are out; the host drops aggregates of fewer than 4 particles);
  *   prolongation P: piecewise constant, (P e)_i = e_c(i) (unit: Pa);
  *   Galerkin coarse operator K = -P^T A P, from the same pair terms as the Jacobi pass:
  *       K_dc = dt^2 V0 sum_i F_i(c) . R_i(d),
@@ -24,8 +25,10 @@
  *       by the antisymmetry of gradW_ij), G_b,i the factor pass's wall sum (gwall); w = 2 with
  *       extrapolated walls: the extrapolated wall pressure of a smooth field is that of the fluid
  *       next to it (p_b = p_i, mirrored), w = 1 with single walls (p_b = 0);
- *   correction: K e = P^T r (r_i of the current pressures), p_i <- max(p_i + e_c(i), 0) for the
- *   active particles (the projection of dfsph_jacobi).
+ *   correction: K e = P^T r (r_i of the current pressures), q = P e scaled by the line search
+ *   theta = -<q, r> / <q, dr> (dr: the residual change q makes with the walls' own operator,
+ *   dfsph_coarse_trial), p_i <- max(p_i + theta q_i, 0) for the active particles (the projection
+ *   of dfsph_jacobi).
  * Each particle's F and R are written per aggregate of its 3 x 3 x 3 cell neighbourhood (a
  * neighbour within H lies at most one cell away); the host sums K in particle order and solves
  * it: deterministic. Reads neighbours, writes only particle i. */
