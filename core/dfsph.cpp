@@ -55,6 +55,13 @@ DfsphSolver::DfsphSolver(ClContext& cl, KernelSet& kernels, std::size_t capacity
   // ... and each wall particle's fluid neighbours for the step (kernels/dfsph.cl, dfsph_wall_lists).
   wall_list_ = makeBuffer(nb * kWallSlots * 4);
   wall_count_ = makeBuffer(nb * 4);
+  // Coarse-grid correction: its per-particle buffers (kernels/dfsph_coarse.cl), when it runs.
+  const std::size_t nc = coarse() ? capacity : 0;
+  cres_ = makeBuffer(nc * 4);
+  ccell_ = makeBuffer(nc * 16);
+  cfr_ = makeBuffer(nc * 27 * 2 * 16);
+  cdp_ = makeBuffer(nc * 4);
+  ctrial_ = makeBuffer(nc * 4);
   // No pressure before the first step (and particles emitted later start from zero: slots past
   // the active count are never written).
   clCall("clearing the DFSPH pressures", [&] {
@@ -211,11 +218,14 @@ DfsphSolveResult DfsphSolver::solve(Kind kind, const SimParams& p, const DfsphFi
   // Relaxed Jacobi iterations on the pressures (velocities fixed), until the average error of the
   // pressures found is within the bound; at least min_it (at least one), at most max_it. The error
   // is read (a wait for the device) only where it can stop the solve: not before min_it.
+  // Two-level (coarse_interval k > 0): a coarse-grid correction after iterations 1, 1 + k, ...,
+  // then Jacobi again (kernels/dfsph_coarse.cl says why).
   DfsphSolveResult r;
   do {
     iterate(kind, p, f, pressure);
     ++r.iterations;
     if (r.iterations >= min_it || r.iterations >= max_it) r.error = averageError(n);
+    if (coarse() && (r.iterations - 1) % spec_.coarse_interval == 0) coarseCorrection(kind, p, f, pressure);
   } while ((r.iterations < min_it || r.error > bound) && r.iterations < max_it);
   r.converged = r.error <= bound;
   // The velocities take the pressures found.

@@ -23,6 +23,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <vector>
 
 namespace sph {
 
@@ -106,6 +107,10 @@ class DfsphSolver {
   void applyIncrements(const SimParams& p, const DfsphFields& f, cl::Buffer& pacc);
   double averageError(std::size_t n);
   cl::Buffer makeBuffer(std::size_t bytes);
+  /// Two-level solve (kernels/dfsph_coarse.cl, core/dfsph_coarse.cpp): the Galerkin coarse-grid
+  /// correction of `pressure` on aggregates of one support H, projected to p >= 0.
+  void coarseCorrection(Kind kind, const SimParams& p, const DfsphFields& f, cl::Buffer& pressure);
+  bool coarse() const { return spec_.coarse_interval > 0 && !mirrored(); }
 
   ClContext& cl_;
   KernelSet& kernels_;
@@ -134,6 +139,12 @@ class DfsphSolver {
   static constexpr uint32_t kWallSlots = 32;
   cl::Buffer wall_list_, wall_count_;
   cl::Buffer scratch_a_, scratch_b_;       // reorder targets (swapped with pdiv_, pdens_); mirrored: a holds the previous pressure in a warm start
+  // Coarse-grid correction (coarse_interval > 0): signed residuals (n) (unit: 1), aggregate cells and
+  // active flags (n x int4), per particle and aggregate slot F and R (n x 27 x 2 float4), the
+  // prolonged correction (n) (unit: Pa); and the host copies of the first three.
+  cl::Buffer cres_, ccell_, cfr_, cdp_, ctrial_;
+  std::vector<float> hres_, hfr_, hdp_, hmq_;
+  std::vector<int32_t> hcell_;
 };
 
 }  // namespace sph

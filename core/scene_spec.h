@@ -126,6 +126,7 @@ struct DfsphSpec {
   DfsphWalls walls = DfsphWalls::Extrapolated;  ///< wall pressure and Jacobi variant (see DfsphWalls)
   bool warm_start = true;            ///< start each solve from the previous step's pressure
   double relaxation = 0.5;           ///< Jacobi relaxation omega of both solves' pressure increments (unit: 1)
+  int coarse_interval = 0;           ///< two-level solve: coarse-grid correction after Jacobi iterations 1, 1 + n, 1 + 2n, ...; 0 = off (kernels/dfsph_coarse.cl) (unit: 1)
   double cfl = 0.4;                  ///< Courant number: dt <= cfl * dx / |v|max (unit: 1)
   double max_time_step = 0.005;      ///< largest step (unit: s)
   SourceLoc loc;

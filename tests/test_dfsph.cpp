@@ -580,3 +580,46 @@ TEST_CASE("DFSPH extrapolated walls: a splash far from the walls is as fast as w
   WARN("dfsph collision far from walls: fastest particle " << extrapolated << " m/s (extrapolated walls), " << single
                                                             << " m/s (single walls)");
 }
+
+TEST_CASE("DFSPH two-level solve: the hydrostatic tank at the reference's density bound, every step within 5 %", "[dfsph]") {
+  // fluid.dfsph.coarse_interval: 4 (kernels/dfsph_coarse.cl): a Galerkin coarse-grid correction on
+  // aggregates of one support H after Jacobi iterations 1, 5, 9, ... of both solves removes the
+  // pressure errors smooth over the column that the average-error stop cannot see: up to
+  // dp_eta = rho0 eta (2H / pi)^2 / dt^2 = 324 Pa (17 % of rho0 g H) at the reference's eta = 5e-4
+  // (the extrapolated test above derives it). Sampled at every step (frame and probe rate 200/s,
+  // as the default-settings test): every layer's average within the issue's 5 % of rho0 g (H - z),
+  // probes too. Measured 3.4 % (probes 2.2 %) in 3.7 density iterations per step; the correction
+  // off (coarse_interval 0, a mutation): 45 iterations per step (fails), layers 4.3-6.0 %.
+  const TankResult d = hydrostaticTank(
+      "dfsph", {"fluid.dfsph.coarse_interval=4", "simulation.frame_rate=200", "probes.rate=200"});
+  REQUIRE(d.exit_code == 0);
+  INFO("two-level: " << d.compared << " layers, worst pressure error " << 100 * d.worst << " %, largest "
+                     << "step-to-step change " << d.worst_change << " Pa (rho0 g H = " << d.p_bottom << " Pa), probes "
+                     << 100 * d.worst_probe << " %, " << d.density_iterations_per_step << " density iterations per step");
+  CHECK(d.compared >= 15);
+  CHECK(d.worst <= 0.05);
+  CHECK(d.probes_compared >= 5);
+  CHECK(d.worst_probe <= 0.05);
+  // Fewer iterations than plain Jacobi's 45 per step at this bound (a coarse correction is one
+  // more pass pair and a host solve, once per four iterations).
+  CHECK(d.density_iterations_per_step < 10);
+  // Not calm yet: a layer still changes by ~680 Pa between steps (plain Jacobi: 2.5 kPa), at a
+  // period that frames 50 ms apart alias (they read a calm 60 Pa between frames, but 5-17 % high):
+  // reported, the calm of 5 % of rho0 g H between steps not reached (README "DFSPH").
+  CHECK_NOFAIL(d.worst_change < 0.05 * d.p_bottom);
+  WARN("dfsph two-level solve, hydrostatic tank (density bound 5e-4), every step: worst layer " << 100 * d.worst
+       << " %, step-to-step change " << d.worst_change << " Pa, probes " << 100 * d.worst_probe << " %, "
+       << d.density_iterations_per_step << " density iterations per step");
+  // Deterministic: the coarse operator and right-hand side are summed in particle order and solved
+  // by sparse LU on the host; the same run twice gives bitwise equal states.
+  app::RunOptions o = quietRun("tiny_tank.yaml", {"fluid.solver=dfsph", "fluid.dfsph.coarse_interval=2"});
+  o.duration = 0.1;
+  const app::RunResult a = app::runScene(o);
+  const app::RunResult b = app::runScene(o);
+  REQUIRE(a.exit_code == 0);
+  CHECK(a.state_hash == b.state_hash);
+  CHECK(a.profile.density_iterations == b.profile.density_iterations);
+  o.sets = {"fluid.solver=dfsph"};
+  const app::RunResult c = app::runScene(o);
+  CHECK(c.state_hash != a.state_hash);  // and the correction acts
+}
