@@ -352,6 +352,11 @@ int forceChecks(const BenchOptions& opt) {
       // and the sampled buoyancy taken out by the same ball held throughout.
       row("sink_mean_Cd_ringing_margin", solver, dx, k.radius / dx, k.cd_ringing, 0.0, 0.0, k.wall_seconds);
       row("sink_mean_Cd_held_subtracted", solver, dx, k.radius / dx, k.cd_held_subtracted, 0.0, cd_hi, k.wall_seconds);
+      // That impulse split into added mass, quadratic drag and a drag linear in v (SinkCheck::fit_*):
+      // the excess over the band is the linear part (README, Forces on bodies, session 9).
+      row("sink_fit_Cm", solver, dx, k.radius / dx, k.fit_cm, 0.375, 0.725, k.wall_seconds);
+      row("sink_fit_Cd", solver, dx, k.radius / dx, k.fit_cd, 0.0, cd_hi, k.wall_seconds);
+      row("sink_fit_linear_drag_Nspm", solver, dx, k.radius / dx, k.fit_b, 0.0, 0.0, k.wall_seconds);
     }
     for (double dx : {0.01, 0.008}) {
       // Stokes terminal velocity: (m - rho V) g / (6 pi mu R U) against the towed ball's band.
@@ -372,6 +377,7 @@ int forceChecks(const BenchOptions& opt) {
   // a run takes minutes (README, Forces on bodies).
   const std::string tow20 = sourcePath("scenes/tests/tow_re20.yaml");
   for (double dx : {0.01, 0.2 / 27}) {
+    if (!opt.force_long_tank) break;  // --no-long-tank
     const TowCheck t = towedBall(tow20, dx, {}, opt.device);
     if (t.exit_code != 0) {
       std::printf("Re 20 drag, long tank, at dx %g: %s\n", dx, t.message.c_str());

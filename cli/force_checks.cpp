@@ -4,6 +4,8 @@
 #include "core/model.h"
 #include "core/scene_spec.h"
 
+#include <Eigen/Dense>
+
 #include <algorithm>
 #include <cmath>
 #include <sstream>
@@ -501,7 +503,11 @@ SinkCheck sinkingBallHeldDrag(const std::string& scene, double dx, double skip, 
   };
   // Upward fluid force on the sinking ball = held force + C_m rho V dv/dt + D (v, D: downward
   // speed and upward drag), so int D dt = int (F_free - F_held) dt - C_m rho V v(T).
-  double impulse = 0, v2_int = 0, v_T = 0;
+  // The normal equations of the three-term fit (fit_cm, fit_cd, fit_b) accumulate on the way.
+  double impulse = 0, v2_int = 0, v_T = 0, x = 0;
+  Eigen::Matrix3d normal = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d rhs = Eigen::Vector3d::Zero();
+  const double mass_term = f.rho * f.volume, drag_term = 0.5 * f.rho * M_PI * c.radius * c.radius;
   for (std::size_t k = 0; k + 1 < f.log.size(); ++k) {
     const StepForce& s = f.log[k];
     if (s.time < f.hold - 1e-12) continue;
@@ -509,9 +515,20 @@ SinkCheck sinkingBallHeldDrag(const std::string& scene, double dx, double skip, 
     impulse += (s.force.z() - heldAt(s.time)) * dt;
     v2_int += s.v.z() * s.v.z() * dt;
     v_T = -f.log[k + 1].v.z();
+    x += v_T * dt;  // symplectic Euler: the position moves with the new velocity
+    if (f.log[k + 1].time - f.hold < skip - 1e-12) continue;
+    const Eigen::Vector3d col(mass_term * v_T, drag_term * v2_int, x);
+    normal += col * col.transpose();
+    rhs += col * impulse;
   }
   if (v2_int > 0.0)
     c.cd_held_subtracted = (impulse - 0.5 * f.rho * f.volume * v_T) / (0.5 * f.rho * M_PI * c.radius * c.radius * v2_int);
+  if (normal.determinant() != 0.0) {
+    const Eigen::Vector3d fit = normal.ldlt().solve(rhs);
+    c.fit_cm = fit.x();
+    c.fit_cd = fit.y();
+    c.fit_b = fit.z();
+  }
   return c;
 }
 
