@@ -333,7 +333,7 @@ int forceChecks(const BenchOptions& opt) {
       row("re20_drag_se_over_6piMuRU" + tag, solver, 0.01, t.radius / 0.01, t.drag_noise / t.stokes, 0.0, 0.0,
           t.wall_seconds);
     }
-    for (double dx : {0.01, 0.2 / 30}) {
+    for (double dx : {0.01, 0.0075, 0.2 / 30}) {
       // A dense ball sinking from rest: its speed 0.2 s after the release against the closed form
       // with added mass and quadratic drag, C_m 0.375 .. 0.725, C_d 0 .. sinkingDragBound (a
       // sphere's 0.5 with the resolution's and the tank's factors; tests/test_forces.cpp); the
@@ -357,6 +357,13 @@ int forceChecks(const BenchOptions& opt) {
       row("sink_fit_Cm", solver, dx, k.radius / dx, k.fit_cm, 0.375, 0.725, k.wall_seconds);
       row("sink_fit_Cd", solver, dx, k.radius / dx, k.fit_cd, 0.0, cd_hi, k.wall_seconds);
       row("sink_fit_linear_drag_Nspm", solver, dx, k.radius / dx, k.fit_b, 0.0, 0.0, k.wall_seconds);
+    }
+    for (double dx : {0.01, 0.0075}) {
+      // A buoyant block placed flush on the floor: lifted by compile to a gap of dx, it rises and
+      // floats; its draft over Archimedes' h rho_b / rho against the Archimedes test's 5 %.
+      const FloatCheck b = risingBlock(sourcePath("scenes/tests/rising_block.yaml"), dx, sets, opt.device);
+      if (b.exit_code != 0) std::printf("flush block at dx %g (%s): %s\n", dx, solver.c_str(), b.message.c_str());
+      else row("flush_block_draft_over_archimedes", solver, dx, b.height / dx, b.draft / b.expected, 0.95, 1.05, b.wall_seconds);
     }
     for (double dx : {0.01, 0.008}) {
       // Stokes terminal velocity: (m - rho V) g / (6 pi mu R U) against the towed ball's band.

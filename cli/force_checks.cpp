@@ -3,6 +3,7 @@
 #include "cli/runner.h"
 #include "core/model.h"
 #include "core/scene_spec.h"
+#include "io/scene_loader.h"
 
 #include <Eigen/Dense>
 
@@ -574,6 +575,47 @@ FallCheck fallingBall(const std::string& scene, double dx, const std::vector<std
   }
   c.reynolds = 2.0 * c.radius * c.speed / nu;
   c.ratio = c.speed_stokes / c.speed;
+  return c;
+}
+
+FloatCheck risingBlock(const std::string& scene, double dx, const std::vector<std::string>& sets,
+                       const std::string& device) {
+  FloatCheck c;
+  c.dx = dx;
+  // Every frame: the fluid count and the box's height; its scene height and size once.
+  double z_sum = 0, placed = 0, start = -1, mass = 0, area = 0, rho = 0, from = 0;
+  std::size_t particles = 0;
+  int n = 0;
+  const RunResult r = runScene(checkRun(scene, dx, {}, sets, device), [&](Simulation& sim, const FrameReport&) {
+    const Model& m = sim.model();
+    const auto& body = m.bodies[0];
+    if (start < 0) {
+      start = body.spec.position.z();
+      placed = body.spec.position.z();
+      mass = body.mass;
+      c.height = body.spec.size.z();
+      rho = m.spec.fluid.phases[0].rest_density;
+      const Eigen::Vector3d side = m.spec.domain.max - m.spec.domain.min;
+      area = side.x() * side.y();
+      from = m.spec.simulation.duration - 0.3;
+      c.expected = c.height * mass / (body.volume * rho);
+    }
+    particles = sim.numFluid();
+    if (sim.time() < from - 1e-9) return;
+    z_sum += sim.bodies()[0].x.z();
+    ++n;
+  });
+  c.wall_seconds = r.wall_seconds;
+  if (r.exit_code != 0 || n == 0) {
+    c.exit_code = r.exit_code != 0 ? r.exit_code : 1;
+    c.message = r.exit_code != 0 ? r.message : "no frames in the last 0.3 s";
+    return c;
+  }
+  // The scene's own height, before compile's lift: read back from the file's spec.
+  const SceneSpec spec = io::loadScene(scene, std::vector<std::string>{"fluid.particle_spacing=" + num(dx)});
+  c.lift = placed - spec.rigid_bodies.at(0).position.z();
+  const double level = (particles * dx * dx * dx + mass / rho) / area;
+  c.draft = level - (z_sum / n - 0.5 * c.height);
   return c;
 }
 

@@ -258,4 +258,23 @@ struct FallCheck {
 FallCheck fallingBall(const std::string& scene, double dx, const std::vector<std::string>& sets = {},
                       const std::string& device = "");
 
+/// A buoyant box placed flush on the floor (scenes/tests/rising_block.yaml): compile lifts it to a
+/// gap of dx (a note says so), it rises and floats. Its draft against Archimedes' h rho_b / rho.
+struct FloatCheck {
+  int exit_code = 0;
+  std::string message;
+  double dx = 0;             ///< (unit: m)
+  double height = 0;         ///< the box's height h (unit: m)
+  double lift = 0;           ///< its start height minus the scene's (compile's gap) (unit: m)
+  /// the water level (fluid volume at rest density plus the displaced m / rho, over the floor area)
+  /// minus the box's underside, mean over the run's last 0.3 s (unit: m)
+  double draft = 0;
+  double expected = 0;       ///< h rho_b / rho (unit: m)
+  double wall_seconds = 0;   ///< (unit: s)
+};
+
+/// Runs `scene` (rising_block.yaml) at spacing dx.
+FloatCheck risingBlock(const std::string& scene, double dx, const std::vector<std::string>& sets = {},
+                       const std::string& device = "");
+
 }  // namespace sph::app
