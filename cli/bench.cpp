@@ -17,7 +17,9 @@
 //     R / dx = 3, 4 and 5 (the tests run 3 and 4): added mass of an accelerated ball, free against
 //     held, added mass of a released ball (mid-water and near the floor, R / dx = 3, 4), Stokes
 //     drag and sideways force of a towed ball (R / dx = 3, 3.75, 4.5), a dense ball sinking from
-//     rest (R / dx = 3, 4.5), the Stokes terminal velocity of a falling ball (R / dx = 3, 3.75) and
+//     rest (R / dx = 3, 4, 4.5; its drag split into added mass, quadratic and linear parts), a
+//     buoyant block placed flush on the floor (h / dx = 6, 8), the Stokes terminal velocity of a
+//     falling ball (R / dx = 3, 3.75), the Re-20 tow in the 80 cm tank (DFSPH; --no-long-tank) and
 //     the towed ball's drag at Re = 20 (two sound speeds), each against its closed form, with
 //     the wall time of the run: what accuracy costs. One row per check, solver and resolution.
 //  6. Impact pressure (issue 14, with the accuracy table): the pressure on the far wall during the
@@ -333,7 +335,7 @@ int forceChecks(const BenchOptions& opt) {
       row("re20_drag_se_over_6piMuRU" + tag, solver, 0.01, t.radius / 0.01, t.drag_noise / t.stokes, 0.0, 0.0,
           t.wall_seconds);
     }
-    for (double dx : {0.01, 0.2 / 30}) {
+    for (double dx : {0.01, 0.0075, 0.2 / 30}) {
       // A dense ball sinking from rest: its speed 0.2 s after the release against the closed form
       // with added mass and quadratic drag, C_m 0.375 .. 0.725, C_d 0 .. sinkingDragBound (a
       // sphere's 0.5 with the resolution's and the tank's factors; tests/test_forces.cpp); the
@@ -352,6 +354,18 @@ int forceChecks(const BenchOptions& opt) {
       // and the sampled buoyancy taken out by the same ball held throughout.
       row("sink_mean_Cd_ringing_margin", solver, dx, k.radius / dx, k.cd_ringing, 0.0, 0.0, k.wall_seconds);
       row("sink_mean_Cd_held_subtracted", solver, dx, k.radius / dx, k.cd_held_subtracted, 0.0, cd_hi, k.wall_seconds);
+      // That impulse split into added mass, quadratic drag and a drag linear in v (SinkCheck::fit_*):
+      // the excess over the band is the linear part (README, Forces on bodies, session 9).
+      row("sink_fit_Cm", solver, dx, k.radius / dx, k.fit_cm, 0.375, 0.725, k.wall_seconds);
+      row("sink_fit_Cd", solver, dx, k.radius / dx, k.fit_cd, 0.0, cd_hi, k.wall_seconds);
+      row("sink_fit_linear_drag_Nspm", solver, dx, k.radius / dx, k.fit_b, 0.0, 0.0, k.wall_seconds);
+    }
+    for (double dx : {0.01, 0.0075}) {
+      // A buoyant block placed flush on the floor: lifted by compile to a gap of dx, it rises and
+      // floats; its draft over Archimedes' h rho_b / rho against the Archimedes test's 5 %.
+      const FloatCheck b = risingBlock(sourcePath("scenes/tests/rising_block.yaml"), dx, sets, opt.device);
+      if (b.exit_code != 0) std::printf("flush block at dx %g (%s): %s\n", dx, solver.c_str(), b.message.c_str());
+      else row("flush_block_draft_over_archimedes", solver, dx, b.height / dx, b.draft / b.expected, 0.95, 1.05, b.wall_seconds);
     }
     for (double dx : {0.01, 0.008}) {
       // Stokes terminal velocity: (m - rho V) g / (6 pi mu R U) against the towed ball's band.
@@ -372,6 +386,7 @@ int forceChecks(const BenchOptions& opt) {
   // a run takes minutes (README, Forces on bodies).
   const std::string tow20 = sourcePath("scenes/tests/tow_re20.yaml");
   for (double dx : {0.01, 0.2 / 27}) {
+    if (!opt.force_long_tank) break;  // --no-long-tank
     const TowCheck t = towedBall(tow20, dx, {}, opt.device);
     if (t.exit_code != 0) {
       std::printf("Re 20 drag, long tank, at dx %g: %s\n", dx, t.message.c_str());

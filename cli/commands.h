@@ -36,6 +36,7 @@ struct BenchOptions {
   bool forces = true;        // the force checks of bodies in water (issue 15)
   bool forces_only = false;  // only the force checks
   std::vector<std::string> force_solvers{"wcsph"};  // fluid.solver values for the force checks
+  bool force_long_tank = true;  // the force checks' Re-20 rows in the 80 cm tank (DFSPH; minutes per run)
   bool impact = true;        // the impact pressure on the far wall, both solvers (with the accuracy table)
   bool impact_only = false;  // only the impact pressure
   long impact_size = 12000;  // particles of the impact runs (the accuracy table's middle resolution)

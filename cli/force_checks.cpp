@@ -3,6 +3,9 @@
 #include "cli/runner.h"
 #include "core/model.h"
 #include "core/scene_spec.h"
+#include "io/scene_loader.h"
+
+#include <Eigen/Dense>
 
 #include <algorithm>
 #include <cmath>
@@ -501,7 +504,11 @@ SinkCheck sinkingBallHeldDrag(const std::string& scene, double dx, double skip, 
   };
   // Upward fluid force on the sinking ball = held force + C_m rho V dv/dt + D (v, D: downward
   // speed and upward drag), so int D dt = int (F_free - F_held) dt - C_m rho V v(T).
-  double impulse = 0, v2_int = 0, v_T = 0;
+  // The normal equations of the three-term fit (fit_cm, fit_cd, fit_b) accumulate on the way.
+  double impulse = 0, v2_int = 0, v_T = 0, x = 0;
+  Eigen::Matrix3d normal = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d rhs = Eigen::Vector3d::Zero();
+  const double mass_term = f.rho * f.volume, drag_term = 0.5 * f.rho * M_PI * c.radius * c.radius;
   for (std::size_t k = 0; k + 1 < f.log.size(); ++k) {
     const StepForce& s = f.log[k];
     if (s.time < f.hold - 1e-12) continue;
@@ -509,9 +516,20 @@ SinkCheck sinkingBallHeldDrag(const std::string& scene, double dx, double skip, 
     impulse += (s.force.z() - heldAt(s.time)) * dt;
     v2_int += s.v.z() * s.v.z() * dt;
     v_T = -f.log[k + 1].v.z();
+    x += v_T * dt;  // symplectic Euler: the position moves with the new velocity
+    if (f.log[k + 1].time - f.hold < skip - 1e-12) continue;
+    const Eigen::Vector3d col(mass_term * v_T, drag_term * v2_int, x);
+    normal += col * col.transpose();
+    rhs += col * impulse;
   }
   if (v2_int > 0.0)
     c.cd_held_subtracted = (impulse - 0.5 * f.rho * f.volume * v_T) / (0.5 * f.rho * M_PI * c.radius * c.radius * v2_int);
+  if (normal.determinant() != 0.0) {
+    const Eigen::Vector3d fit = normal.ldlt().solve(rhs);
+    c.fit_cm = fit.x();
+    c.fit_cd = fit.y();
+    c.fit_b = fit.z();
+  }
   return c;
 }
 
@@ -557,6 +575,47 @@ FallCheck fallingBall(const std::string& scene, double dx, const std::vector<std
   }
   c.reynolds = 2.0 * c.radius * c.speed / nu;
   c.ratio = c.speed_stokes / c.speed;
+  return c;
+}
+
+FloatCheck risingBlock(const std::string& scene, double dx, const std::vector<std::string>& sets,
+                       const std::string& device) {
+  FloatCheck c;
+  c.dx = dx;
+  // Every frame: the fluid count and the box's height; its scene height and size once.
+  double z_sum = 0, placed = 0, start = -1, mass = 0, area = 0, rho = 0, from = 0;
+  std::size_t particles = 0;
+  int n = 0;
+  const RunResult r = runScene(checkRun(scene, dx, {}, sets, device), [&](Simulation& sim, const FrameReport&) {
+    const Model& m = sim.model();
+    const auto& body = m.bodies[0];
+    if (start < 0) {
+      start = body.spec.position.z();
+      placed = body.spec.position.z();
+      mass = body.mass;
+      c.height = body.spec.size.z();
+      rho = m.spec.fluid.phases[0].rest_density;
+      const Eigen::Vector3d side = m.spec.domain.max - m.spec.domain.min;
+      area = side.x() * side.y();
+      from = m.spec.simulation.duration - 0.3;
+      c.expected = c.height * mass / (body.volume * rho);
+    }
+    particles = sim.numFluid();
+    if (sim.time() < from - 1e-9) return;
+    z_sum += sim.bodies()[0].x.z();
+    ++n;
+  });
+  c.wall_seconds = r.wall_seconds;
+  if (r.exit_code != 0 || n == 0) {
+    c.exit_code = r.exit_code != 0 ? r.exit_code : 1;
+    c.message = r.exit_code != 0 ? r.message : "no frames in the last 0.3 s";
+    return c;
+  }
+  // The scene's own height, before compile's lift: read back from the file's spec.
+  const SceneSpec spec = io::loadScene(scene, std::vector<std::string>{"fluid.particle_spacing=" + num(dx)});
+  c.lift = placed - spec.rigid_bodies.at(0).position.z();
+  const double level = (particles * dx * dx * dx + mass / rho) / area;
+  c.draft = level - (z_sum / n - 0.5 * c.height);
   return c;
 }
 

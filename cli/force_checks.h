@@ -173,6 +173,13 @@ struct SinkCheck {
   /// release): int D dt = int (F_free - F_held) dt - C_m rho V v(T), C_m = 1/2,
   /// C_d = int D dt / (1/2 rho pi R^2 int v^2 dt) (unit: 1)
   double cd_held_subtracted = 0;
+  /// sinkingBallHeldDrag only: that impulse split by least squares over every step from `skip` to
+  /// the end, I(t) = int_0^t (F_free - F_held) dt = C_m rho V v(t) + C_d 1/2 rho pi R^2 int_0^t v^2 dt
+  /// + B x(t), x the distance sunk: the added mass, a quadratic (form) drag and a drag linear in the
+  /// speed, which a sphere in water should not have at Re ~ 1e4 (6 pi mu R is 6e-4 N s/m here)
+  /// (units: 1, 1, N s/m). Ill-conditioned over one run (the three columns grow together): read
+  /// it across resolutions, not as a test.
+  double fit_cm = 0, fit_cd = 0, fit_b = 0;
   std::vector<double> t, v, lo, hi;  ///< the samples: time after release (s), speed, envelope (m/s)
   double wall_seconds = 0;    ///< (unit: s)
 };
@@ -250,5 +257,24 @@ struct FallCheck {
 /// Runs `scene` (stokes_fall.yaml) at spacing dx.
 FallCheck fallingBall(const std::string& scene, double dx, const std::vector<std::string>& sets = {},
                       const std::string& device = "");
+
+/// A buoyant box placed flush on the floor (scenes/tests/rising_block.yaml): compile lifts it to a
+/// gap of dx (a note says so), it rises and floats. Its draft against Archimedes' h rho_b / rho.
+struct FloatCheck {
+  int exit_code = 0;
+  std::string message;
+  double dx = 0;             ///< (unit: m)
+  double height = 0;         ///< the box's height h (unit: m)
+  double lift = 0;           ///< its start height minus the scene's (compile's gap) (unit: m)
+  /// the water level (fluid volume at rest density plus the displaced m / rho, over the floor area)
+  /// minus the box's underside, mean over the run's last 0.3 s (unit: m)
+  double draft = 0;
+  double expected = 0;       ///< h rho_b / rho (unit: m)
+  double wall_seconds = 0;   ///< (unit: s)
+};
+
+/// Runs `scene` (rising_block.yaml) at spacing dx.
+FloatCheck risingBlock(const std::string& scene, double dx, const std::vector<std::string>& sets = {},
+                       const std::string& device = "");
 
 }  // namespace sph::app

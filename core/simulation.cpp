@@ -901,6 +901,27 @@ std::vector<TriMesh> Simulation::surfaceMeshes(const IsoSettings& settings) {
 
 // --- Read-back ---------------------------------------------------------------------------------
 
+void Simulation::readBodyParticles(std::vector<Eigen::Vector4f>& pos, std::vector<Eigen::Vector4f>& force) {
+  pos.assign(n_moving_, Eigen::Vector4f::Zero());
+  force.assign(n_moving_, Eigen::Vector4f::Zero());
+  if (n_moving_ == 0) return;
+  // The moving particles in bsrc order (after the static ones), their sorted slots, and the wall
+  // pressures in sorted order.
+  const std::size_t n_bnd = n_static_ + n_moving_ + n_cloth_;
+  std::vector<uint32_t> slot(n_bnd);
+  std::vector<float> pb(n_bnd);
+  clCall("reading the body particles", [&] {
+    auto& q = cl_.queue();
+    q.enqueueReadBuffer(bsrc_, CL_FALSE, std::size_t(n_static_) * 16, std::size_t(n_moving_) * 16, pos.data());
+    q.enqueueReadBuffer(bforce_, CL_FALSE, 0, std::size_t(n_moving_) * 16, force.data());
+    q.enqueueReadBuffer(bslot_, CL_FALSE, 0, n_bnd * 4, slot.data());
+    q.enqueueReadBuffer(bpressure_, CL_FALSE, 0, n_bnd * 4, pb.data());
+    q.finish();
+    return 0;
+  });
+  for (uint32_t k = 0; k < n_moving_; ++k) force[k].w() = pb[slot[n_static_ + k]];
+}
+
 ParticleFrame Simulation::readFrame() {
   ParticleFrame f;
   f.time = time_;

@@ -131,6 +131,11 @@ class Simulation {
 
   /// Copies the fluid particles to the host.
   ParticleFrame readFrame();
+  /// Diagnostics of the body coupling (reads only): each moving body's boundary particle, in body
+  /// order (Model::bodies, then its particles), as the last step left it: world position and volume
+  /// ratio V_b / V0 (w) in `pos`; the fluid's force on it (xyz, unit: N) and its wall pressure
+  /// (w, unit: Pa; Adami et al. 2012 eq. 27) in `force`.
+  void readBodyParticles(std::vector<Eigen::Vector4f>& pos, std::vector<Eigen::Vector4f>& force);
   /// FNV-1a hash of the particles' positions, velocities, colours, phases and ids and the rigid
   /// bodies' poses, velocities and angular momenta (bitwise determinism checks). Reads only.
   uint64_t stateHash();

@@ -362,3 +362,36 @@ TEST_CASE("Forces: DFSPH takes the no-slip ghost velocities only when boundary_v
   CHECK(compile(io::loadScene(scene, {"fluid.boundary_velocity=auto", "fluid.solver=wcsph"})).model.ghost_velocity_mode ==
         1u);
 }
+
+TEST_CASE("Forces: a body's per-particle fluid forces (readBodyParticles) sum to its fluid force", "[forces]") {
+  // The diagnostic read-back that session 9 used for the pressure distribution on the sinking ball
+  // (README, Forces on bodies): each moving particle's position, volume ratio, fluid force and
+  // wall pressure, in body order. Its forces must add up to the body's fluid force of the same
+  // step (rigid_reduce sums the same numbers in float, in the same order: rounding only), its
+  // volume ratios be positive and its positions lie dx/2 inside the ball's surface (compile's inset).
+  app::RunOptions o = testing::quietRun("sink_ball.yaml", {"simulation.duration=0.02"});
+  std::vector<Eigen::Vector4f> pos, force;
+  Eigen::Vector3d body_force = Eigen::Vector3d::Zero(), centre = Eigen::Vector3d::Zero();
+  std::size_t n_model = 0;
+  const app::RunResult r = app::runScene(o, [&](Simulation& sim, const FrameReport&) {
+    sim.readBodyParticles(pos, force);
+    body_force = sim.bodies()[0].fluid_force;
+    centre = sim.bodies()[0].x;
+    n_model = sim.model().bodies[0].particles.size();
+  });
+  INFO(r.message);
+  REQUIRE(r.exit_code == 0);
+  REQUIRE(pos.size() == n_model);
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  double worst_radius = 0;
+  for (std::size_t k = 0; k < pos.size(); ++k) {
+    sum += force[k].head<3>().cast<double>();
+    CHECK(pos[k].w() > 0.0f);
+    worst_radius = std::max(worst_radius, std::abs((pos[k].head<3>().cast<double>() - centre).norm() - 0.025));
+  }
+  INFO("sum " << sum.transpose() << " N, body " << body_force.transpose() << " N; particles " << pos.size()
+              << ", largest |r - (R - dx/2)| " << worst_radius << " m");
+  CHECK((sum - body_force).norm() < 1e-4 * body_force.norm());
+  CHECK(body_force.norm() > 0.0);  // (at 0.02 s the start-up waves still swing it: not yet the buoyancy)
+  CHECK(worst_radius < 0.001);  // the sphere's mesh (edges dx/2) is within 1 mm of the sphere
+}
