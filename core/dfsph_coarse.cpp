@@ -122,7 +122,7 @@ void DfsphSolver::coarseCorrection(Kind kind, const SimParams& p, const DfsphFie
     clCall("reading the DFSPH coarse terms",
            [&] { return cl_.queue().enqueueReadBuffer(cfr_, CL_TRUE, 0, n * 27 * 2 * 16, hfr_.data()); });
 
-      // Number the aggregates (cells with an active particle) in particle order.
+    // Number the aggregates (cells with an active particle) in particle order.
     std::fill(index.begin(), index.end(), -1);
     int32_t m = 0;
     for (std::size_t i = 0; i < n; ++i) {
@@ -234,7 +234,7 @@ void DfsphSolver::coarseCorrection(Kind kind, const SimParams& p, const DfsphFie
   // walls' own operator (K's mirrored wall term is an approximation, and the wall pressure is
   // projected to >= 0): with dr the change of the residual that q actually makes (the trial
   // pressures max(p + q, 0), their extrapolated wall pressure, accelerations and residual),
-  // theta = -<q, r> / <q, dr> over the active particles, within [0, kThetaMax].
+  // theta = -<q, r> / <q, dr> over the active particles, within [0, kCoarseThetaMax].
   kernels_.call("dfsph_coarse_trial", n, kLocal, p, *f.pos, *f.phase, *f.density, cdp_, pressure, ctrial_, xt_);
   if (use_bp) boundaryPressure(kind, p, f, ctrial_);
   kernels_.call("dfsph_pressure_accel", n, kLocal, p, xt_, *f.phase, *f.density, ctrial_, *f.snbr, *f.snbr_count,
