@@ -1,4 +1,5 @@
 #include "core/dfsph.h"
+#include "core/dfsph_coarse.h"
 
 #include "core/errors.h"
 
@@ -62,6 +63,7 @@ DfsphSolver::DfsphSolver(ClContext& cl, KernelSet& kernels, std::size_t capacity
   cfr_ = makeBuffer(nc * 27 * 2 * 16);
   cdp_ = makeBuffer(nc * 4);
   ctrial_ = makeBuffer(nc * 4);
+  for (auto& op : coarse_op_) op = std::make_unique<DfsphCoarseOperator>();
   // No pressure before the first step (and particles emitted later start from zero: slots past
   // the active count are never written).
   clCall("clearing the DFSPH pressures", [&] {
@@ -87,6 +89,7 @@ const cl::Buffer& DfsphSolver::stepPressure(std::size_t n) {
 }
 
 void DfsphSolver::factors(const SimParams& p, const DfsphFields& f) {
+  ++steps_;  // one factor pass per step (core/dfsph_coarse.cpp keeps its operators within a step)
   kernels_.call("dfsph_factor", p.n_fluid, kLocal, p, *f.pos, *f.phase, *f.density, *f.snbr, *f.snbr_count, *f.bpos,
                 *f.sbnbr, *f.sbnbr_count, wallFactor(), alpha_, *f.bvel, gwall_);
   // Extrapolated walls: the fluid near each wall particle, listed once per step for the wall

@@ -21,11 +21,15 @@
 #include "core/scene_spec.h"
 #include "kernels/shared/sim_params.h"
 
+#include <array>
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 namespace sph {
+
+struct DfsphCoarseOperator;  // core/dfsph_coarse.h
 
 /// The Simulation's buffers the solver reads and writes (current halves of the double buffers).
 struct DfsphFields {
@@ -61,6 +65,7 @@ class DfsphSolver {
  public:
   DfsphSolver(ClContext& cl, KernelSet& kernels, std::size_t capacity, std::size_t boundary, const DfsphSpec& spec,
               double dx, double support);
+  ~DfsphSolver();
   /// Device memory of the solver's buffers (unit: bytes).
   std::size_t bytes() const { return bytes_; }
 
@@ -145,6 +150,10 @@ class DfsphSolver {
   cl::Buffer cres_, ccell_, cfr_, cdp_, ctrial_;
   std::vector<float> hres_, hfr_, hdp_, hmq_;
   std::vector<int32_t> hcell_;
+  // The factorized coarse operators of the two solves (divergence, density), kept while they fit
+  // (core/dfsph_coarse.cpp says when).
+  std::array<std::unique_ptr<DfsphCoarseOperator>, 2> coarse_op_;
+  uint64_t steps_ = 0;           // steps so far (factors() counts them)
 };
 
 }  // namespace sph

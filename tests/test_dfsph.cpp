@@ -588,7 +588,11 @@ TEST_CASE("DFSPH two-level solve: the hydrostatic tank at the reference's densit
   // dp_eta = rho0 eta (2H / pi)^2 / dt^2 = 324 Pa (17 % of rho0 g H) at the reference's eta = 5e-4
   // (the extrapolated test above derives it). Sampled at every step (frame and probe rate 200/s,
   // as the default-settings test): every layer's average within the issue's 5 % of rho0 g (H - z),
-  // probes too. Measured 3.4 % (probes 2.2 %) in 3.7 density iterations per step; the correction
+  // probes too. Measured 3.4 % (probes 2.2 %) in 3.7 density iterations per step before the splash
+  // rule, the wall contact and the per-step wall lists were merged; since then 6.0 % (probes 2.0 %,
+  // 4.1 iterations per step): FAILS on main as on this branch (6.1 % with the coarse operator kept
+  // within a step), in the shallowest layer compared alone (2.5 cm deep: 228 Pa against 243 Pa;
+  // every deeper layer within 1.8 %), with the period-2 bounce the next test describes. The correction
   // off (coarse_interval 0, a mutation): 45 iterations per step (fails), layers 4.3-6.0 %.
   const TankResult d = hydrostaticTank(
       "dfsph", {"fluid.dfsph.coarse_interval=4", "simulation.frame_rate=200", "probes.rate=200"});
@@ -603,9 +607,10 @@ TEST_CASE("DFSPH two-level solve: the hydrostatic tank at the reference's densit
   // Fewer iterations than plain Jacobi's 45 per step at this bound (a coarse correction is one
   // more pass pair and a host solve, once per four iterations).
   CHECK(d.density_iterations_per_step < 10);
-  // Not calm yet: a layer still changes by ~680 Pa between steps (plain Jacobi: 2.5 kPa), at a
-  // period that frames 50 ms apart alias (they read a calm 60 Pa between frames, but 5-17 % high):
-  // reported, the calm of 5 % of rho0 g H between steps not reached (README "DFSPH").
+  // Not calm: a layer changes by ~1 kPa between steps (plain Jacobi: 2.5 kPa), alternating from
+  // step to step (two steps apart: ~175 Pa). Not the solve's error but the scene's explicit
+  // artificial viscosity at this step (alpha c0 dt / h = 0.99): the next test says how it was
+  // found, and is calm (18 Pa) with alpha 0.07. Reported here (README "DFSPH").
   CHECK_NOFAIL(d.worst_change < 0.05 * d.p_bottom);
   WARN("dfsph two-level solve, hydrostatic tank (density bound 5e-4), every step: worst layer " << 100 * d.worst
        << " %, step-to-step change " << d.worst_change << " Pa, probes " << 100 * d.worst_probe << " %, "
@@ -622,4 +627,44 @@ TEST_CASE("DFSPH two-level solve: the hydrostatic tank at the reference's densit
   o.sets = {"fluid.solver=dfsph"};
   const app::RunResult c = app::runScene(o);
   CHECK(c.state_hash != a.state_hash);  // and the correction acts
+}
+
+TEST_CASE("DFSPH two-level solve: calm between steps at the reference's density bound when the viscous term fits the step", "[dfsph]") {
+  // What makes the tank's pressure alternate from step to step with the two-level solve at the
+  // scene's artificial viscosity (alpha 0.1; the test above): not the solve. Measured on that run
+  // (README "DFSPH"): each step's density solve ends within 20-60 Pa of the converged solution of
+  // its own problem (solved on to an average error of 5e-7), yet that converged solution itself
+  // alternates by ~900 Pa, and a density bound of 1e-5 (73 iterations per step) leaves the
+  // alternation at 725 Pa (d2, two steps apart: 4 Pa). The state alternates: the floor layer's
+  // vertical velocity flips sign each step (+-4.6 mm/s) against the layer above it, driven by the
+  // explicit artificial viscosity (Monaghan's, on approaching pairs only), whose pair term at
+  // alpha c0 dt / h = 0.99 (alpha 0.1, c0 19.8 m/s, dt 5 ms, h 1 cm) reverses an approaching
+  // pair's relative velocity within one step; alpha 0.2 (1.98) is chaotic (3.4 kPa). With the
+  // viscous term within its step, alpha 0.07 (0.69), the two-level solve at the reference's bound
+  // 5e-4 holds every layer calm: this test. Mutations: alpha 0.1 (the scene's): ~1 kPa between
+  // steps (fails); the correction off (coarse_interval 0, plain Jacobi) at alpha 0.07: rings
+  // (fails).
+  const TankResult d = hydrostaticTank("dfsph", {"fluid.dfsph.coarse_interval=4", "fluid.artificial_viscosity=0.07",
+                                                 "simulation.frame_rate=200", "probes.rate=200"});
+  REQUIRE(d.exit_code == 0);
+  INFO("two-level, alpha 0.07: " << d.compared << " layers, worst pressure error " << 100 * d.worst << " %, largest "
+                                 << "step-to-step change " << d.worst_change << " Pa (rho0 g H = " << d.p_bottom
+                                 << " Pa), probes " << 100 * d.worst_probe << " %, " << d.density_iterations_per_step
+                                 << " density iterations per step");
+  CHECK(d.compared >= 15);
+  // the issue's 5 % in every layer (every step sampled), probes too
+  CHECK(d.worst <= 0.05);
+  CHECK(d.probes_compared >= 5);
+  // The probes: the calm state keeps the density pattern the solve stopped at (within the bound),
+  // and the shallowest probe (p17, ~3 cm deep) reads 5.5 % off rho0 g d with d from the particles
+  // above it (against the still water depth 0.2 m - z: within 3 %): reported, 10 % checked.
+  CHECK_NOFAIL(d.worst_probe <= 0.05);
+  CHECK(d.worst_probe <= 0.10);
+  // calm: a layer's mean pressure changes between consecutive steps by less than 5 % of rho0 g H
+  // (measured 17.6 Pa, 0.9 %)
+  CHECK(d.worst_change < 0.05 * d.p_bottom);
+  CHECK(d.density_iterations_per_step < 10);
+  WARN("dfsph two-level solve, alpha 0.07, hydrostatic tank (density bound 5e-4), every step: worst layer "
+       << 100 * d.worst << " %, step-to-step change " << d.worst_change << " Pa, probes " << 100 * d.worst_probe
+       << " %, " << d.density_iterations_per_step << " density iterations per step");
 }
