@@ -548,7 +548,7 @@ DfsphFields Simulation::dfsphFields() {
 void Simulation::divergenceSolve() {
   StageTimer timer(*this, Stage::DivergenceSolve);
   const DfsphFields f = dfsphFields();
-  dfsph_->factors(params_, f);
+  dfsph_->factors(params_, f, true);
   const DfsphSolveResult r = dfsph_->divergenceSolve(params_, f);
   dfsph_frame_.divergence_iterations += r.iterations;
   dfsph_frame_.divergence_error = std::max(dfsph_frame_.divergence_error, r.error);
@@ -559,7 +559,7 @@ void Simulation::divergenceSolve() {
 void Simulation::densitySolve() {
   StageTimer timer(*this, Stage::DensitySolve);
   const DfsphFields f = dfsphFields();
-  if (!on(Stage::DivergenceSolve)) dfsph_->factors(params_, f);  // else computed this step already
+  if (!on(Stage::DivergenceSolve)) dfsph_->factors(params_, f, false);  // else computed this step already
   const DfsphSolveResult r = dfsph_->densitySolve(params_, f);
   dfsph_->finish(params_, f);
   dfsph_frame_.density_iterations += r.iterations;
