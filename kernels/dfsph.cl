@@ -493,12 +493,14 @@ inline float3 dfsph_wall_contact_accel(const SimParams* p, const uint i, __globa
                                        __global const float4* bpos, __global const float4* bvel,
                                        __global const uint* bnbr, __global const uint* bnbr_count,
                                        const float stiffness, const float range) {
+  /* no wall particle within H: no contact (and no cube root, which cost as much as the loop) */
+  const uint nb = bnbr_count[i];
+  if (nb == 0) return (float3)(0.0f);
   const float dx = cbrt(p->rest_volume); /* (unit: m) */
   const float r0 = range * dx;                      /* (unit: m) */
   const float k = stiffness * dx / (p->dt * p->dt); /* (unit: m/s^2) */
   const float3 xi = pos[i].xyz;
   __global const uint* list = bnbr + (size_t)i * p->max_neighbours;
-  const uint nb = bnbr_count[i];
   /* a squared distance just above r0^2 (the 1 % margin covers length()'s rounding) screens out
    * the wall particles beyond r0 (most of those within H) before the square root and the body
    * check; the pairs inside are computed as before */
@@ -585,40 +587,61 @@ __kernel void dfsph_wall_lists(const SimParams p, const uint n_boundary, const u
                                __global float* bp_b, volatile __global uint* n_active, __global uint* active,
                                __global const float* density, __global float* wweight, __global float4* wsum) {
   const uint b = get_global_id(0);
+  /* b joins the step's active wall particles, the only ones dfsph_wall_list_pressure visits: a
+   * slot in the work-group (a local counter), then the work-group's block in the list (one global
+   * integer atomic per work-group: one per particle contended). The list's order varies from run
+   * to run, but each entry's pressure depends on its own b alone: the results do not. */
+  __local uint group_count, group_base;
+  if (get_local_id(0) == 0) group_count = 0;
+  barrier(CLK_LOCAL_MEM_FENCE);
+  const int marked = b < n_boundary && bmark[b] == stamp;
+  const uint slot = marked ? atomic_inc(&group_count) : 0u;
+  barrier(CLK_LOCAL_MEM_FENCE);
+  if (get_local_id(0) == 0) group_base = atomic_add(n_active, group_count);
+  barrier(CLK_LOCAL_MEM_FENCE);
   if (b >= n_boundary) return;
   /* no fluid near b this step: no pressure in either solve (written here, once per step) */
-  if (bmark[b] != stamp) {
+  if (!marked) {
     wcount[b] = 0;
     bp_a[b] = 0.0f;
     bp_b[b] = 0.0f;
     return;
   }
-  /* b joins the step's active wall particles, the only ones dfsph_wall_list_pressure visits. The
-   * slot is taken with an integer atomic, so the list's order varies from run to run, but each
-   * entry's pressure depends on its own b alone: the results do not. */
-  active[atomic_inc(n_active)] = b;
+  active[group_base + slot] = b;
   const float3 xb = bpos[b].xyz;
   const float H = p.support;
   __global uint* out = wlist + (size_t)b * slots;
   __global float* wout = wweight + (size_t)b * slots;
   /* the list, each pair's W_bf, and the sums that do not depend on the pressures (sum_f W_bf and
    * sum_f rho_f W_bf x_bf), accumulated in list order with boundary_pressure's arithmetic */
+  /* candidates eight at a time, row by row (shared/pair_loops.h, sph_collect_row), within a radius
+   * a little above H, in the cells' order; then the exact test of boundary_pressure, in place */
   uint n = 0;
+  SPH_FOR_NEIGHBOUR_ROWS(&p, cell_start, xb, begin, end) {
+    n = sph_collect_row(xb, pos, begin, end, 1.0001f * H * H, 0xffffffffu, out, slots, n);
+  }
+  SPH_END_NEIGHBOURS
+  if (n > slots) { /* too many: dfsph_wall_list_pressure scans the cells for b */
+    wcount[b] = n;
+    return;
+  }
+  uint kept = 0;
   float sw = 0.0f;
   float3 srw = (float3)(0.0f);
-  SPH_FOR_NEIGHBOURS(&p, cell_start, xb, f) {
+  for (uint m = 0; m < n; ++m) {
+    const uint f = out[m];
     const float3 d = xb - pos[f].xyz;
     const float r2 = dot(d, d);
     if (r2 < H * H) {
       const float w = sph_w(SPH_KERNEL, sqrt(r2), H);
       sw += w;
       srw += (density[f] * w) * d;
-      if (n < slots) out[n] = f, wout[n] = w;
-      ++n;
+      out[kept] = f;
+      wout[kept] = w;
+      ++kept;
     }
   }
-  SPH_END_NEIGHBOURS
-  wcount[b] = n;
+  wcount[b] = kept;
   wsum[b] = (float4)(srw, sw);
 }
 
