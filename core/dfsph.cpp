@@ -30,8 +30,8 @@ cl::Buffer DfsphSolver::makeBuffer(std::size_t bytes) {
 }
 
 DfsphSolver::DfsphSolver(ClContext& cl, KernelSet& kernels, std::size_t capacity, std::size_t boundary,
-                         const DfsphSpec& spec, double dx, double support)
-    : cl_(cl), kernels_(kernels), spec_(spec) {
+                         const DfsphSpec& spec, double dx, double support, bool one_mass)
+    : cl_(cl), kernels_(kernels), spec_(spec), one_mass_(one_mass) {
   // A particle in the bulk has (4/3) pi (H/dx)^3 neighbours (33 at H = 2 dx); below 60 % of that
   // its support is cut by a free surface (the reference implementation's 20 in 3D at H = 2 dx).
   const double ratio = support / dx;
@@ -96,7 +96,7 @@ void DfsphSolver::factors(const SimParams& p, const DfsphFields& f, bool diverge
   rate_in_source_ = divergence_next && !mirrored();
   kernels_.call("dfsph_factor", p.n_fluid, kLocal, p, *f.pos, *f.phase, *f.density, *f.snbr, *f.snbr_count, *f.bpos,
                 *f.sbnbr, *f.sbnbr_count, wallFactor(), alpha_, *f.bvel, gwall_, rate_in_source_ ? 1 : 0, *f.vel,
-                source_);
+                source_, one_mass_ ? 1 : 0);
   // Extrapolated walls: the fluid near each wall particle, listed once per step for the wall
   // pressure of every iteration (positions do not change during the solves).
   // Only the wall particles with fluid near them (the active ones) take a pressure in the

@@ -59,8 +59,10 @@ struct DfsphSolveResult {
 
 class DfsphSolver {
  public:
+  /// `one_mass`: every fluid phase has the same particle mass (the factor pass then reads no
+  /// neighbour's phase).
   DfsphSolver(ClContext& cl, KernelSet& kernels, std::size_t capacity, std::size_t boundary, const DfsphSpec& spec,
-              double dx, double support);
+              double dx, double support, bool one_mass);
   /// Device memory of the solver's buffers (unit: bytes).
   std::size_t bytes() const { return bytes_; }
 
@@ -116,6 +118,7 @@ class DfsphSolver {
   ClContext& cl_;
   KernelSet& kernels_;
   DfsphSpec spec_;
+  bool one_mass_ = false;        // every phase's particle mass is the same (kernels/dfsph.cl, dfsph_factor)
   uint32_t min_neighbours_ = 0;  // divergence solve: fewer neighbours = free surface, left alone
   std::size_t bytes_ = 0;
   static constexpr uint32_t kChunks = 64;  // chunks of the error reduction

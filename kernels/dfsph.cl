@@ -111,7 +111,7 @@ __kernel void dfsph_factor(const SimParams p, __global const float4* pos, __glob
                            __global const float4* bpos, __global const uint* bnbr,
                            __global const uint* bnbr_count, const float wall, __global float* alpha,
                            __global const float4* bvel, __global float4* gwall, const int with_rate,
-                           __global const float4* vel, __global float* rate_out) {
+                           __global const float4* vel, __global float* rate_out, const int one_mass) {
   const uint i = get_global_id(0);
   if (i >= p.n_fluid) return;
   const uint K = p.max_neighbours;
@@ -134,9 +134,14 @@ __kernel void dfsph_factor(const SimParams p, __global const float4* pos, __glob
     sx += ax;
     sy += ay;
     sz += az;
-    const uint8 phj = (uint8)(phase[j.s0], phase[j.s1], phase[j.s2], phase[j.s3], phase[j.s4], phase[j.s5],
-                              phase[j.s6], phase[j.s7]);
-    s8 += (ax * ax + ay * ay + az * az) / SPH_GATHER8(p.phase_mass, phj);
+    /* one_mass: every phase has i's mass (one phase), so no gather of the neighbours' phases */
+    if (one_mass) {
+      s8 += (ax * ax + ay * ay + az * az) / mi;
+    } else {
+      const uint8 phj = (uint8)(phase[j.s0], phase[j.s1], phase[j.s2], phase[j.s3], phase[j.s4], phase[j.s5],
+                                phase[j.s6], phase[j.s7]);
+      s8 += (ax * ax + ay * ay + az * az) / SPH_GATHER8(p.phase_mass, phj);
+    }
     /* with_rate: the density rate's pair terms, as dfsph_density_rate */
     if (with_rate) {
       SPH_LOAD8(v, vel, j);
@@ -152,7 +157,7 @@ __kernel void dfsph_factor(const SimParams p, __global const float4* pos, __glob
     const float Fk = sph_grad_factor(SPH_KERNEL, length(d), H);
     const float3 g = Fk * d;
     gf += g;
-    s2 += dot(g, g) / p.phase_mass[phase[j]];
+    s2 += dot(g, g) / (one_mass ? mi : p.phase_mass[phase[j]]);
     if (with_rate) rate += Fk * dot(vi - vel[j].xyz, d);
   }
   const float4 gw = dfsph_wall_sums(xi, bnbr + (size_t)i * K, bnbr_count[i], bpos, bvel, 0, H);
