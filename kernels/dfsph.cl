@@ -313,6 +313,12 @@ __kernel void dfsph_jacobi(const SimParams p, __global const float4* pos, __glob
   const float H = p.support;
   const float3 xi = pos[i].xyz, ai = accel[i].xyz;
   const uint nf = nbr_count[i], nb = bnbr_count[i];
+  /* divergence solve: a particle with fewer than min_neighbours neighbours keeps no pressure (its
+   * residual is not needed: checked before the neighbour loop) */
+  if (nf + nb < min_neighbours) {
+    err[i] = 0.0f;
+    return;
+  }
   __global const uint* list = nbr + (size_t)i * K;
   /* sum_j (a_i - a_j) . gradW_ij: eight at a time, then the rest (as dfsph_density_rate) */
   float8 acc = (float8)(0.0f);
@@ -332,11 +338,6 @@ __kernel void dfsph_jacobi(const SimParams p, __global const float4* pos, __glob
     Ap += sph_grad_factor(SPH_KERNEL, length(d), H) * dot(ai - accel[j].xyz, d);
   }
   Ap += dot(ai, gwall[i].xyz); /* sum_b psi_b a_i . gradW_ib = a_i . G_b */
-  /* divergence solve: a particle with fewer than min_neighbours neighbours keeps no pressure */
-  if (nf + nb < min_neighbours) {
-    err[i] = 0.0f;
-    return;
-  }
   const float r = source[i] + p.dt * p.dt * p.rest_volume * Ap;
   const float inc = omega * r * alpha[i] / (p.dt * p.dt * p.rest_volume);
   const float p0 = pressure[i];
