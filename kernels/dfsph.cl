@@ -56,7 +56,7 @@
  * counts: with the one-sided error and full warm start the pressures ratcheted up 89 %). A
  * particle the divergence solve skips (too few neighbours) keeps that warm start only while its
  * neighbours close in (dfsph_source), and the particles the solve leaves at p = 0 at a wall get a
- * contact force (dfsph_wall_contact).
+ * contact force (dfsph_wall_contact_accel, in dfsph_predict).
  *
  * Neighbours: this step's lists within H (snbr, sbnbr; density.cl). */
 
