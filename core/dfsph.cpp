@@ -12,7 +12,7 @@ namespace sph {
 // Work-group size for the per-particle kernels (as the Simulation's).
 static constexpr std::size_t kLocal = 64;
 
-// Extrapolated walls' contact (kernels/dfsph.cl, dfsph_wall_contact): range r0 = 0.75 dx, inside
+// Extrapolated walls' contact (kernels/dfsph.cl, dfsph_wall_contact_accel): range r0 = 0.75 dx, inside
 // the rest spacing dx, so that a fluid at rest never touches it (r0 = dx moved the calm tank's
 // probes from 3.5 % to 5.5 % off rho0 g (H - z)); stiffness s = dt^2 k_w / dx = 0.3, far from
 // symplectic Euler's limit dt^2 k / r0 = s dx / r0 < 4. Between r0 and the wall plane (dx/2 from the
@@ -31,8 +31,8 @@ cl::Buffer DfsphSolver::makeBuffer(std::size_t bytes) {
 }
 
 DfsphSolver::DfsphSolver(ClContext& cl, KernelSet& kernels, std::size_t capacity, std::size_t boundary,
-                         const DfsphSpec& spec, double dx, double support)
-    : cl_(cl), kernels_(kernels), spec_(spec) {
+                         const DfsphSpec& spec, double dx, double support, bool one_mass)
+    : cl_(cl), kernels_(kernels), spec_(spec), one_mass_(one_mass) {
   // A particle in the bulk has (4/3) pi (H/dx)^3 neighbours (33 at H = 2 dx); below 60 % of that
   // its support is cut by a free surface (the reference implementation's 20 in 3D at H = 2 dx).
   const double ratio = support / dx;
@@ -56,6 +56,10 @@ DfsphSolver::DfsphSolver(ClContext& cl, KernelSet& kernels, std::size_t capacity
   // ... and each wall particle's fluid neighbours for the step (kernels/dfsph.cl, dfsph_wall_lists).
   wall_list_ = makeBuffer(nb * kWallSlots * 4);
   wall_count_ = makeBuffer(nb * 4);
+  wall_active_ = makeBuffer(nb * 4);
+  wall_weight_ = makeBuffer(nb * kWallSlots * 4);
+  wall_sum_ = makeBuffer(nb * 16);
+  wall_active_count_ = makeBuffer(4);
   // Coarse-grid correction: its per-particle buffers (kernels/dfsph_coarse.cl), when it runs.
   const std::size_t nc = coarse() ? capacity : 0;
   cres_ = makeBuffer(nc * 4);
@@ -88,26 +92,41 @@ const cl::Buffer& DfsphSolver::stepPressure(std::size_t n) {
   return scratch_a_;
 }
 
-void DfsphSolver::factors(const SimParams& p, const DfsphFields& f) {
+void DfsphSolver::factors(const SimParams& p, const DfsphFields& f, bool divergence_next) {
   ++steps_;  // one factor pass per step (core/dfsph_coarse.cpp keeps its operators within a step)
+  // Before a divergence solve (walls single or extrapolated: dfsph_source), the factor pass also
+  // sums its density rate from the same pairs, into source_ (one neighbour pass fewer per step).
+  rate_in_source_ = divergence_next && !mirrored();
   kernels_.call("dfsph_factor", p.n_fluid, kLocal, p, *f.pos, *f.phase, *f.density, *f.snbr, *f.snbr_count, *f.bpos,
-                *f.sbnbr, *f.sbnbr_count, wallFactor(), alpha_, *f.bvel, gwall_);
+                *f.sbnbr, *f.sbnbr_count, wallFactor(), alpha_, *f.bvel, gwall_, rate_in_source_ ? 1 : 0, *f.vel,
+                source_, one_mass_ ? 1 : 0);
   // Extrapolated walls: the fluid near each wall particle, listed once per step for the wall
   // pressure of every iteration (positions do not change during the solves).
-  if (extrapolated() && f.n_boundary > 0)
+  // Only the wall particles with fluid near them (the active ones) take a pressure in the
+  // iterations; their count comes to the host once per step, to size those passes.
+  n_wall_active_ = 0;
+  if (extrapolated() && f.n_boundary > 0) {
+    clCall("clearing the active wall count",
+           [&] { return cl_.queue().enqueueFillBuffer(wall_active_count_, uint32_t(0), 0, 4); });
     kernels_.call("dfsph_wall_lists", f.n_boundary, kLocal, p, f.n_boundary, f.stamp, *f.bpos, *f.bmark, *f.pos,
-                  *f.cell_start, kWallSlots, wall_list_, wall_count_);
+                  *f.cell_start, kWallSlots, wall_list_, wall_count_, bp_div_, bp_dens_, wall_active_count_,
+                  wall_active_, *f.density, wall_weight_, wall_sum_);
+    clCall("reading the active wall count", [&] {
+      return cl_.queue().enqueueReadBuffer(wall_active_count_, CL_TRUE, 0, 4, &n_wall_active_);
+    });
+  }
 }
 
 void DfsphSolver::boundaryPressure(Kind kind, const SimParams& p, const DfsphFields& f, const cl::Buffer& pressure) {
-  if (f.n_boundary == 0) return;
+  if (n_wall_active_ == 0) return;  // every wall pressure is 0 (dfsph_wall_lists)
   // Adami et al. 2012 eq. 27 (pressure.cl, boundary_pressure): p_b = (sum_f p_f W_bf + g . sum_f
   // rho_f r_bf W_bf) / sum_f W_bf, projected to >= 0; the divergence solve's without gravity.
   SimParams q = p;
   if (kind == Kind::Divergence) q.gravity[0] = q.gravity[1] = q.gravity[2] = 0.0f;
   // The pairs come from this step's lists (dfsph_wall_lists): bitwise boundary_pressure's p_b.
-  kernels_.call("dfsph_wall_list_pressure", f.n_boundary, kLocal, q, f.n_boundary, f.stamp, *f.bpos, *f.bmark,
-                *f.pos, *f.density, pressure, *f.cell_start, kWallSlots, wall_list_, wall_count_, wallPressure(kind));
+  kernels_.call("dfsph_wall_list_pressure", n_wall_active_, kLocal, q, n_wall_active_, wall_active_, *f.bpos, *f.pos,
+                *f.density, pressure, *f.cell_start, kWallSlots, wall_list_, wall_count_, wallPressure(kind),
+                wall_weight_, wall_sum_);
 }
 
 void DfsphSolver::source(Kind kind, const SimParams& p, const DfsphFields& f, cl::Buffer& pressure) {
@@ -119,9 +138,12 @@ void DfsphSolver::source(Kind kind, const SimParams& p, const DfsphFields& f, cl
   // of it (the projected iteration can lower a pressure again; half of it, as the reference, left
   // the hydrostatic tank's column sagging each step: 88 iterations per step against 25).
   const double warm = spec_.warm_start ? 1.0 : 0.0;
+  // The divergence solve's density rate may be in source_ already (factors(), with the factor pass).
+  const int rate_in_source = div && rate_in_source_ ? 1 : 0;
+  rate_in_source_ = false;
   kernels_.call("dfsph_source", p.n_fluid, kLocal, p, *f.pos, *f.vel, *f.phase, *f.density, *f.snbr, *f.snbr_count,
                 *f.bpos, *f.bvel, *f.sbnbr, *f.sbnbr_count, div ? 0 : 1, div ? min_neighbours_ : 0u,
-                static_cast<float>(warm), extrapolated() ? 1 : 0, source_, pressure, xt_, gwall_);
+                static_cast<float>(warm), extrapolated() ? 1 : 0, source_, pressure, xt_, gwall_, rate_in_source);
 }
 
 void DfsphSolver::iterate(Kind kind, const SimParams& p, const DfsphFields& f, cl::Buffer& pressure) {
@@ -246,12 +268,11 @@ DfsphSolveResult DfsphSolver::densitySolve(const SimParams& p, const DfsphFields
   // Keep the velocities the viscous forces saw (for the rigid coupling), then v* = v + dt a.
   clCall("keeping the velocities",
          [&] { return cl_.queue().enqueueCopyBuffer(*f.vel, vel_before_, 0, 0, std::max<std::size_t>(p.n_fluid, 1) * 16); });
-  // Extrapolated walls: contact with the walls for the particles the solve leaves without pressure
-  // (kernels/dfsph.cl, dfsph_wall_contact), added to gravity and viscosity before v* = v + dt a.
-  if (extrapolated() && f.n_boundary > 0)
-    kernels_.call("dfsph_wall_contact", p.n_fluid, kLocal, p, *f.pos, *f.bpos, *f.bvel, *f.sbnbr, *f.sbnbr_count,
-                  kWallContactStiffness, kWallContactRange, *f.acc);
-  kernels_.call("dfsph_predict", p.n_fluid, kLocal, p, *f.vel, *f.acc);
+  // v* = v + dt a; with extrapolated walls a takes the contact with the walls for the particles
+  // the solve leaves without pressure first (kernels/dfsph.cl, dfsph_wall_contact_accel).
+  const int contact = extrapolated() && f.n_boundary > 0 ? 1 : 0;
+  kernels_.call("dfsph_predict", p.n_fluid, kLocal, p, *f.vel, *f.acc, contact, *f.pos, *f.bpos, *f.bvel, *f.sbnbr,
+                *f.sbnbr_count, kWallContactStiffness, kWallContactRange);
   return solve(Kind::Density, p, f);
 }
 

@@ -63,16 +63,19 @@ struct DfsphSolveResult {
 
 class DfsphSolver {
  public:
+  /// `one_mass`: every fluid phase has the same particle mass (the factor pass then reads no
+  /// neighbour's phase).
   DfsphSolver(ClContext& cl, KernelSet& kernels, std::size_t capacity, std::size_t boundary, const DfsphSpec& spec,
-              double dx, double support);
+              double dx, double support, bool one_mass);
   ~DfsphSolver();
   /// Device memory of the solver's buffers (unit: bytes).
   std::size_t bytes() const { return bytes_; }
 
   /// The accumulated pressures follow the particles when the grid stage reorders them.
   void reorder(std::size_t n, const cl::Buffer& sorted);
-  /// Factors alpha (B&K 2017 eq. 9); every step, after the density pass.
-  void factors(const SimParams& p, const DfsphFields& f);
+  /// Factors alpha (B&K 2017 eq. 9); every step, after the density pass. `divergence_next`: a
+  /// divergence solve follows on the current velocities (its density rate is summed here too).
+  void factors(const SimParams& p, const DfsphFields& f, bool divergence_next);
   /// Divergence solve (B&K 2017 Alg. 2) on the current velocities.
   DfsphSolveResult divergenceSolve(const SimParams& p, const DfsphFields& f);
   /// v* = v + dt a (acc cleared), then the density solve (B&K 2017 Alg. 3).
@@ -120,6 +123,7 @@ class DfsphSolver {
   ClContext& cl_;
   KernelSet& kernels_;
   DfsphSpec spec_;
+  bool one_mass_ = false;        // every phase's particle mass is the same (kernels/dfsph.cl, dfsph_factor)
   uint32_t min_neighbours_ = 0;  // divergence solve: fewer neighbours = free surface, left alone
   std::size_t bytes_ = 0;
   static constexpr uint32_t kChunks = 64;  // chunks of the error reduction
@@ -135,6 +139,7 @@ class DfsphSolver {
   cl::Buffer gwall_;
   cl::Buffer pdiv_, pdens_;                // the solves' pressures (unit: Pa), kept for the warm start
   bool divergence_ran_ = false;            // the divergence solve runs (its wall pressure counts)
+  bool rate_in_source_ = false;            // source_ holds the divergence solve's density rate (factors())
   double prev_dt_div_ = 0.0, prev_dt_dens_ = 0.0;  // step of the last solve of each kind (unit: s)
   cl::Buffer vel_before_;                  // velocities before the density solve (unit: m/s)
   cl::Buffer bp_div_, bp_dens_;            // extrapolated walls: each solve's wall pressures (unit: Pa)
@@ -143,6 +148,12 @@ class DfsphSolver {
   // A wall particle in a fluid at rest has ~15-20; one with more than kWallSlots scans the cells.
   static constexpr uint32_t kWallSlots = 32;
   cl::Buffer wall_list_, wall_count_;
+  // ... and the step's wall particles with fluid near them (n_boundary; the first n_wall_active_).
+  cl::Buffer wall_active_, wall_active_count_;
+  // ... each listed pair's W_bf (n_boundary x kWallSlots) and per wall particle the sums that do
+  // not depend on the pressures, (sum_f rho_f W_bf x_bf, sum_f W_bf) (n_boundary x float4).
+  cl::Buffer wall_weight_, wall_sum_;
+  uint32_t n_wall_active_ = 0;
   cl::Buffer scratch_a_, scratch_b_;       // reorder targets (swapped with pdiv_, pdens_); mirrored: a holds the previous pressure in a warm start
   // Coarse-grid correction (coarse_interval > 0): signed residuals (n) (unit: 1), aggregate cells and
   // active flags (n x int4), per particle and aggregate slot F and R (n x 27 x 2 float4), the

@@ -174,9 +174,13 @@ Simulation::Simulation(const Model& model, const HostParticles& initial, ClConte
   for (const rigid::RigidBody& body : model_.bodies) bodies_.push_back(rigid::initialState(body));
   if (on(Stage::RigidDynamics)) contacts_ = std::make_unique<rigid::ContactSolver>(model_.bodies, model_.dx);
   // DFSPH: the solver and its buffers exist only with solver dfsph (a wcsph scene enqueues none of its kernels).
-  if (model_.spec.fluid.solver == FluidSolver::Dfsph && cap > 0)
+  if (model_.spec.fluid.solver == FluidSolver::Dfsph && cap > 0) {
+    bool one_mass = true;  // every phase's particle mass is the first's (bitwise)
+    for (std::size_t k = 1; k < model_.spec.fluid.phases.size() && k < SPH_MAX_PHASES; ++k)
+      one_mass = one_mass && model_.params.phase_mass[k] == model_.params.phase_mass[0];
     dfsph_ = std::make_unique<DfsphSolver>(cl_, kernels_, cap, n_static_ + n_moving_ + n_cloth_, model_.spec.fluid.dfsph,
-                                           model_.dx, model_.support);
+                                           model_.dx, model_.support, one_mass);
+  }
   emitter_travel_.assign(model_.emitters.size(), model_.dx);  // the first layer leaves at the start time
   // Cloth nodes (stepped by stage cloth; with it disabled they hang still, still boundary for the fluid).
   if (model_.cloth.nodes() > 0) {
@@ -548,7 +552,7 @@ DfsphFields Simulation::dfsphFields() {
 void Simulation::divergenceSolve() {
   StageTimer timer(*this, Stage::DivergenceSolve);
   const DfsphFields f = dfsphFields();
-  dfsph_->factors(params_, f);
+  dfsph_->factors(params_, f, true);
   const DfsphSolveResult r = dfsph_->divergenceSolve(params_, f);
   dfsph_frame_.divergence_iterations += r.iterations;
   dfsph_frame_.divergence_error = std::max(dfsph_frame_.divergence_error, r.error);
@@ -559,7 +563,7 @@ void Simulation::divergenceSolve() {
 void Simulation::densitySolve() {
   StageTimer timer(*this, Stage::DensitySolve);
   const DfsphFields f = dfsphFields();
-  if (!on(Stage::DivergenceSolve)) dfsph_->factors(params_, f);  // else computed this step already
+  if (!on(Stage::DivergenceSolve)) dfsph_->factors(params_, f, false);  // else computed this step already
   const DfsphSolveResult r = dfsph_->densitySolve(params_, f);
   dfsph_->finish(params_, f);
   dfsph_frame_.density_iterations += r.iterations;

@@ -56,7 +56,7 @@
  * counts: with the one-sided error and full warm start the pressures ratcheted up 89 %). A
  * particle the divergence solve skips (too few neighbours) keeps that warm start only while its
  * neighbours close in (dfsph_source), and the particles the solve leaves at p = 0 at a wall get a
- * contact force (dfsph_wall_contact).
+ * contact force (dfsph_wall_contact_accel, in dfsph_predict).
  *
  * Neighbours: this step's lists within H (snbr, sbnbr; density.cl). */
 
@@ -103,22 +103,26 @@ inline float4 dfsph_wall_sums(const float3 xi, __global const uint* list, const 
 }
 
 /* Factor alpha_i = delta_i^2 / D_i (B&K 2017 eq. 9, for the pressure force above), and the wall
- * sums gwall_i (above). */
+ * sums gwall_i (above). With `with_rate` also the divergence solve's density rate D delta_i / Dt
+ * (B&K 2017 eq. 2) of the velocities `vel` into rate_out, from the same pairs: one neighbour pass
+ * fewer per step (performance; dfsph_source reads it). */
 __kernel void dfsph_factor(const SimParams p, __global const float4* pos, __global const uint* phase,
                            __global const float* density, __global const uint* nbr, __global const uint* nbr_count,
                            __global const float4* bpos, __global const uint* bnbr,
                            __global const uint* bnbr_count, const float wall, __global float* alpha,
-                           __global const float4* bvel, __global float4* gwall) {
+                           __global const float4* bvel, __global float4* gwall, const int with_rate,
+                           __global const float4* vel, __global float* rate_out, const int one_mass) {
   const uint i = get_global_id(0);
   if (i >= p.n_fluid) return;
   const uint K = p.max_neighbours;
   const float H = p.support;
   const float3 xi = pos[i].xyz;
+  const float3 vi = vel[i].xyz;
   const float mi = p.phase_mass[phase[i]];
   __global const uint* list = nbr + (size_t)i * K;
   /* sums of gradients over fluid and boundary, and sum_j |gradW_ij|^2 / m_j; fluid pairs eight at
    * a time (shared/pair_loops.h), lanes summed in a fixed order, then the rest one by one */
-  float8 sx = (float8)(0.0f), sy = sx, sz = sx, s8 = sx;
+  float8 sx = (float8)(0.0f), sy = sx, sz = sx, s8 = sx, r8 = sx;
   const uint nf = nbr_count[i];
   uint k = 0;
   for (; k + 8 <= nf; k += 8) {
@@ -130,21 +134,37 @@ __kernel void dfsph_factor(const SimParams p, __global const float4* pos, __glob
     sx += ax;
     sy += ay;
     sz += az;
-    const uint8 phj = (uint8)(phase[j.s0], phase[j.s1], phase[j.s2], phase[j.s3], phase[j.s4], phase[j.s5],
-                              phase[j.s6], phase[j.s7]);
-    s8 += (ax * ax + ay * ay + az * az) / SPH_GATHER8(p.phase_mass, phj);
+    /* one_mass: every phase has i's mass (one phase), so no gather of the neighbours' phases */
+    if (one_mass) {
+      s8 += (ax * ax + ay * ay + az * az) / mi;
+    } else {
+      const uint8 phj = (uint8)(phase[j.s0], phase[j.s1], phase[j.s2], phase[j.s3], phase[j.s4], phase[j.s5],
+                                phase[j.s6], phase[j.s7]);
+      s8 += (ax * ax + ay * ay + az * az) / SPH_GATHER8(p.phase_mass, phj);
+    }
+    /* with_rate: the density rate's pair terms, as dfsph_density_rate */
+    if (with_rate) {
+      SPH_LOAD8(v, vel, j);
+      r8 += F * ((vi.x - SPH_LANES8(v, x)) * dx + (vi.y - SPH_LANES8(v, y)) * dy + (vi.z - SPH_LANES8(v, z)) * dz);
+    }
   }
   float3 gf = (float3)(sph_hsum8(sx), sph_hsum8(sy), sph_hsum8(sz));
   float s2 = sph_hsum8(s8);
+  float rate = sph_hsum8(r8);
   for (; k < nf; ++k) {
     const uint j = list[k];
     const float3 d = xi - pos[j].xyz;
-    const float3 g = sph_grad_factor(SPH_KERNEL, length(d), H) * d;
+    const float Fk = sph_grad_factor(SPH_KERNEL, length(d), H);
+    const float3 g = Fk * d;
     gf += g;
-    s2 += dot(g, g) / p.phase_mass[phase[j]];
+    s2 += dot(g, g) / (one_mass ? mi : p.phase_mass[phase[j]]);
+    if (with_rate) rate += Fk * dot(vi - vel[j].xyz, d);
   }
   const float4 gw = dfsph_wall_sums(xi, bnbr + (size_t)i * K, bnbr_count[i], bpos, bvel, 0, H);
   gwall[i] = gw;
+  /* with_rate: D delta_i / Dt of `vel` (dfsph_density_rate: the same pairs, order and arithmetic,
+   * so bitwise its value), for dfsph_source to read instead of its own neighbour loop */
+  if (with_rate) rate_out[i] = rate + (dot(vi, gw.xyz) - gw.w);
   const float3 gb = gw.xyz;
   const float D = dot(gf + wall * gb, gf + gb) / mi + s2;
   const float delta = density[i] / mi;
@@ -194,11 +214,13 @@ __kernel void dfsph_source(const SimParams p, __global const float4* pos, __glob
                            __global const float4* bvel, __global const uint* bnbr,
                            __global const uint* bnbr_count, const int kind, const uint min_neighbours,
                            const float warm, const int warm_all, __global float* source, __global float* pressure,
-                           __global float4* xt, __global const float4* gwall) {
+                           __global float4* xt, __global const float4* gwall, const int rate_in_source) {
   const uint i = get_global_id(0);
   if (i >= p.n_fluid) return;
   const uint K = p.max_neighbours;
-  const float rate = dfsph_density_rate(&p, i, pos, vel, nbr + (size_t)i * K, nbr_count[i], gwall[i]);
+  /* rate_in_source: the factor pass left D delta_i / Dt in source[i] (dfsph_factor, with_rate) */
+  const float rate = rate_in_source ? source[i]
+                                    : dfsph_density_rate(&p, i, pos, vel, nbr + (size_t)i * K, nbr_count[i], gwall[i]);
   const float delta = density[i] / p.phase_mass[phase[i]];
   float s = kind ? (delta + p.dt * rate) * p.rest_volume - 1.0f : p.dt * rate * p.rest_volume;
   /* divergence solve: fewer than min_neighbours neighbours (free surface, splashes): left alone */
@@ -291,6 +313,12 @@ __kernel void dfsph_jacobi(const SimParams p, __global const float4* pos, __glob
   const float H = p.support;
   const float3 xi = pos[i].xyz, ai = accel[i].xyz;
   const uint nf = nbr_count[i], nb = bnbr_count[i];
+  /* divergence solve: a particle with fewer than min_neighbours neighbours keeps no pressure (its
+   * residual is not needed: checked before the neighbour loop) */
+  if (nf + nb < min_neighbours) {
+    err[i] = 0.0f;
+    return;
+  }
   __global const uint* list = nbr + (size_t)i * K;
   /* sum_j (a_i - a_j) . gradW_ij: eight at a time, then the rest (as dfsph_density_rate) */
   float8 acc = (float8)(0.0f);
@@ -310,11 +338,6 @@ __kernel void dfsph_jacobi(const SimParams p, __global const float4* pos, __glob
     Ap += sph_grad_factor(SPH_KERNEL, length(d), H) * dot(ai - accel[j].xyz, d);
   }
   Ap += dot(ai, gwall[i].xyz); /* sum_b psi_b a_i . gradW_ib = a_i . G_b */
-  /* divergence solve: a particle with fewer than min_neighbours neighbours keeps no pressure */
-  if (nf + nb < min_neighbours) {
-    err[i] = 0.0f;
-    return;
-  }
   const float r = source[i] + p.dt * p.dt * p.rest_volume * Ap;
   const float inc = omega * r * alpha[i] / (p.dt * p.dt * p.rest_volume);
   const float p0 = pressure[i];
@@ -456,12 +479,64 @@ __kernel void dfsph_reduce(const uint n, const uint chunk, __global const float*
   partial[c] = s;
 }
 
-/* Non-pressure forces (gravity, viscosity: acc) before the density solve: v* = v + dt a; acc is
- * cleared, so that the integrator's v += dt a adds nothing after the solve. */
-__kernel void dfsph_predict(const SimParams p, __global float4* vel, __global float4* acc) {
+/* Extrapolated walls: contact with the domain walls for the particles the solve leaves without
+ * pressure. A free-surface or splash particle at a wall (a thin layer spreading on the floor, the
+ * sheet running up a side wall) has a cut support, so its density stays below delta0 and the
+ * projected solve gives it p = 0; then only the walls' extrapolated pressure, about rho0 g dx,
+ * holds it, too little to carry its weight: it sank through the wall plane (the integrator put it
+ * back and counted a wall crossing; 50-100 in 0.6 s of the 50k dam break). As WCSPH's contact
+ * (shared/pair_loops.h, sph_boundary_contact, in the spirit of Monaghan & Kajtar 2009), a linear
+ * repulsion from each wall particle inside r0 = `range` dx, zero from there on:
+ *     a_i += sum_b psi_b k_w (1 - r/r0) x_ib / r,    k_w = `stiffness` dx / dt^2 (unit: m/s^2),
+ * its stiffness tied to the step instead of c0 (DFSPH has none), so that it is stable at any step
+ * (core/dfsph.cpp says why `stiffness` 0.3 and `range` 0.75, what it stops and what not). It acts
+ * on any particle closer than r0 to a wall particle (at rest none is: they sit dx away), whatever
+ * its pressure. Walls only (bvel.w = 0; also cloth nodes, when cloth runs with DFSPH): bodies keep
+ * the solver's coupling, so Newton's third law with the rigid coupling (rigid.cl) is unchanged.
+ * Added to the non-pressure accelerations in the prediction before the density solve (dfsph_predict,
+ * `contact`: one pass fewer than a kernel of its own). */
+inline float3 dfsph_wall_contact_accel(const SimParams* p, const uint i, __global const float4* pos,
+                                       __global const float4* bpos, __global const float4* bvel,
+                                       __global const uint* bnbr, __global const uint* bnbr_count,
+                                       const float stiffness, const float range) {
+  /* no wall particle within H: no contact (and no cube root, which cost as much as the loop) */
+  const uint nb = bnbr_count[i];
+  if (nb == 0) return (float3)(0.0f);
+  const float dx = cbrt(p->rest_volume); /* (unit: m) */
+  const float r0 = range * dx;                      /* (unit: m) */
+  const float k = stiffness * dx / (p->dt * p->dt); /* (unit: m/s^2) */
+  const float3 xi = pos[i].xyz;
+  __global const uint* list = bnbr + (size_t)i * p->max_neighbours;
+  /* a squared distance just above r0^2 (the 1 % margin covers length()'s rounding) screens out
+   * the wall particles beyond r0 (most of those within H) before the square root and the body
+   * check; the pairs inside are computed as before */
+  const float r0_screen = 1.01f * 1.01f * r0 * r0; /* (unit: m^2) */
+  float3 a = (float3)(0.0f);
+  for (uint m = 0; m < nb; ++m) {
+    const uint b = list[m];
+    const float4 bb = bpos[b];
+    const float3 d = xi - bb.xyz;
+    if (dot(d, d) >= r0_screen) continue;
+    if (bvel[b].w > 0.5f) continue; /* a body's particle */
+    const float r = length(d);
+    if (r < r0 && r > 1e-6f * dx) a += bb.w * k * (1.0f - r / r0) / r * d;
+  }
+  return a;
+}
+
+/* Non-pressure forces (gravity, viscosity: acc; with `contact` the extrapolated walls' contact)
+ * before the density solve: v* = v + dt a; acc is cleared, so that the integrator's v += dt a adds
+ * nothing after the solve. */
+__kernel void dfsph_predict(const SimParams p, __global float4* vel, __global float4* acc, const int contact,
+                            __global const float4* pos, __global const float4* bpos, __global const float4* bvel,
+                            __global const uint* bnbr, __global const uint* bnbr_count, const float stiffness,
+                            const float range) {
   const uint i = get_global_id(0);
   if (i >= p.n_fluid) return;
-  vel[i] += p.dt * acc[i];
+  float4 a = acc[i];
+  /* extrapolated walls (contact): the wall contact first (dfsph_wall_contact_accel, below) */
+  if (contact) a += (float4)(dfsph_wall_contact_accel(&p, i, pos, bpos, bvel, bnbr, bnbr_count, stiffness, range), 0.0f);
+  vel[i] += p.dt * a;
   acc[i] = (float4)(0.0f);
 }
 
@@ -501,111 +576,111 @@ __kernel void dfsph_add(const uint n, __global float* a, __global const float* b
   a[i] += b[i];
 }
 
-/* Extrapolated walls: contact with the domain walls for the particles the solve leaves without
- * pressure. A free-surface or splash particle at a wall (a thin layer spreading on the floor, the
- * sheet running up a side wall) has a cut support, so its density stays below delta0 and the
- * projected solve gives it p = 0; then only the walls' extrapolated pressure, about rho0 g dx,
- * holds it, too little to carry its weight: it sank through the wall plane (the integrator put it
- * back and counted a wall crossing; 50-100 in 0.6 s of the 50k dam break). As WCSPH's contact
- * (shared/pair_loops.h, sph_boundary_contact, in the spirit of Monaghan & Kajtar 2009), a linear
- * repulsion from each wall particle inside r0 = `range` dx, zero from there on:
- *     a_i += sum_b psi_b k_w (1 - r/r0) x_ib / r,    k_w = `stiffness` dx / dt^2 (unit: m/s^2),
- * its stiffness tied to the step instead of c0 (DFSPH has none), so that it is stable at any step
- * (core/dfsph.cpp says why `stiffness` 0.3 and `range` 0.75, what it stops and what not). It acts
- * on any particle closer than r0 to a wall particle (at rest none is: they sit dx away), whatever
- * its pressure. Walls only (bvel.w = 0; also cloth nodes, when cloth runs with DFSPH): bodies keep
- * the solver's coupling, so Newton's third law with the rigid coupling (rigid.cl) is unchanged.
- * Added to the non-pressure accelerations before the density solve (dfsph_predict). */
-__kernel void dfsph_wall_contact(const SimParams p, __global const float4* pos, __global const float4* bpos,
-                                 __global const float4* bvel, __global const uint* bnbr,
-                                 __global const uint* bnbr_count, const float stiffness, const float range,
-                                 __global float4* acc) {
-  const uint i = get_global_id(0);
-  if (i >= p.n_fluid) return;
-  const float dx = cbrt(p.rest_volume); /* (unit: m) */
-  const float r0 = range * dx;                    /* (unit: m) */
-  const float k = stiffness * dx / (p.dt * p.dt); /* (unit: m/s^2) */
-  const float3 xi = pos[i].xyz;
-  __global const uint* list = bnbr + (size_t)i * p.max_neighbours;
-  const uint nb = bnbr_count[i];
-  float3 a = (float3)(0.0f);
-  for (uint m = 0; m < nb; ++m) {
-    const uint b = list[m];
-    if (bvel[b].w > 0.5f) continue; /* a body's particle */
-    const float4 bb = bpos[b];
-    const float3 d = xi - bb.xyz;
-    const float r = length(d);
-    if (r < r0 && r > 1e-6f * dx) a += bb.w * k * (1.0f - r / r0) / r * d;
-  }
-  acc[i] += (float4)(a, 0.0f);
-}
 
 /* --- Extrapolated walls: the wall pressure from per-step lists (performance) ----------------- */
 
 /* Once per step, after the density pass: for each boundary particle b that some fluid particle saw
  * this step (bmark == stamp), the fluid particles within H, in the order boundary_pressure
- * (pressure.cl) visits them (the grid's cells, in cell order). Positions do not change during a
+ * (pressure.cl) visits them (the grid's cells, in cell order), and the list of those b (`active`;
+ * ~10 % of the walls' particles in the 50k dam break); the others' wall pressures are set to 0. Positions do not change during a
  * step's solves, so each iteration's wall pressure (dfsph_wall_list_pressure) reads these ~20
  * instead of scanning the 27 cells (~290 candidates). A list longer than `slots` keeps its
  * count (> slots), and dfsph_wall_list_pressure scans the cells for that b as before. */
 __kernel void dfsph_wall_lists(const SimParams p, const uint n_boundary, const uint stamp,
                                __global const float4* bpos, __global const uint* bmark,
                                __global const float4* pos, __global const uint* cell_start, const uint slots,
-                               __global uint* wlist, __global uint* wcount) {
+                               __global uint* wlist, __global uint* wcount, __global float* bp_a,
+                               __global float* bp_b, volatile __global uint* n_active, __global uint* active,
+                               __global const float* density, __global float* wweight, __global float4* wsum) {
   const uint b = get_global_id(0);
+  /* b joins the step's active wall particles, the only ones dfsph_wall_list_pressure visits: a
+   * slot in the work-group (a local counter), then the work-group's block in the list (one global
+   * integer atomic per work-group: one per particle contended). The list's order varies from run
+   * to run, but each entry's pressure depends on its own b alone: the results do not. */
+  __local uint group_count, group_base;
+  if (get_local_id(0) == 0) group_count = 0;
+  barrier(CLK_LOCAL_MEM_FENCE);
+  const int marked = b < n_boundary && bmark[b] == stamp;
+  const uint slot = marked ? atomic_inc(&group_count) : 0u;
+  barrier(CLK_LOCAL_MEM_FENCE);
+  if (get_local_id(0) == 0) group_base = atomic_add(n_active, group_count);
+  barrier(CLK_LOCAL_MEM_FENCE);
   if (b >= n_boundary) return;
-  if (bmark[b] != stamp) {
+  /* no fluid near b this step: no pressure in either solve (written here, once per step) */
+  if (!marked) {
     wcount[b] = 0;
+    bp_a[b] = 0.0f;
+    bp_b[b] = 0.0f;
     return;
   }
+  active[group_base + slot] = b;
   const float3 xb = bpos[b].xyz;
   const float H = p.support;
   __global uint* out = wlist + (size_t)b * slots;
+  __global float* wout = wweight + (size_t)b * slots;
+  /* the list, each pair's W_bf, and the sums that do not depend on the pressures (sum_f W_bf and
+   * sum_f rho_f W_bf x_bf), accumulated in list order with boundary_pressure's arithmetic */
+  /* candidates eight at a time, row by row (shared/pair_loops.h, sph_collect_row), within a radius
+   * a little above H, in the cells' order; then the exact test of boundary_pressure, in place */
   uint n = 0;
-  SPH_FOR_NEIGHBOURS(&p, cell_start, xb, f) {
+  SPH_FOR_NEIGHBOUR_ROWS(&p, cell_start, xb, begin, end) {
+    n = sph_collect_row(xb, pos, begin, end, 1.0001f * H * H, 0xffffffffu, out, slots, n);
+  }
+  SPH_END_NEIGHBOURS
+  if (n > slots) { /* too many: dfsph_wall_list_pressure scans the cells for b */
+    wcount[b] = n;
+    return;
+  }
+  uint kept = 0;
+  float sw = 0.0f;
+  float3 srw = (float3)(0.0f);
+  for (uint m = 0; m < n; ++m) {
+    const uint f = out[m];
     const float3 d = xb - pos[f].xyz;
     const float r2 = dot(d, d);
     if (r2 < H * H) {
-      if (n < slots) out[n] = f;
-      ++n;
+      const float w = sph_w(SPH_KERNEL, sqrt(r2), H);
+      sw += w;
+      srw += (density[f] * w) * d;
+      out[kept] = f;
+      wout[kept] = w;
+      ++kept;
     }
   }
-  SPH_END_NEIGHBOURS
-  wcount[b] = n;
+  wcount[b] = kept;
+  wsum[b] = (float4)(srw, sw);
 }
 
 /* Wall pressure p_b of pressure.cl's boundary_pressure (Adami, Hu & Adams 2012 eq. 27, the
  * formula and the clamp there), from the lists of dfsph_wall_lists: the same pairs in the same
- * order with the same arithmetic, so p_b is bitwise boundary_pressure's. */
-__kernel void dfsph_wall_list_pressure(const SimParams p, const uint n_boundary, const uint stamp,
-                                       __global const float4* bpos, __global const uint* bmark,
-                                       __global const float4* pos, __global const float* density,
-                                       __global const float* pressure, __global const uint* cell_start,
-                                       const uint slots, __global const uint* wlist,
-                                       __global const uint* wcount, __global float* bpressure) {
-  const uint b = get_global_id(0);
-  if (b >= n_boundary) return;
-  if (bmark[b] != stamp) {
-    bpressure[b] = 0.0f;
-    return;
-  }
+ * order with the same arithmetic, so p_b is bitwise boundary_pressure's. The weights W_bf and the
+ * pressure-free sums come from dfsph_wall_lists (positions and densities do not change during a
+ * step's solves): each iteration gathers the pressures alone (performance). */
+__kernel void dfsph_wall_list_pressure(const SimParams p, const uint n_active, __global const uint* active,
+                                       __global const float4* bpos, __global const float4* pos,
+                                       __global const float* density, __global const float* pressure,
+                                       __global const uint* cell_start, const uint slots,
+                                       __global const uint* wlist, __global const uint* wcount,
+                                       __global float* bpressure, __global const float* wweight,
+                                       __global const float4* wsum) {
+  /* the step's active wall particles only (dfsph_wall_lists: the others' pressure is 0 already) */
+  const uint a = get_global_id(0);
+  if (a >= n_active) return;
+  const uint b = active[a];
   const float3 xb = bpos[b].xyz;
   const float H = p.support;
   float sw = 0.0f, spw = 0.0f;
   float3 srw = (float3)(0.0f);
   const uint n = wcount[b];
   if (n <= slots) {
-    /* the listed fluid particles, all within H */
+    /* the listed fluid particles, all within H, with the step's weights and sums (dfsph_wall_lists):
+     * only sum_f p_f W_bf is left to each iteration */
     __global const uint* list = wlist + (size_t)b * slots;
-    for (uint m = 0; m < n; ++m) {
-      const uint f = list[m];
-      const float3 d = xb - pos[f].xyz;
-      const float r2 = dot(d, d);
-      const float w = sph_w(SPH_KERNEL, sqrt(r2), H);
-      sw += w;
-      spw += pressure[f] * w;
-      srw += (density[f] * w) * d;
-    }
+    __global const float* wl = wweight + (size_t)b * slots;
+    for (uint m = 0; m < n; ++m) spw += pressure[list[m]] * wl[m];
+    const float4 ws = wsum[b];
+    srw = ws.xyz;
+    sw = ws.w;
   } else {
     /* a list that overflowed: the cells, as boundary_pressure */
     SPH_FOR_NEIGHBOURS(&p, cell_start, xb, f) {

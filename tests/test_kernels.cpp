@@ -1052,10 +1052,19 @@ TEST_CASE("dfsph_wall_list_pressure equals boundary_pressure bitwise (listed and
       cl::Buffer wlist = toDevice(std::vector<uint32_t>(std::size_t(d.nb) * slots, 0xffffffffu));
       cl::Buffer wcount = toDevice(std::vector<uint32_t>(d.nb, 0xdeadbeefu));  // every entry written
       cl::Buffer out = toDevice(std::vector<float>(d.nb, -1.0f));
+      cl::Buffer other = toDevice(std::vector<float>(d.nb, -1.0f));  // the other solve's wall pressures
+      cl::Buffer n_active = toDevice(std::vector<uint32_t>(1, 0u));
+      cl::Buffer active = toDevice(std::vector<uint32_t>(d.nb, 0xffffffffu));
+      // the lists, the active wall particles and 0 for the others; then the pressure of the active ones
+      cl::Buffer weight = toDevice(std::vector<float>(std::size_t(d.nb) * slots, -1.0f));
+      cl::Buffer sums = toDevice(std::vector<float>(std::size_t(d.nb) * 4, -1.0f));
       d.ks.call("dfsph_wall_lists", d.nb, kLocal, d.P, d.nb, d.stamp, d.bpos, d.bmark, d.pos[d.cur], d.cell_start,
-                slots, wlist, wcount);
-      d.ks.call("dfsph_wall_list_pressure", d.nb, kLocal, d.P, d.nb, d.stamp, d.bpos, d.bmark, d.pos[d.cur],
-                d.density, d.pressure, d.cell_start, slots, wlist, wcount, out);
+                slots, wlist, wcount, out, other, n_active, active, d.density, weight, sums);
+      const uint32_t na = fromDevice<uint32_t>(n_active, 1)[0];
+      CHECK(na > 0u);
+      if (na > 0)
+        d.ks.call("dfsph_wall_list_pressure", na, kLocal, d.P, na, active, d.bpos, d.pos[d.cur], d.density,
+                  d.pressure, d.cell_start, slots, wlist, wcount, out, weight, sums);
       const auto got = fromDevice<float>(out, d.nb);
       const auto count = fromDevice<uint32_t>(wcount, d.nb);
       std::size_t listed = 0, overflowing = 0, pressed = 0;
