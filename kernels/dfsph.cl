@@ -667,10 +667,8 @@ __kernel void dfsph_wall_list_pressure(const SimParams p, const uint n_active, _
   const uint a = get_global_id(0);
   if (a >= n_active) return;
   const uint b = active[a];
-  const float3 xb = bpos[b].xyz;
-  const float H = p.support;
-  float sw = 0.0f, spw = 0.0f;
-  float3 srw = (float3)(0.0f);
+  float sw, spw = 0.0f;
+  float3 srw;
   const uint n = wcount[b];
   if (n <= slots) {
     /* the listed fluid particles, all within H, with the step's weights and sums (dfsph_wall_lists):
@@ -683,19 +681,7 @@ __kernel void dfsph_wall_list_pressure(const SimParams p, const uint n_active, _
     sw = ws.w;
   } else {
     /* a list that overflowed: the cells, as boundary_pressure */
-    SPH_FOR_NEIGHBOURS(&p, cell_start, xb, f) {
-      const float3 d = xb - pos[f].xyz;
-      const float r2 = dot(d, d);
-      if (r2 < H * H) {
-        const float w = sph_w(SPH_KERNEL, sqrt(r2), H);
-        sw += w;
-        spw += pressure[f] * w;
-        srw += (density[f] * w) * d;
-      }
-    }
-    SPH_END_NEIGHBOURS
+    sph_wall_sums_from_cells(&p, cell_start, bpos[b].xyz, pos, density, pressure, &sw, &spw, &srw);
   }
-  const float3 g = (float3)(p.gravity[0], p.gravity[1], p.gravity[2]);
-  const float pb = sw > 0.0f ? (spw + dot(g, srw)) / sw : 0.0f;
-  bpressure[b] = p.clamp_negative_pressure ? fmax(pb, 0.0f) : pb;
+  bpressure[b] = sph_wall_pressure(&p, sw, spw, srw);
 }

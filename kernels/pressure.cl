@@ -98,15 +98,15 @@ __kernel void pressure_viscosity_force(const SimParams p, __global const float4*
                       bnbr_count, 1);
 }
 
-/* Wall pressure of boundary particle b (Adami, Hu & Adams 2012, eq. 27): the kernel-weighted mean
- * of the surrounding fluid's pressure, extrapolated to the wall along the hydrostatic gradient,
- *     p_b = (sum_f p_f W_bf + g . sum_f rho_f (x_b - x_f) W_bf) / sum_f W_bf,   clamped at 0 when the
- * fluid's pressure is (fluid.clamp_negative_pressure),
- * (the wall's own acceleration, Adami's a_w, is left out: it is zero on walls and small against g
- * for bodies that float or are moved slowly). Only boundary particles that some fluid particle
- * saw within H this step (marked by the density pass with `stamp`) are computed: the others are
- * never read. The fluid comes from the grid of the last list rebuild (cells H + skin wide, no
- * particle moved more than skin / 2 since), in cell order: deterministic. */
+/* Wall pressure of boundary particle b (Adami, Hu & Adams 2012, eq. 27; shared/wall_pressure.h):
+ * the kernel-weighted mean of the surrounding fluid's pressure, extrapolated to the wall along the
+ * hydrostatic gradient, clamped at 0 when the fluid's pressure is (fluid.clamp_negative_pressure:
+ * a wall kept at p >= 0 under a fluid allowed to pull lost half the suction behind a towed ball,
+ * issue 15). The wall's own acceleration, Adami's a_w, is left out: it is zero on walls and small
+ * against g for bodies that float or are moved slowly. Only boundary particles that some fluid
+ * particle saw within H this step (marked by the density pass with `stamp`) are computed: the
+ * others are never read. The fluid comes from the grid of the last list rebuild (cells H + skin
+ * wide, no particle moved more than skin / 2 since), in cell order: deterministic. */
 __kernel void boundary_pressure(const SimParams p, const uint n_boundary, const uint stamp,
                                 __global const float4* bpos, __global const uint* bmark,
                                 __global const float4* pos, __global const float* density,
@@ -118,26 +118,10 @@ __kernel void boundary_pressure(const SimParams p, const uint n_boundary, const 
     bpressure[b] = 0.0f;
     return;
   }
-  const float3 xb = bpos[b].xyz;
-  const float H = p.support;
-  float sw = 0.0f, spw = 0.0f;
-  float3 srw = (float3)(0.0f);
-  SPH_FOR_NEIGHBOURS(&p, cell_start, xb, f) {
-    const float3 d = xb - pos[f].xyz;
-    const float r2 = dot(d, d);
-    if (r2 < H * H) {
-      const float w = sph_w(SPH_KERNEL, sqrt(r2), H);
-      sw += w;
-      spw += pressure[f] * w;
-      srw += (density[f] * w) * d;
-    }
-  }
-  SPH_END_NEIGHBOURS
-  const float3 g = (float3)(p.gravity[0], p.gravity[1], p.gravity[2]);
-  /* clamped at 0 as the fluid's own pressure is (fluid.clamp_negative_pressure): a wall kept at
-   * p >= 0 under a fluid allowed to pull lost half the suction behind a towed ball (issue 15) */
-  const float pb = sw > 0.0f ? (spw + dot(g, srw)) / sw : 0.0f;
-  bpressure[b] = p.clamp_negative_pressure ? fmax(pb, 0.0f) : pb;
+  float sw, spw;
+  float3 srw;
+  sph_wall_sums_from_cells(&p, cell_start, bpos[b].xyz, pos, density, pressure, &sw, &spw, &srw);
+  bpressure[b] = sph_wall_pressure(&p, sw, spw, srw);
 }
 
 /* Gravity alone, used when the pressure stage is disabled. */
