@@ -152,6 +152,16 @@ constexpr double kBytesPerBodyArea = 500;         ///< per dx^2 of body surface:
 /// colour slots (~50), its boundary-particle copy (~80), and the host's model tables (~400).
 constexpr double kBytesPerClothNode = 1000;       ///< (unit: bytes)
 constexpr double kBytesPerGridCell = 16;          ///< cell start tables, host and device (unit: bytes)
+/// DFSPH's extrapolated walls, per boundary particle (walls, bodies, cloth nodes): both solves'
+/// wall pressures (8), the step's 32 listed fluid neighbours and their weights (256), the count,
+/// the active index (8) and the pressure-free sums (16): 288 (core/dfsph.cpp), rounded up.
+constexpr double kBytesPerDfsphWallParticle = 300;  ///< (unit: bytes)
+/// DFSPH's two-level solve (fluid.dfsph.coarse_interval > 0), per fluid particle: the device's
+/// pair sums (27 x 2 float4) and four more values (892), their host copies, and the coarse
+/// operators with their sparse LU (core/dfsph_coarse.cpp). Measured as the growth of the peak
+/// resident memory with the correction on: 5.2 kB per particle in the slab dam break (6,400
+/// particles), 5.45 kB at 50,653 (scenes/peer/dam_break_50k.yaml); rounded up.
+constexpr double kBytesPerDfsphCoarseParticle = 6000;  ///< (unit: bytes)
 /// Candidate points rigid::sampleSurface may test for one body (~20 s on one core). (unit: 1)
 constexpr double kMaxSurfaceCandidates = 4.0e8;
 
@@ -280,6 +290,18 @@ ResourceEstimate estimateResources(const SceneSpec& spec, SourceLoc* worst) {
   e.bytes = (e.fluid_particles + layer_points) * kBytesPerFluidParticle +
             e.boundary_particles * kBytesPerBoundaryParticle + e.body_particles * kBytesPerBodyArea +
             e.grid_cells * kBytesPerGridCell + e.cloth_nodes * kBytesPerClothNode;
+  // DFSPH's buffers beyond WCSPH's: the extrapolated walls' per-step lists (every boundary
+  // particle), the two-level solve's pair sums and coarse operators (every fluid particle). The
+  // blame stays with the sizes (domain, blocks, nozzles) that set these counts.
+  if (fl.solver == FluidSolver::Dfsph) {
+    if (fl.dfsph.walls == DfsphWalls::Extrapolated) {
+      const double walls = e.boundary_particles + e.body_particles + e.cloth_nodes;
+      e.bytes += walls * kBytesPerDfsphWallParticle;
+    }
+    if (fl.dfsph.coarse_interval > 0) {
+      e.bytes += (e.fluid_particles + layer_points) * kBytesPerDfsphCoarseParticle;
+    }
+  }
   if (std::isnan(e.bytes)) e.bytes = INFINITY;
 
   // Steps per frame at the start: the CFL limit with the automatic (or given) speed of sound,

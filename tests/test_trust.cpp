@@ -449,6 +449,29 @@ TEST_CASE("trust: the memory estimate bounds what a run allocates on the device"
   }
 }
 
+TEST_CASE("trust: the memory estimate bounds what a DFSPH run allocates on the device", "[trust][resources][dfsph]") {
+  // The same rule with `fluid.solver: dfsph`, whose extrapolated walls keep per wall particle two
+  // pressures and this step's list of fluid neighbours with their weights (core/dfsph.cpp), and
+  // whose two-level solve keeps per fluid particle its coarse-grid pair sums: the estimate must
+  // still be at least the device memory the run allocates, for every `walls` and with the
+  // coarse correction on.
+  for (const char* scene : {"tiny_tank.yaml", "floating_block.yaml"})
+    for (const char* extra : {"fluid.dfsph.walls=extrapolated", "fluid.dfsph.walls=single", "fluid.dfsph.coarse_interval=4"}) {
+      sph::app::RunOptions o;
+      o.scene = (kSourceDir / "scenes" / "tests" / scene).string();
+      o.quiet = true;
+      o.write_output = false;
+      o.duration = 1.0 / 60.0;
+      o.sets = {"fluid.solver=dfsph", extra};
+      const sph::app::RunResult res = sph::app::runScene(o);
+      REQUIRE(res.exit_code == 0);
+      const sph::ResourceEstimate est = sph::estimateResources(sph::io::loadScene(o.scene, o.sets));
+      INFO(scene << " with " << extra << ": estimate " << est.str() << ", device bytes " << res.device_bytes);
+      CHECK(est.bytes >= static_cast<double>(res.device_bytes));
+      CHECK(est.bytes <= 20.0 * static_cast<double>(res.device_bytes));
+    }
+}
+
 // ---------------------------------------------------------------------------------------------
 // Item 6: inputs that are accepted do what they say
 // ---------------------------------------------------------------------------------------------
