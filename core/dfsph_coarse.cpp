@@ -184,15 +184,16 @@ void DfsphSolver::coarseCorrection(Kind kind, const SimParams& p, const DfsphFie
         if (col >= 0) entries.emplace_back(d, col, v);
       }
     }
-      Eigen::SparseMatrix<double> K(m, m);
+    Eigen::SparseMatrix<double> K(m, m);
     K.setFromTriplets(entries.begin(), entries.end());
     K.makeCompressed();
 
-    // Factorize K (COLAMD ordering; AMD took 2.7x as long on the slab dam break); a singular or failed factorization (a closed fluid without free surface has the
-    // constant pressure in K's null space) leaves the pressures as they are.
+    // Factorize K (COLAMD ordering; AMD took 2.7x as long on the slab dam break); a singular or
+    // failed factorization (a closed fluid without free surface has the constant pressure in K's
+    // null space) leaves the pressures as they are.
     op.lu.compute(K);
     if (op.lu.info() != Eigen::Success) return;
-      op.valid = true;
+    op.valid = true;
     op.lo = lo;
     op.hi = hi;
     op.ny = ny;

@@ -534,7 +534,7 @@ __kernel void dfsph_predict(const SimParams p, __global float4* vel, __global fl
   const uint i = get_global_id(0);
   if (i >= p.n_fluid) return;
   float4 a = acc[i];
-  /* extrapolated walls (contact): the wall contact first (dfsph_wall_contact_accel, below) */
+  /* extrapolated walls (contact): the wall contact first (dfsph_wall_contact_accel, above) */
   if (contact) a += (float4)(dfsph_wall_contact_accel(&p, i, pos, bpos, bvel, bnbr, bnbr_count, stiffness, range), 0.0f);
   vel[i] += p.dt * a;
   acc[i] = (float4)(0.0f);
@@ -582,8 +582,9 @@ __kernel void dfsph_add(const uint n, __global float* a, __global const float* b
 /* Once per step, after the density pass: for each boundary particle b that some fluid particle saw
  * this step (bmark == stamp), the fluid particles within H, in the order boundary_pressure
  * (pressure.cl) visits them (the grid's cells, in cell order), and the list of those b (`active`;
- * ~10 % of the walls' particles in the 50k dam break); the others' wall pressures are set to 0. Positions do not change during a
- * step's solves, so each iteration's wall pressure (dfsph_wall_list_pressure) reads these ~20
+ * ~10 % of the walls' particles in the 50k dam break); the others' wall pressures are set to 0.
+ * Positions do not change during a step's solves, so each iteration's wall pressure
+ * (dfsph_wall_list_pressure) reads these ~20
  * instead of scanning the 27 cells (~290 candidates). A list longer than `slots` keeps its
  * count (> slots), and dfsph_wall_list_pressure scans the cells for that b as before. */
 __kernel void dfsph_wall_lists(const SimParams p, const uint n_boundary, const uint stamp,
@@ -651,9 +652,9 @@ __kernel void dfsph_wall_lists(const SimParams p, const uint n_boundary, const u
   wsum[b] = (float4)(srw, sw);
 }
 
-/* Wall pressure p_b of pressure.cl's boundary_pressure (Adami, Hu & Adams 2012 eq. 27, the
- * formula and the clamp there), from the lists of dfsph_wall_lists: the same pairs in the same
- * order with the same arithmetic, so p_b is bitwise boundary_pressure's. The weights W_bf and the
+/* Wall pressure p_b of pressure.cl's boundary_pressure (Adami, Hu & Adams 2012 eq. 27; the
+ * formula and the clamp in shared/wall_pressure.h), from the lists of dfsph_wall_lists: the same
+ * pairs in the same order with the same arithmetic, so p_b is bitwise boundary_pressure's. The weights W_bf and the
  * pressure-free sums come from dfsph_wall_lists (positions and densities do not change during a
  * step's solves): each iteration gathers the pressures alone (performance). */
 __kernel void dfsph_wall_list_pressure(const SimParams p, const uint n_active, __global const uint* active,
