@@ -17,9 +17,10 @@
 //     R / dx = 3, 4 and 5 (the tests run 3 and 4): added mass of an accelerated ball, free against
 //     held, added mass of a released ball (mid-water and near the floor, R / dx = 3, 4), Stokes
 //     drag and sideways force of a towed ball (R / dx = 3, 3.75, 4.5), a dense ball sinking from
-//     rest (R / dx = 3, 4, 4.5; its drag split into added mass, quadratic and linear parts), a
-//     buoyant block placed flush on the floor (h / dx = 6, 8), the Stokes terminal velocity of a
-//     falling ball (R / dx = 3, 3.75), the Re-20 tow in the 80 cm tank (DFSPH; --no-long-tank) and
+//     rest (R / dx = 3, 4, 4.5, and 7.95 with --force-checks sink-fine; its drag split into added
+//     mass, quadratic and linear parts), a buoyant block placed flush on the floor (h / dx = 6, 8),
+//     the released buoyant ball's float and heave (R / dx = 3, 4.05), the Stokes terminal velocity
+//     of a falling ball (R / dx = 3, 3.75), the Re-20 tow in the 80 cm tank (DFSPH; --no-long-tank) and
 //     the towed ball's drag at Re = 20 (two sound speeds), each against its closed form, with
 //     the wall time of the run: what accuracy costs. One row per check, solver and resolution.
 //  6. Impact pressure (issue 14, with the accuracy table): the pressure on the far wall during the
