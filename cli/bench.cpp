@@ -259,10 +259,10 @@ int forceChecks(const BenchOptions& opt) {
   };
   for (const std::string& solver : opt.force_solvers) {
     // DFSPH with extrapolated walls: the wall's pressure from the fluid, as WCSPH's (the right
-    // pressure on bodies: README, Forces on bodies); its viscous terms see the walls' and bodies'
-    // own velocities (`boundary_velocity: auto` is `wall` with DFSPH; `ghost` only when set).
-    // `dfsph-ghost`: the same with the no-slip ghost velocities (Adami, Hu & Adams 2012 eq. 22-23)
-    // at every wall and body, as WCSPH's laminar runs take them.
+    // pressure on bodies: README, Forces on bodies); its viscous terms see the walls' own
+    // velocities and, where the body's term is laminar, the no-slip ghost velocities at moving
+    // bodies (`boundary_velocity: auto` with DFSPH, session 10). `dfsph-ghost`: the ghost
+    // velocities (Adami, Hu & Adams 2012 eq. 22-23) at every wall and body, as WCSPH's laminar runs.
     const bool ghost = solver == "dfsph-ghost";
     const std::string base = ghost ? "dfsph" : solver;
     std::vector<std::string> sets = {"fluid.solver=" + base};
@@ -307,7 +307,8 @@ int forceChecks(const BenchOptions& opt) {
       // within R -+ dx/2 (TowCheck::expected_lo/hi); sideways / drag against 0. Spacings that
       // divide the 20 cm box (else the liquid starts with a gap and rings: no steady drag).
       // DFSPH corrects compressions only (p >= 0): in the scene's weightless box the liquid at rest
-      // has p = 0 and the suction behind the ball (half the pressure part of Stokes' drag) is lost.
+      // has p = 0, so behind the ball there is no suction and the expansion goes uncorrected (the
+      // drag halves: 1.06 against 2.13 x 6 pi mu R U at R/dx 3 with ghost velocities, session 10).
       // Gravity gives it the ambient pressure it needs (rho g z ~ 1 kPa at the ball against the
       // flow's 3/2 mu U / R = 25 Pa; the box is closed, so the liquid stays at rest); the drag
       // along x is the same in exact physics, the buoyancy goes to F_z (so sideways is |F_y|).

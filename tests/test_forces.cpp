@@ -321,8 +321,9 @@ TEST_CASE("Forces with DFSPH and no-slip ghost velocities: the Stokes drag of a 
   // factor of the 20 cm box, bracketed by two spherical containers, with the no-slip surface
   // within R -+ dx/2: 1.47 .. 3.75).
   //  - Towed (stokes_tow.yaml) under gravity: DFSPH corrects compressions only (p >= 0), so in the
-  //    scene's weightless box (p = 0 at rest) the suction behind the ball is lost (drag 1.06 x
-  //    6 pi mu R U with ghost velocities, below the band; measured). Gravity gives the closed box
+  //    scene's weightless box (p = 0 at rest) there is no suction behind the ball and the expansion
+  //    there goes uncorrected (drag 1.06 x 6 pi mu R U with ghost velocities, below the band;
+  //    measured). Gravity gives the closed box
   //    an ambient pressure (rho g z ~ 1 kPa at the ball against the flow's 3/2 mu U / R = 25 Pa);
   //    the drag along x is the same in exact physics. Measured 2.13 (2.19, 2.20 at R / dx = 3.75,
   //    4.5, bench): inside the bracket at R itself (2.04 .. 2.57), so converged within it. With
