@@ -35,7 +35,10 @@ struct BenchOptions {
   bool cloth_only = false; // only the cloth sweep
   bool forces = true;        // the force checks of bodies in water (issue 15)
   bool forces_only = false;  // only the force checks
-  std::vector<std::string> force_solvers{"wcsph"};  // fluid.solver values for the force checks
+  std::vector<std::string> force_solvers{"wcsph"};  // fluid.solver values for the force checks (dfsph-ghost:
+                                                   // dfsph with boundary_velocity ghost)
+  // which groups of force checks to run (forceCheckGroups() in cli/bench.cpp lists them); empty: all
+  std::vector<std::string> force_checks;
   bool force_long_tank = true;  // the force checks' Re-20 rows in the 80 cm tank (DFSPH; minutes per run)
   bool impact = true;        // the impact pressure on the far wall, both solvers (with the accuracy table)
   bool impact_only = false;  // only the impact pressure

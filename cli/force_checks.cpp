@@ -619,4 +619,63 @@ FloatCheck risingBlock(const std::string& scene, double dx, const std::vector<st
   return c;
 }
 
+HeaveCheck floatingBallHeave(const std::string& scene, double dx, double duration,
+                             const std::vector<std::string>& sets, const std::string& device) {
+  HeaveCheck c;
+  c.dx = dx;
+  // Every frame after the release: (t, z) of the ball; the fluid count and the ball's data once.
+  std::vector<std::pair<double, double>> z;
+  std::size_t particles = 0;
+  double mass = 0, hold = 0, rho = 0, g = 0, area = 0;
+  const std::vector<std::string> own = {"rigid_bodies[0].density=500", "simulation.duration=" + num(duration)};
+  const RunResult r = runScene(checkRun(scene, dx, own, sets, device), [&](Simulation& sim, const FrameReport&) {
+    const Model& m = sim.model();
+    particles = sim.numFluid();
+    mass = m.bodies[0].mass;
+    hold = m.bodies[0].spec.hold_until;
+    c.radius = m.bodies[0].spec.radius * m.bodies[0].spec.scale;
+    rho = m.spec.fluid.phases[0].rest_density;
+    g = m.spec.simulation.gravity.norm();
+    const Eigen::Vector3d side = m.spec.domain.max - m.spec.domain.min;
+    area = side.x() * side.y();
+    if (sim.time() >= hold - 1e-9) z.emplace_back(sim.time(), sim.bodies()[0].x.z());
+  });
+  c.exit_code = r.exit_code;
+  c.message = r.message;
+  c.wall_seconds = r.wall_seconds;
+  if (r.exit_code != 0) return c;
+  // Archimedes: the level of the fluid plus the displaced volume; the mean over the last 0.2 s.
+  c.level = (particles * dx * dx * dx + mass / rho) / area;
+  int n = 0;
+  for (const auto& [t, h] : z)
+    if (t >= duration - 0.2 - 1e-9) c.mean += h, ++n;
+  if (n < 5) {
+    c.exit_code = 1;
+    c.message = "fewer than 5 frames in the last 0.2 s";
+    return c;
+  }
+  c.mean /= n;
+  c.offset = c.mean - c.level;
+  // Crests: local maxima of z above the mean after the release.
+  std::vector<std::pair<double, double>> crests;
+  for (std::size_t k = 1; k + 1 < z.size(); ++k)
+    if (z[k].second > z[k - 1].second && z[k].second >= z[k + 1].second && z[k].second > c.mean)
+      crests.push_back(z[k]);
+  c.crests = static_cast<int>(crests.size());
+  // The heave's closed form: stiffness rho g pi R^2 (the waterplane), mass m + a33.
+  const double k = rho * g * M_PI * c.radius * c.radius;
+  const double half = 0.5 * rho * 4.0 / 3.0 * M_PI * std::pow(c.radius, 3);
+  c.period_lo = 2 * M_PI * std::sqrt((mass + 0.38 * half) / k);
+  c.period_hi = 2 * M_PI * std::sqrt((mass + 0.83 * half) / k);
+  if (crests.size() < 2) return c;
+  // The first two crests: period, logarithmic decrement, damping ratio, undamped period.
+  c.crest1 = crests[0].second - c.mean;
+  c.crest2 = crests[1].second - c.mean;
+  c.period = crests[1].first - crests[0].first;
+  const double delta = std::log(c.crest1 / c.crest2);
+  c.zeta = delta / std::sqrt(4 * M_PI * M_PI + delta * delta);
+  c.period_undamped = c.period * std::sqrt(1 - c.zeta * c.zeta);
+  return c;
+}
+
 }  // namespace sph::app

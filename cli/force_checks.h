@@ -277,4 +277,36 @@ struct FloatCheck {
 FloatCheck risingBlock(const std::string& scene, double dx, const std::vector<std::string>& sets = {},
                        const std::string& device = "");
 
+/// A buoyant ball released mid-water rises, overshoots the surface and heaves about its float
+/// position (scenes/tests/release_ball.yaml run longer): its mean height against Archimedes' draft,
+/// and its damped heave's period against the floating sphere's heave natural period.
+struct HeaveCheck {
+  int exit_code = 0;
+  std::string message;
+  double dx = 0;               ///< (unit: m)
+  double radius = 0;           ///< (unit: m)
+  /// the water level: the fluid's volume at rest density plus the displaced volume m / rho, over
+  /// the floor area (unit: m)
+  double level = 0;
+  double mean = 0;             ///< the ball's mean centre height over the run's last 0.2 s (unit: m)
+  /// Archimedes: a ball of half the water's density floats half submerged, its centre at the level;
+  /// (mean - level) (unit: m)
+  double offset = 0;
+  int crests = 0;              ///< local maxima of the centre height above `mean` after the release (unit: 1)
+  double crest1 = 0, crest2 = 0;  ///< the first two crests' heights above `mean` (unit: m)
+  double period = 0;           ///< crest-to-crest time of the first two crests (unit: s)
+  double zeta = 0;             ///< damping ratio from the logarithmic decrement of the two crests (unit: 1)
+  double period_undamped = 0;  ///< period sqrt(1 - zeta^2) (unit: s)
+  /// 2 pi sqrt((m + a33) / (rho g pi R^2)), the heave added mass a33 of a floating hemisphere
+  /// 0.38 .. 0.83 of its displaced mass rho V / 2 over all frequencies (Hulme 1982, J. Fluid Mech.
+  /// 121, 443) (unit: s)
+  double period_lo = 0, period_hi = 0;
+  double wall_seconds = 0;     ///< (unit: s)
+};
+
+/// Runs `scene` (release_ball.yaml) at spacing dx, ball density 500 kg/m^3, to `duration` s (the
+/// last 0.2 s give the mean; samples once per frame).
+HeaveCheck floatingBallHeave(const std::string& scene, double dx, double duration,
+                             const std::vector<std::string>& sets = {}, const std::string& device = "");
+
 }  // namespace sph::app

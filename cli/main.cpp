@@ -132,8 +132,16 @@ int main(int argc, char** argv) {
   cmd_bench->add_flag("--forces-only", bench.forces_only,
                       "Only the force checks of bodies in water (added mass, free vs held, Stokes drag and fall, sinking ball, drag at Re 20) against resolution");
   cmd_bench->add_flag("!--no-forces", bench.forces, "Skip the force checks");
-  cmd_bench->add_option("--force-solvers", bench.force_solvers, "fluid.solver values for the force checks (wcsph, dfsph)")
+  cmd_bench->add_option("--force-solvers", bench.force_solvers,
+                        "fluid.solver values for the force checks (wcsph, dfsph; dfsph-ghost: dfsph with "
+                        "fluid.boundary_velocity ghost)")
+      ->check(CLI::IsMember({"wcsph", "dfsph", "dfsph-ghost"}))
       ->capture_default_str();
+  cmd_bench->add_option("--force-checks", bench.force_checks,
+                        "Only these groups of force checks (default: all): added-mass, free-held, release, stokes, "
+                        "re20, sink, sink-fine, flush, fall, heave, long-tank")
+      ->check(CLI::IsMember({"added-mass", "free-held", "release", "stokes", "re20", "sink", "sink-fine", "flush",
+                             "fall", "heave", "long-tank"}));
   cmd_bench->add_flag("!--no-long-tank", bench.force_long_tank,
                       "Skip the force checks' drag at Re 20 in the 80 cm tank (DFSPH; ~1 min at R/dx 3, ~13 min at 4)");
   cmd_bench->add_flag("--impact-only", bench.impact_only,

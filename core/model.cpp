@@ -860,16 +860,22 @@ Compiled compile(const SceneSpec& spec, const ResourceLimits& limits) {
   // No-slip ghost velocities (Adami et al. 2012 eq. 22-23) where the fluid-boundary viscous term
   // is the laminar (physical) one: every boundary particle with the laminar model, the bodies'
   // with body_viscosity physical (the artificial term stays with the wall's velocity: it is a
-  // numerical viscosity). DFSPH: only when `boundary_velocity: ghost` is set (its viscous pass and
-  // the bodies' viscous reaction then read the ghost velocities, as WCSPH's); `auto` keeps the
-  // wall's velocity there (the DFSPH scenes and tests were set up with it).
-  const BoundaryVelocity bv = fl.boundary_velocity;
-  if (bv == BoundaryVelocity::Wall || (dfsph && bv == BoundaryVelocity::Auto)) m.ghost_velocity_mode = 0;
-  else if (bv == BoundaryVelocity::Ghost || laminar) m.ghost_velocity_mode = 1;
-  else m.ghost_velocity_mode = fl.body_viscosity == BodyViscosity::Physical ? 2u : 0u;
-  m.stages.set(Stage::Integrate, true);
+  // numerical viscosity). DFSPH (its viscous pass and the bodies' viscous reaction read the same
+  // ghost velocities): `ghost` every boundary particle; `auto` only the moving bodies' particles
+  // where their term is laminar (viscosity_model laminar or body_viscosity physical), the walls
+  // keeping their own velocity as before session 10, so DFSPH scenes without moving bodies run as
+  // before. Session 10 measured the towed and falling balls' Stokes drag: 0.75-0.82 and 1.66-1.79
+  // x 6 pi mu R U without them, inside the wall factor's band with them (README, Forces on bodies).
   bool moving_bodies = false;
   for (const auto& b : m.bodies) moving_bodies = moving_bodies || b.kind != rigid::BodyKind::Static;
+  const BoundaryVelocity bv = fl.boundary_velocity;
+  const bool body_laminar = laminar || fl.body_viscosity == BodyViscosity::Physical;
+  if (bv == BoundaryVelocity::Wall) m.ghost_velocity_mode = 0;
+  else if (bv == BoundaryVelocity::Ghost) m.ghost_velocity_mode = 1;
+  else if (dfsph) m.ghost_velocity_mode = body_laminar && moving_bodies ? 2u : 0u;
+  else if (laminar) m.ghost_velocity_mode = 1;
+  else m.ghost_velocity_mode = fl.body_viscosity == BodyViscosity::Physical ? 2u : 0u;
+  m.stages.set(Stage::Integrate, true);
   m.stages.set(Stage::RigidDynamics, moving_bodies);
   m.stages.set(Stage::RigidCoupling, moving_bodies && m.capacity > 0);
   m.stages.set(Stage::Haptics, m.spec.haptics.enabled && moving_bodies);  // a `haptics` section and a body to hold

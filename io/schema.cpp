@@ -470,7 +470,7 @@ std::vector<KeyDef> buildTable() {
   add(field<InScene>("fluid.body_viscosity", [](auto& s) -> auto& { return s.fluid.body_viscosity; })
           .doc("viscous coupling with moving rigid bodies: fluid (the fluid's own model, e.g. artificial alpha) or physical (the phases' viscosity, laminar form, whatever the fluid's model)"));
   add(field<InScene>("fluid.boundary_velocity", [](auto& s) -> auto& { return s.fluid.boundary_velocity; })
-          .doc("velocity of wall and body particles in the fluid-boundary viscous term: ghost (no-slip, Adami, Hu & Adams 2012 eq. 22-23: 2 v_wall minus the fluid velocity interpolated at the particle), wall (the wall's or body's own velocity: half the wall shear), or auto (ghost where the term is laminar: viscosity_model laminar, or body particles with body_viscosity physical; wall for the artificial term); with dfsph, auto is wall (ghost only when set)"));
+          .doc("velocity of wall and body particles in the fluid-boundary viscous term: ghost (no-slip, Adami, Hu & Adams 2012 eq. 22-23: 2 v_wall minus the fluid velocity interpolated at the particle), wall (the wall's or body's own velocity: half the wall shear), or auto (ghost where the term is laminar: viscosity_model laminar, or body particles with body_viscosity physical; wall for the artificial term); with dfsph, auto is ghost at moving bodies whose term is laminar and wall at the walls"));
   add(field<InScene>("fluid.colour_diffusion", [](auto& s) -> auto& { return s.fluid.colour_diffusion; })
           .unit("m^2/s").atLeast(0).doc("colour diffusion coefficient; 0 = none"));
   add(field<InScene>("fluid.clamp_negative_pressure", [](auto& s) -> auto& { return s.fluid.clamp_negative_pressure; })

@@ -255,6 +255,15 @@ TEST_CASE("cli: unknown options and a missing command exit with 2", "[cli]") {
   const Result unknown = sphaptics(tmp.path, {"simulate"});
   INFO(unknown.err);
   CHECK(unknown.code == 2);
+  // the force bench's solver and check-group names are checked before anything runs
+  const Result group = sphaptics(tmp.path, {"bench", "--forces-only", "--force-checks", "stoke"});
+  INFO(group.err);
+  CHECK(group.code == 2);
+  CHECK(contains(group.err, "stoke"));
+  const Result solver = sphaptics(tmp.path, {"bench", "--forces-only", "--force-solvers", "dfsph-gost"});
+  INFO(solver.err);
+  CHECK(solver.code == 2);
+  CHECK(contains(solver.err, "dfsph-gost"));
 }
 
 // ---------------------------------------------------------------------------------------------
