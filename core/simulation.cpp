@@ -179,7 +179,8 @@ Simulation::Simulation(const Model& model, const HostParticles& initial, ClConte
     for (std::size_t k = 1; k < model_.spec.fluid.phases.size() && k < SPH_MAX_PHASES; ++k)
       one_mass = one_mass && model_.params.phase_mass[k] == model_.params.phase_mass[0];
     dfsph_ = std::make_unique<DfsphSolver>(cl_, kernels_, cap, n_static_ + n_moving_ + n_cloth_, model_.spec.fluid.dfsph,
-                                           model_.dx, model_.support, one_mass);
+                                           model_.dx, model_.support, one_mass,
+                                           model_.spec.domain.max - model_.spec.domain.min);
   }
   emitter_travel_.assign(model_.emitters.size(), model_.dx);  // the first layer leaves at the start time
   // Cloth nodes (stepped by stage cloth; with it disabled they hang still, still boundary for the fluid).
