@@ -156,12 +156,14 @@ constexpr double kBytesPerGridCell = 16;          ///< cell start tables, host a
 /// wall pressures (8), the step's 32 listed fluid neighbours and their weights (256), the count,
 /// the active index (8) and the pressure-free sums (16): 288 (core/dfsph.cpp), rounded up.
 constexpr double kBytesPerDfsphWallParticle = 300;  ///< (unit: bytes)
-/// DFSPH's two-level solve (fluid.dfsph.coarse_interval > 0), per fluid particle: the device's
-/// pair sums (27 x 2 float4) and four more values (892), their host copies, and the coarse
-/// operators with their sparse LU (core/dfsph_coarse.cpp). Measured as the growth of the peak
-/// resident memory with the correction on: 5.2 kB per particle in the slab dam break (6,400
-/// particles), 5.45 kB at 50,653 (scenes/peer/dam_break_50k.yaml); rounded up.
-constexpr double kBytesPerDfsphCoarseParticle = 6000;  ///< (unit: bytes)
+/// DFSPH's two-level solve (fluid.dfsph.coarse_interval > 0; all on the device since session 10),
+/// per fluid particle: the pair sums (27 x 2 float4, 864), their masks (8) and seven more values
+/// (28), and per aggregate (at most one per 4 particles) K's 125-slot row and columns (1,000) and
+/// the CG vectors (24): 1,156 (core/dfsph.cpp), rounded up; and per cell of H of the domain box
+/// (the aggregate cells: at most (1 + skin / H)^3 = 1.331 per neighbour-grid cell) three values
+/// (12), rounded up (16).
+constexpr double kBytesPerDfsphCoarseParticle = 1300;  ///< (unit: bytes)
+constexpr double kBytesPerDfsphCoarseGridCell = 1.34 * 16;  ///< (unit: bytes)
 /// Candidate points rigid::sampleSurface may test for one body (~20 s on one core). (unit: 1)
 constexpr double kMaxSurfaceCandidates = 4.0e8;
 
@@ -299,7 +301,8 @@ ResourceEstimate estimateResources(const SceneSpec& spec, SourceLoc* worst) {
       e.bytes += walls * kBytesPerDfsphWallParticle;
     }
     if (fl.dfsph.coarse_interval > 0) {
-      e.bytes += (e.fluid_particles + layer_points) * kBytesPerDfsphCoarseParticle;
+      e.bytes += (e.fluid_particles + layer_points) * kBytesPerDfsphCoarseParticle +
+                 e.grid_cells * kBytesPerDfsphCoarseGridCell;
     }
   }
   if (std::isnan(e.bytes)) e.bytes = INFINITY;
