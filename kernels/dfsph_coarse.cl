@@ -271,9 +271,10 @@ __kernel void dfsph_coarse_assemble(const SimParams p, const int4 bd, __global c
     const int sd = dfsph_coarse_slot(od);
     if (!(mk.y & (1u << sd))) continue;
     const float3 Rk = fr[(size_t)k * 54 + 2 * sd + 1].xyz;
-    /* F_k(c) for each aggregate c next to k: offset c - d = (ck + o_s) - cd in [-2, 2]^3 */
-    for (int s = 0; s < 27; ++s) {
-      if (!(mk.x & (1u << s))) continue;
+    /* F_k(c) for each aggregate c next to k: offset c - d = (ck + o_s) - cd in [-2, 2]^3; the
+     * non-zero slots in ascending order, lowest set bit first (~8 of 27) */
+    for (uint bits = mk.x; bits != 0u; bits &= bits - 1u) {
+      const int s = 31 - (int)clz(bits & (~bits + 1u));
       const int3 oc = ck + (int3)(s / 9 - 1, (s / 3) % 3 - 1, s % 3 - 1) - cd;
       const int o = (oc.x + 2) * 25 + (oc.y + 2) * 5 + (oc.z + 2);
       row[o] += dot(fr[(size_t)k * 54 + 2 * s].xyz, Rk);
