@@ -164,6 +164,11 @@ std::string profileLine(const Profile& p) {
                   100.0 * p.max_density_error, 100.0 * p.max_divergence_error,
                   static_cast<unsigned long long>(p.unconverged_steps));
     s << buf;
+    // What set the steps' length (Simulation::dfsphStepLimit)
+    s << "; steps set by";
+    for (int l = 0; l < kNumStepLimiters; ++l)
+      s << (l ? ", " : " ") << stepLimiterName(static_cast<StepLimiter>(l)) << " "
+        << p.dfsph_step_limiters[static_cast<std::size_t>(l)];
   }
   return s.str();
 }

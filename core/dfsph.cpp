@@ -1,5 +1,4 @@
 #include "core/dfsph.h"
-#include "core/dfsph_coarse.h"
 
 #include "core/errors.h"
 
@@ -31,7 +30,8 @@ cl::Buffer DfsphSolver::makeBuffer(std::size_t bytes) {
 }
 
 DfsphSolver::DfsphSolver(ClContext& cl, KernelSet& kernels, std::size_t capacity, std::size_t boundary,
-                         const DfsphSpec& spec, double dx, double support, bool one_mass)
+                         const DfsphSpec& spec, double dx, double support, bool one_mass,
+                         const Eigen::Vector3d& extent)
     : cl_(cl), kernels_(kernels), spec_(spec), one_mass_(one_mass) {
   // A particle in the bulk has (4/3) pi (H/dx)^3 neighbours (33 at H = 2 dx); below 60 % of that
   // its support is cut by a free surface (the reference implementation's 20 in 3D at H = 2 dx).
@@ -60,14 +60,21 @@ DfsphSolver::DfsphSolver(ClContext& cl, KernelSet& kernels, std::size_t capacity
   wall_weight_ = makeBuffer(nb * kWallSlots * 4);
   wall_sum_ = makeBuffer(nb * 16);
   wall_active_count_ = makeBuffer(4);
-  // Coarse-grid correction: its per-particle buffers (kernels/dfsph_coarse.cl), when it runs.
+  // Coarse-grid correction: its per-particle and per-aggregate buffers (kernels/dfsph_coarse.cl), when it runs.
   const std::size_t nc = coarse() ? capacity : 0;
-  cres_ = makeBuffer(nc * 4);
-  ccell_ = makeBuffer(nc * 16);
+  const std::size_t rows = coarse() ? coarseRows(capacity) : 0;
+  for (cl::Buffer* b : {&cagg_, &cact_, &cres_, &ctres_, &cmem_, &cdp_, &ctrial_}) *b = makeBuffer(nc * 4);
+  cbox_ = coarseBox(extent, support);
+  const std::size_t box = coarse() ? static_cast<std::size_t>(cbox_[3]) : 0;
+  for (cl::Buffer* b : {&cbok_, &cbb_, &cbnum_}) *b = makeBuffer(box * 4);
+  ccell_ = makeBuffer(rows * 4);
   cfr_ = makeBuffer(nc * 27 * 2 * 16);
-  cdp_ = makeBuffer(nc * 4);
-  ctrial_ = makeBuffer(nc * 4);
-  for (auto& op : coarse_op_) op = std::make_unique<DfsphCoarseOperator>();
+  cmask_ = makeBuffer(nc * 8);
+  for (cl::Buffer* b : {&ckval_, &ckcol_}) *b = makeBuffer(rows * 125 * 4);
+  for (cl::Buffer* b : {&cb_, &cx_, &cr_, &cz_, &cp_, &cq_}) *b = makeBuffer(rows * 4);
+  cmcount_ = makeBuffer(coarse() ? 8 : 0);
+  cpartial_ = makeBuffer(coarse() ? 2 * kChunks * 4 : 0);
+  ctheta_ = makeBuffer(coarse() ? 4 : 0);
   // No pressure before the first step (and particles emitted later start from zero: slots past
   // the active count are never written).
   clCall("clearing the DFSPH pressures", [&] {
@@ -76,6 +83,20 @@ DfsphSolver::DfsphSolver(ClContext& cl, KernelSet& kernels, std::size_t capacity
       q.enqueueFillBuffer(*b, 0.0f, 0, std::max<std::size_t>(capacity, 4) * 4);
     return q.finish();
   });
+}
+
+std::array<int32_t, 4> DfsphSolver::coarseBox(const Eigen::Vector3d& extent, double support) {
+  // Cells of size H from the domain's lower corner, one more per axis for particles on the upper
+  // walls (their floor((x - min) / H) is the count itself when the extent is a multiple of H).
+  std::array<int32_t, 4> b{};
+  double cells = 1.0;
+  for (int a = 0; a < 3; ++a) {
+    const double c = std::floor(std::max(0.0, extent[a]) / support) + 1.0;
+    b[static_cast<std::size_t>(a)] = static_cast<int32_t>(std::min(c, 1e6));
+    cells *= c;
+  }
+  b[3] = static_cast<int32_t>(std::min(cells, 2e9));
+  return b;
 }
 
 void DfsphSolver::reorder(std::size_t n, const cl::Buffer& sorted) {
@@ -93,7 +114,7 @@ const cl::Buffer& DfsphSolver::stepPressure(std::size_t n) {
 }
 
 void DfsphSolver::factors(const SimParams& p, const DfsphFields& f, bool divergence_next) {
-  ++steps_;  // one factor pass per step (core/dfsph_coarse.cpp keeps its operators within a step)
+  ++steps_;  // one factor pass per step (core/dfsph_coarse.cpp finds the aggregates once per step)
   // Before a divergence solve (walls single or extrapolated: dfsph_source), the factor pass also
   // sums its density rate from the same pairs, into source_ (one neighbour pass fewer per step).
   rate_in_source_ = divergence_next && !mirrored();

@@ -21,6 +21,8 @@
 #include "core/scene_spec.h"
 #include "kernels/shared/sim_params.h"
 
+#include <Eigen/Core>
+
 #include <array>
 #include <cstddef>
 #include <cstdint>
@@ -28,8 +30,6 @@
 #include <vector>
 
 namespace sph {
-
-struct DfsphCoarseOperator;  // core/dfsph_coarse.h
 
 /// The Simulation's buffers the solver reads and writes (current halves of the double buffers).
 struct DfsphFields {
@@ -64,9 +64,13 @@ struct DfsphSolveResult {
 class DfsphSolver {
  public:
   /// `one_mass`: every fluid phase has the same particle mass (the factor pass then reads no
-  /// neighbour's phase).
+  /// neighbour's phase). `extent`: the domain box's size, for the two-level solve's aggregate
+  /// cells (unit: m).
   DfsphSolver(ClContext& cl, KernelSet& kernels, std::size_t capacity, std::size_t boundary, const DfsphSpec& spec,
-              double dx, double support, bool one_mass);
+              double dx, double support, bool one_mass, const Eigen::Vector3d& extent);
+  /// The two-level solve's box of aggregate cells (size H from the domain's lower corner): cells
+  /// per axis and their product (kernels/dfsph_coarse.cl).
+  static std::array<int32_t, 4> coarseBox(const Eigen::Vector3d& extent, double support);
   ~DfsphSolver();
   /// Device memory of the solver's buffers (unit: bytes).
   std::size_t bytes() const { return bytes_; }
@@ -155,15 +159,22 @@ class DfsphSolver {
   cl::Buffer wall_weight_, wall_sum_;
   uint32_t n_wall_active_ = 0;
   cl::Buffer scratch_a_, scratch_b_;       // reorder targets (swapped with pdiv_, pdens_); mirrored: a holds the previous pressure in a warm start
-  // Coarse-grid correction (coarse_interval > 0): signed residuals (n) (unit: 1), aggregate cells and
-  // active flags (n x int4), per particle and aggregate slot F and R (n x 27 x 2 float4), the
-  // prolonged correction (n) (unit: Pa); and the host copies of the first three.
-  cl::Buffer cres_, ccell_, cfr_, cdp_, ctrial_;
-  std::vector<float> hres_, hfr_, hdp_, hmq_;
-  std::vector<int32_t> hcell_;
-  // The factorized coarse operators of the two solves (divergence, density), kept while they fit
-  // (core/dfsph_coarse.cpp says when).
-  std::array<std::unique_ptr<DfsphCoarseOperator>, 2> coarse_op_;
+  // Coarse-grid correction (coarse_interval > 0; kernels/dfsph_coarse.cl), all on the device. Per
+  // particle (n): its aggregate cell, active flag, residual and the trial's (unit: 1), its
+  // aggregate number (-1: none), per aggregate slot F and R (n x 27 x 2 float4) with their
+  // non-zero masks (n x uint2), the prolonged correction and trial pressures (unit: Pa). Per
+  // aggregate (coarseRows): K's 125-slot rows and their columns (unit: m^3 s^2/kg), and the CG
+  // vectors (b, x, r, z, p, q); the aggregate count and CG iterations (2 x uint), the line
+  // search's chunk sums and its step theta.
+  static std::size_t coarseRows(std::size_t n) { return n / 4 + 1; }
+  cl::Buffer cagg_, cact_, cres_, ctres_, cmem_, cfr_, cmask_, cdp_, ctrial_;
+  cl::Buffer ckval_, ckcol_, cb_, cx_, cr_, cz_, cp_, cq_;
+  cl::Buffer cmcount_, cpartial_, ctheta_;
+  // Per aggregate cell of the box (coarseBox): "is an aggregate", P^T r and the aggregate number;
+  // per aggregate its box cell.
+  std::array<int32_t, 4> cbox_{};
+  cl::Buffer cbok_, cbb_, cbnum_, ccell_;
+  uint64_t coarse_cells_step_ = ~uint64_t(0);  // the step cagg_ was computed in
   uint64_t steps_ = 0;           // steps so far (factors() counts them)
 };
 

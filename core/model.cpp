@@ -156,12 +156,14 @@ constexpr double kBytesPerGridCell = 16;          ///< cell start tables, host a
 /// wall pressures (8), the step's 32 listed fluid neighbours and their weights (256), the count,
 /// the active index (8) and the pressure-free sums (16): 288 (core/dfsph.cpp), rounded up.
 constexpr double kBytesPerDfsphWallParticle = 300;  ///< (unit: bytes)
-/// DFSPH's two-level solve (fluid.dfsph.coarse_interval > 0), per fluid particle: the device's
-/// pair sums (27 x 2 float4) and four more values (892), their host copies, and the coarse
-/// operators with their sparse LU (core/dfsph_coarse.cpp). Measured as the growth of the peak
-/// resident memory with the correction on: 5.2 kB per particle in the slab dam break (6,400
-/// particles), 5.45 kB at 50,653 (scenes/peer/dam_break_50k.yaml); rounded up.
-constexpr double kBytesPerDfsphCoarseParticle = 6000;  ///< (unit: bytes)
+/// DFSPH's two-level solve (fluid.dfsph.coarse_interval > 0; all on the device since session 10),
+/// per fluid particle: the pair sums (27 x 2 float4, 864), their masks (8) and seven more values
+/// (28), and per aggregate (at most one per 4 particles) K's 125-slot row and columns (1,000) and
+/// the CG vectors (24): 1,156 (core/dfsph.cpp), rounded up; and per cell of H of the domain box
+/// (the aggregate cells: at most (1 + skin / H)^3 = 1.331 per neighbour-grid cell) three values
+/// (12), rounded up (16).
+constexpr double kBytesPerDfsphCoarseParticle = 1300;  ///< (unit: bytes)
+constexpr double kBytesPerDfsphCoarseGridCell = 1.34 * 16;  ///< (unit: bytes)
 /// Candidate points rigid::sampleSurface may test for one body (~20 s on one core). (unit: 1)
 constexpr double kMaxSurfaceCandidates = 4.0e8;
 
@@ -299,7 +301,8 @@ ResourceEstimate estimateResources(const SceneSpec& spec, SourceLoc* worst) {
       e.bytes += walls * kBytesPerDfsphWallParticle;
     }
     if (fl.dfsph.coarse_interval > 0) {
-      e.bytes += (e.fluid_particles + layer_points) * kBytesPerDfsphCoarseParticle;
+      e.bytes += (e.fluid_particles + layer_points) * kBytesPerDfsphCoarseParticle +
+                 e.grid_cells * kBytesPerDfsphCoarseGridCell;
     }
   }
   if (std::isnan(e.bytes)) e.bytes = INFINITY;
@@ -326,6 +329,36 @@ ResourceEstimate estimateResources(const SceneSpec& spec, SourceLoc* worst) {
   }
   return e;
 }
+
+namespace {
+// DFSPH's viscous step bound for Monaghan's artificial viscosity (Monaghan 1992; pair terms in
+// kernels/shared/pair_loops.h). Linearized about a resting lattice of spacing dx (every pair
+// counted as approaching), the term is a damping of the relative velocities,
+//     dv_i/dt = -alpha c0 h sum_j V_j |F(r_ij)| (x_ij . e)^2 / (r_ij^2 + 0.01 h^2) (v_i - v_j) . e,
+// (grad W = F x, V_j = dx^3), whose fastest mode is the one of alternating layers (v_i ~ cos(pi
+// x_i . e / dx)) at the rate lambda = alpha c0 S / dx with
+//     S = sum_j h V_j |F(r_j)| (x_j . e)^2 / (r_j^2 + 0.01 h^2) (1 - cos(pi x_j . e / dx))  (unit: 1/dx).
+// The explicit step v <- (1 - lambda dt) v reverses that mode when lambda dt > 1: a layer pair's
+// approach becomes a separation within one step, the term switches off (approaching pairs only),
+// and the layers bounce with period 2 (measured on the hydrostatic tank with the two-level solve,
+// README "What makes the tank alternate": calm at alpha c0 dt / h = 0.49-0.69, 1-12 Pa at 0.79,
+// the period-2 bounce at 0.99). So dt <= 1 / lambda = C h / (alpha c0) with C = dx / (h S): 0.685
+// for the cubic spline at H = 2 dx (e along a lattice axis gives the largest S, 1.46 / dx).
+double artificialViscosityStepFactor(int kernel, double support_ratio) {
+  const double dx = 1.0, H = support_ratio * dx, h = 0.5 * H;
+  const int reach = static_cast<int>(std::ceil(support_ratio));
+  double S = 0.0;
+  for (int x = -reach; x <= reach; ++x)
+    for (int y = -reach; y <= reach; ++y)
+      for (int z = -reach; z <= reach; ++z) {
+        const double r2 = double(x * x + y * y + z * z), r = std::sqrt(r2);
+        if (r2 == 0.0 || r >= H) continue;
+        const double F = std::fabs(double(sph_grad_factor(kernel, static_cast<float>(r), static_cast<float>(H))));
+        S += h * dx * dx * dx * F * double(x * x) / (r2 + 0.01 * h * h) * (1.0 - std::cos(3.14159265358979323846 * x / dx));
+      }
+  return S > 0.0 ? dx / (h * S) : 0.0;
+}
+}  // namespace
 
 Compiled compile(const SceneSpec& spec, const ResourceLimits& limits) {
   Compiled out;
@@ -725,6 +758,10 @@ Compiled compile(const SceneSpec& spec, const ResourceLimits& limits) {
                       " m/s)");
   }
   for (const PhaseSpec& p : fl.phases) m.max_viscosity = std::max(m.max_viscosity, p.viscosity);
+  // DFSPH's viscous step bound of the artificial term (artificialViscosityStepFactor above).
+  if (fl.viscosity_model == ViscosityModel::Artificial && fl.artificial_viscosity > 0.0)
+    m.artificial_step_factor = artificialViscosityStepFactor(
+        sim.kernel == KernelType::WendlandC2 ? SPH_KERNEL_WENDLAND_C2 : SPH_KERNEL_CUBIC_SPLINE, sim.support_ratio);
 
   // --- Neighbour grid: cell = list radius (support + skin), covering domain and boundary layers ---
   const int layers = dom.boundary_layers;

@@ -48,6 +48,11 @@ struct Model {
   double frame_dt = 0;    ///< 1 / frame_rate (unit: s)
   int num_frames = 0;     ///< frames to simulate: round(duration * frame_rate)
   double max_viscosity = 0;  ///< largest phase kinematic viscosity (unit: m^2/s)
+  /// DFSPH's viscous step bound for the artificial viscosity, dt <= C h / (alpha c0): C = 1 / (h
+  /// lambda) with lambda the largest pair-relaxation rate of Monaghan's term per alpha c0 on a resting
+  /// lattice (core/model.cpp, artificialViscosityStepFactor; 0.685 for the cubic spline at H = 2 dx).
+  /// 0 when the artificial term is off (unit: 1).
+  double artificial_step_factor = 0;
 
   SimParams params{};     ///< device constants (n_fluid, dt and gravity are set per step)
   StageMask stages;

@@ -179,7 +179,8 @@ Simulation::Simulation(const Model& model, const HostParticles& initial, ClConte
     for (std::size_t k = 1; k < model_.spec.fluid.phases.size() && k < SPH_MAX_PHASES; ++k)
       one_mass = one_mass && model_.params.phase_mass[k] == model_.params.phase_mass[0];
     dfsph_ = std::make_unique<DfsphSolver>(cl_, kernels_, cap, n_static_ + n_moving_ + n_cloth_, model_.spec.fluid.dfsph,
-                                           model_.dx, model_.support, one_mass);
+                                           model_.dx, model_.support, one_mass,
+                                           model_.spec.domain.max - model_.spec.domain.min);
   }
   emitter_travel_.assign(model_.emitters.size(), model_.dx);  // the first layer leaves at the start time
   // Cloth nodes (stepped by stage cloth; with it disabled they hang still, still boundary for the fluid).
@@ -275,16 +276,28 @@ void Simulation::step(double dt) {
   profile_.particle_steps += n_;
 }
 
-double Simulation::dfsphStepLimit() const {
+double Simulation::dfsphStepLimit(StepLimiter* limiter) const {
   // CFL with the largest speed of the last step, plus what gravity adds over a longest step
-  // (B&K 2017 section 4.3), and the viscous limit (Morris et al. 1997) with a laminar model.
+  // (B&K 2017 section 4.3), and the viscous limits: Morris et al. 1997 with a laminar model, the
+  // artificial term's pair relaxation dt <= C h / (alpha c0) with the artificial model
+  // (Model::artificial_step_factor: a longer step reverses the approach of neighbouring layers
+  // within one step, and the layers bounce with period 2).
   const DfsphSpec& d = model_.spec.fluid.dfsph;
   const double g = model_.spec.simulation.gravity.norm();
   const double v = step_max_speed_ + g * d.max_time_step;
   double limit = d.max_time_step;
-  if (v > 0.0) limit = std::min(limit, d.cfl * model_.dx / v);
+  StepLimiter by = StepLimiter::MaxTimeStep;
+  auto bound = [&](double l, StepLimiter who) {
+    if (l < limit) limit = l, by = who;
+  };
+  if (v > 0.0) bound(d.cfl * model_.dx / v, StepLimiter::Cfl);
   if (on(Stage::Viscosity) && model_.spec.fluid.viscosity_model == ViscosityModel::Laminar && model_.max_viscosity > 0)
-    limit = std::min(limit, 0.125 * model_.h * model_.h / model_.max_viscosity);
+    bound(0.125 * model_.h * model_.h / model_.max_viscosity, StepLimiter::Viscous);
+  if (on(Stage::Viscosity) && model_.spec.fluid.viscosity_model == ViscosityModel::Artificial &&
+      model_.artificial_step_factor > 0.0 && model_.spec.fluid.artificial_viscosity > 0.0 && model_.c0 > 0.0)
+    bound(model_.artificial_step_factor * model_.h / (model_.spec.fluid.artificial_viscosity * model_.c0),
+          StepLimiter::Viscous);
+  if (limiter) *limiter = by;
   return limit;
 }
 
@@ -294,13 +307,15 @@ FrameReport Simulation::advanceFrame() {
     // DFSPH: adaptive steps, each within the CFL limit of the last step's speed; the frame ends
     // exactly (the steps left in a frame are evened out, so no sliver of a step remains).
     const double frame_end = (frame_ + 1) * model_.frame_dt;
-    const double limit0 = dfsphStepLimit();
+    StepLimiter limiter0 = StepLimiter::Cfl;
+    const double limit0 = dfsphStepLimit(&limiter0);
     dfsph_frame_ = FrameReport{};
     int steps = 0;
     double smallest = INFINITY;
     while (frame_end - time_ > 1e-12 * model_.frame_dt) {
       const double left = frame_end - time_;
-      const double k = std::ceil(left / dfsphStepLimit() - 1e-9);
+      StepLimiter limiter = StepLimiter::Cfl;
+      const double k = std::ceil(left / dfsphStepLimit(&limiter) - 1e-9);
       const double dt = k <= 1.0 ? left : left / k;
       if (!(steps < model_.max_steps_per_frame)) {  // a blown-up speed: stop with the reason, never loop
         std::ostringstream s;
@@ -309,6 +324,8 @@ FrameReport Simulation::advanceFrame() {
         throw NumericalError(s.str());
       }
       step(dt);
+      // The frame's last step may be a remainder shorter than the limit: still counted by it.
+      ++profile_.dfsph_step_limiters[static_cast<std::size_t>(limiter)];
       smallest = std::min(smallest, dt);
       ++steps;
     }
@@ -320,6 +337,7 @@ FrameReport Simulation::advanceFrame() {
     rep.steps = steps;
     rep.dt = steps > 0 ? smallest : 0.0;
     rep.dt_limit = limit0;
+    rep.dt_limiter = limiter0;
     rep.particles = n_;
     rep.density_iterations = dfsph_frame_.density_iterations;
     rep.divergence_iterations = dfsph_frame_.divergence_iterations;

@@ -27,6 +27,16 @@
 
 namespace sph {
 
+/// What set a DFSPH step (Simulation::dfsphStepLimit): the scene's largest step, the CFL limit of
+/// the largest speed, or a viscous limit (Morris et al. 1997 for the laminar model; the pair
+/// relaxation of the artificial term, Model::artificial_step_factor).
+enum class StepLimiter : int { MaxTimeStep = 0, Cfl = 1, Viscous = 2 };
+inline constexpr int kNumStepLimiters = 3;
+/// "max_time_step", "cfl", "viscous" (run.json, the summary).
+inline const char* stepLimiterName(StepLimiter l) {
+  return l == StepLimiter::Cfl ? "cfl" : l == StepLimiter::Viscous ? "viscous" : "max_time_step";
+}
+
 /// Wall time spent in each stage (host-side, each stage waits for its kernels), and counts.
 struct Profile {
   std::array<double, kNumStages> seconds{};  ///< (unit: s)
@@ -45,6 +55,8 @@ struct Profile {
   uint64_t unconverged_steps = 0;      ///< steps whose density solve stopped above its bound
   double max_density_error = 0;        ///< largest average density error at the end of a step (unit: 1)
   double max_divergence_error = 0;     ///< largest average divergence error at the end of a step (unit: 1)
+  /// DFSPH steps by what set their length (index: StepLimiter) (unit: 1).
+  std::array<uint64_t, kNumStepLimiters> dfsph_step_limiters{};
   double total() const;
 };
 
@@ -65,6 +77,7 @@ struct FrameReport {
   int steps = 0;                 ///< time steps taken in this frame
   double dt = 0;                 ///< step used (unit: s)
   double dt_limit = 0;           ///< CFL / viscous limit at frame start (unit: s)
+  StepLimiter dt_limiter = StepLimiter::Cfl;  ///< DFSPH: what set dt_limit (WCSPH: Cfl)
   uint32_t nonfinite = 0;        ///< particles with NaN/inf position, velocity or density
   uint32_t outside = 0;          ///< particles that left the domain box through an open wall (not an error)
   uint32_t cfl_violations = 0;   ///< particles that moved more than h in one step
@@ -165,7 +178,7 @@ class Simulation {
   void densitySolve();
   DfsphFields dfsphFields();
   int dfsphWallMode() const;
-  double dfsphStepLimit() const;
+  double dfsphStepLimit(StepLimiter* limiter = nullptr) const;
   void viscosityForces();
   void ghostVelocities();
   /// The boundary velocities the viscous terms read: the no-slip ghost velocities when the model

@@ -110,7 +110,12 @@ void writeRunJson(const std::string& path, const RunInfo& info) {
     << (info.profile.steps ? double(info.profile.density_iterations) / double(info.profile.steps) : 0.0)
     << ", \"unconverged_steps\": " << info.profile.unconverged_steps
     << ", \"max_density_error\": " << info.profile.max_density_error
-    << ", \"max_divergence_error\": " << info.profile.max_divergence_error << "},\n";
+    << ", \"max_divergence_error\": " << info.profile.max_divergence_error << ", \"steps_limited_by\": {";
+  // What set each step's length (Simulation::dfsphStepLimit): the largest step, CFL, a viscous limit
+  for (int l = 0; l < kNumStepLimiters; ++l)
+    j << (l ? ", " : "") << jsonString(stepLimiterName(static_cast<StepLimiter>(l))) << ": "
+      << info.profile.dfsph_step_limiters[static_cast<std::size_t>(l)];
+  j << "}},\n";
   j << "  \"scene\": " << (info.scene_json.empty() ? "null" : info.scene_json) << "\n";
   j << "}\n";
 

@@ -447,12 +447,12 @@ std::vector<KeyDef> buildTable() {
   add(field<InScene>("fluid.dfsph.coarse_interval", [](auto& s) -> auto& { return s.fluid.dfsph.coarse_interval; })
           .unit("1").atLeast(0).atMost(10000)
           .doc("two-level solve (walls single or extrapolated): a coarse-grid correction of the pressures on "
-               "aggregates of one support H (Galerkin operator from the Jacobi pass's pair terms, solved on the host "
-               "in a fixed order) after Jacobi iterations 1, 1 + n, 1 + 2n, ... of both solves; it removes the smooth "
-               "pressure errors that the average-error stop cannot see (the resting column's ringing, README "
-               "\"DFSPH\": calm at the reference's bound in 2-4 iterations per step where the explicit viscous "
-               "term fits the step; 2.8x the CPU time of plain Jacobi in the slab dam break, so it is off by "
-               "default); 0 = off (plain Jacobi, the default)"));
+               "aggregates of one support H (Galerkin operator from the Jacobi pass's pair terms, assembled and "
+               "solved by conjugate gradients on the device in a fixed order) after Jacobi iterations 1, 1 + n, "
+               "1 + 2n, ... of both solves; it removes the smooth pressure errors that the average-error stop "
+               "cannot see (the resting column's ringing, README \"DFSPH\": calm at the reference's bound in ~2 "
+               "iterations per step; 2.8x the CPU time of plain Jacobi in the slab dam break and 2.5x at 50k, so "
+               "it is off by default); 0 = off (plain Jacobi, the default)"));
   add(field<InScene>("fluid.dfsph.cfl", [](auto& s) -> auto& { return s.fluid.dfsph.cfl; })
           .unit("1").greaterThan(0).atMost(1).doc("Courant number of the adaptive step: dt <= cfl * dx / |v|max"));
   add(field<InScene>("fluid.dfsph.max_time_step", [](auto& s) -> auto& { return s.fluid.dfsph.max_time_step; })

@@ -1,6 +1,6 @@
-/* DFSPH two-level solve: a coarse-grid correction of the pressures (stages: divergence_solve,
- * density_solve; solver dfsph with fluid.dfsph.coarse_interval > 0; host side core/dfsph.cpp,
- * DfsphSolver::coarseCorrection).
+/* DFSPH two-level solve: a coarse-grid correction of the pressures, all on the device (stages:
+ * divergence_solve, density_solve; solver dfsph with fluid.dfsph.coarse_interval > 0; host side
+ * core/dfsph_coarse.cpp, DfsphSolver::coarseCorrection, which only enqueues these kernels).
  *
  * Why: the Jacobi iteration of dfsph.cl (r = s - A p, p += omega r alpha / (dt^2 V0)) removes an
  * error of wavelength L only in ~(L / dx)^2 iterations, and the solve stops on the average error
@@ -11,9 +11,14 @@
  * Brezina 1996: aggregation) solves the smooth part on aggregates instead:
  *
  *   aggregates: the fluid particles in one cell of size H (the kernel support) of cells aligned
- *   with the domain box, only the particles in the active set of the complementarity problem
- *   (p_i > 0 or r_i > 0; the divergence solve's free-surface particles with too few neighbours
- *   are out; the host drops aggregates of fewer than 4 particles);
+ *   with the domain box (so that a particle lattice filling the box, dx = H / 2, gives whole
+ *   aggregates of 2 x 2 x 2; the neighbour grid's cells, H + skin wide, gave aggregates one layer
+ *   thin at walls and the tank rang by 1.3 kPa), only the particles in the active set of the
+ *   complementarity problem (p_i > 0 or r_i > 0; the divergence solve's free-surface particles
+ *   with too few neighbours are out); a cell with fewer than 4 active particles is no aggregate
+ *   (slivers at a free surface or a wall, splashes: their one-row Galerkin entries are nearly
+ *   singular). The particles of an aggregate are found through the neighbour grid (sorted by its
+ *   cells at the last list build, none moved more than skin / 2 since), in grid order;
  *   prolongation P: piecewise constant, (P e)_i = e_c(i) (unit: Pa);
  *   Galerkin coarse operator K = -P^T A P, from the same pair terms as the Jacobi pass:
  *       K_dc = dt^2 V0 sum_i F_i(c) . R_i(d),
@@ -24,32 +29,75 @@
  *       (sum_{k in d} (D a)_k = sum_i a_i . R_i(d) for D a the density change of dfsph_jacobi,
  *       by the antisymmetry of gradW_ij), G_b,i the factor pass's wall sum (gwall); w = 2 with
  *       extrapolated walls: the extrapolated wall pressure of a smooth field is that of the fluid
- *       next to it (p_b = p_i, mirrored), w = 1 with single walls (p_b = 0);
- *   correction: K e = P^T r (r_i of the current pressures), q = P e scaled by the line search
- *   theta = -<q, r> / <q, dr> (dr: the residual change q makes with the walls' own operator,
- *   dfsph_coarse_trial), p_i <- max(p_i + theta q_i, 0) for the active particles (the projection
- *   of dfsph_jacobi).
- * Each particle's F and R are written per aggregate of its 3 x 3 x 3 cell neighbourhood (a
- * neighbour within H lies at most one cell away); the host sums K in particle order and solves
- * it: deterministic. Reads neighbours, writes only particle i. */
+ *       next to it (p_b = p_i, mirrored), w = 1 with single walls (p_b = 0). A neighbour within H
+ *       of i lies in i's aggregate cell or the next one, so K couples aggregates up to two cells
+ *       apart: a 125-point stencil per row;
+ *   coarse solve: conjugate gradients with a Jacobi preconditioner (Hestenes & Stiefel 1952; Saad
+ *   2003, "Iterative Methods for Sparse Linear Systems", Alg. 9.1) in one work-group, until the
+ *   residual is below 1e-4 of P^T r (2-norm) or after 100 iterations (core/dfsph_coarse.cpp).
+ *   K is symmetric but for the walls' w and the densities (F weighs by 1 / delta^2, R does not),
+ *   so CG is not guaranteed to converge; on the scenes measured it did (the tank: 13-49
+ *   iterations to 1e-4, <= 70 to 1e-6), and a stop when K is not positive along the search
+ *   direction guards it. CG on the symmetric part (K + K^T) / 2 instead: the tank rang until
+ *   1.25-1.5 s (1 kPa between steps at 1-1.25 s, against < 1 Pa);
+ *   correction: q = P e scaled by the line search theta = -<q, r> / <q, dr> (dr: the residual
+ *   change q makes with the walls' own operator, dfsph_coarse_trial), within [0, 2], and
+ *   p_i <- max(p_i + theta q_i, 0) for the active particles (the projection of dfsph_jacobi).
+ *
+ * Every sum runs in a fixed order (particles in index order within a cell, cells in grid order,
+ * work-group reductions over a fixed tree, chunks in order): bitwise deterministic, no float
+ * atomics, and nothing crosses to the host. */
 
-/* Aggregate cell of a position: floor((x - domain_min) / H) (cells aligned with the domain box, so
- * that a particle lattice filling the box, dx = H / 2, gives whole aggregates of 2 x 2 x 2). */
-inline int4 dfsph_coarse_cell(const SimParams* p, const float3 x) {
-  const float H = p->support;
-  return (int4)((int)floor((x.x - p->domain_min[0]) / H), (int)floor((x.y - p->domain_min[1]) / H),
-                (int)floor((x.z - p->domain_min[2]) / H), 0);
+/* Work-group size of the single-group kernels (numbering, CG). */
+#define DFSPH_COARSE_WG 256
+
+/* Box coordinates of an aggregate cell index (cells of size H from domain_min, box dims bd). */
+inline int3 dfsph_coarse_coords(const int4 bd, const uint c) {
+  return (int3)((int)(c % (uint)bd.x), (int)((c / (uint)bd.x) % (uint)bd.y), (int)(c / (uint)(bd.x * bd.y)));
+}
+
+/* Slot 0..26 of a cell offset within one cell, (ox + 1) * 9 + (oy + 1) * 3 + (oz + 1). */
+inline int dfsph_coarse_slot(const int3 o) { return (o.x + 1) * 9 + (o.y + 1) * 3 + (o.z + 1); }
+
+/* The particles whose aggregate cells may lie within `reach` cells of aggregate cell c: the
+ * neighbour-grid cells (at the last list build) overlapping c's box grown by reach H + skin / 2,
+ * as ranges of sorted particles per grid row [BEGIN, END), in grid order. */
+#define DFSPH_COARSE_FOR_ROWS(P, CELL_START, C, REACH, BEGIN, END)                                     \
+  {                                                                                                     \
+    const float H_ = (P)->support, grow_ = (REACH) * H_ + 0.5f * ((P)->cell_size - H_) + 1e-6f;         \
+    const float3 dmin_ = (float3)((P)->domain_min[0], (P)->domain_min[1], (P)->domain_min[2]);          \
+    const float3 lo_ = dmin_ + convert_float3(C) * H_ - grow_, hi_ = dmin_ + convert_float3(C + 1) * H_ + grow_; \
+    const int3 ga_ = sph_cell_of(P, lo_), gb_ = sph_cell_of(P, hi_);                                    \
+    for (int z_ = ga_.z; z_ <= gb_.z; ++z_)                                                              \
+      for (int y_ = ga_.y; y_ <= gb_.y; ++y_) {                                                          \
+        const uint row_ = (uint)((P)->grid_dims[0] * (y_ + (P)->grid_dims[1] * z_));                    \
+        const uint BEGIN = CELL_START[row_ + (uint)ga_.x];                                               \
+        const uint END = min(CELL_START[row_ + (uint)gb_.x + 1u], (P)->n_fluid);
+
+#define DFSPH_COARSE_END_ROWS \
+  }                           \
+  }
+
+/* Aggregate cell of each particle: floor((x - domain_min) / H), clamped to the box (a particle
+ * outside an open wall joins the edge cell). */
+__kernel void dfsph_coarse_cells(const SimParams p, const int4 bd, __global const float4* pos, __global uint* agg) {
+  const uint i = get_global_id(0);
+  if (i >= p.n_fluid) return;
+  const float3 d = (pos[i].xyz - (float3)(p.domain_min[0], p.domain_min[1], p.domain_min[2])) / p.support;
+  const int3 c = clamp(convert_int3_rtn(d), (int3)(0), (int3)(bd.x - 1, bd.y - 1, bd.z - 1));
+  agg[i] = (uint)(c.x + bd.x * (c.y + bd.y * c.z));
 }
 
 /* The residual of the current pressures r_i = s_i + dt^2 V0 (sum_j (a_i - a_j) . gradW_ij + a_i . G_b)
- * (dfsph_jacobi's, for accel = a^p(p) from dfsph_pressure_accel), signed, and whether particle i is
- * in the active set (cell.w = 1): p_i > 0 or r_i > 0, and (divergence solve) enough neighbours. */
+ * (dfsph_jacobi's, for accel = a^p(p) from dfsph_pressure_accel) and whether particle i is in the
+ * active set (act = 1): p_i > 0 or r_i > 0, and (divergence solve) enough neighbours. `trial` (the
+ * line search's): the residual alone into res, no active set. */
 __kernel void dfsph_coarse_residual(const SimParams p, __global const float4* pos, __global const float4* accel,
                                     __global const float* source, __global const uint* nbr,
                                     __global const uint* nbr_count, __global const uint* bnbr_count,
                                     const uint min_neighbours, __global const float* pressure,
                                     __global const float4* gwall, const int trial, __global float* res,
-                                    __global int4* cell) {
+                                    __global int* act) {
   const uint i = get_global_id(0);
   if (i >= p.n_fluid) return;
   const uint K = p.max_neighbours;
@@ -65,25 +113,95 @@ __kernel void dfsph_coarse_residual(const SimParams p, __global const float4* po
   }
   Ap += dot(ai, gwall[i].xyz);
   const float r = source[i] + p.dt * p.dt * p.rest_volume * Ap;
-  /* trial (the line search's): the residual alone, unmasked, no cells */
-  if (trial) {
-    res[i] = r;
-    return;
-  }
-  const int active = (nf + bnbr_count[i] >= min_neighbours) && (pressure[i] > 0.0f || r > 0.0f);
-  res[i] = active ? r : 0.0f;
-  int4 c = dfsph_coarse_cell(&p, xi);
-  c.w = active;
-  cell[i] = c;
+  res[i] = r;
+  if (trial) return;
+  act[i] = (nf + bnbr_count[i] >= min_neighbours) && (pressure[i] > 0.0f || r > 0.0f);
 }
 
-/* Per particle i and per aggregate of its 3 x 3 x 3 cell neighbourhood (slot (ox+1)*9 + (oy+1)*3 +
- * (oz+1), o the aggregate's cell offset): F_i(c) (unit: m^2/kg) and R_i(d) (unit: 1/m^4) of the top
- * of this file, fr[(i * 27 + slot) * 2] = F, fr[... + 1] = R. Needs dfsph_coarse_residual's cells. */
-__kernel void dfsph_coarse_pairs(const SimParams p, __global const float4* pos, __global const uint* phase,
+/* Per aggregate cell of the box: its active particles' count and residual sum (P^T r, in grid
+ * order); the cell is an aggregate when it holds at least 4 of them. */
+__kernel void dfsph_coarse_aggregate(const SimParams p, const int4 bd, __global const uint* cell_start,
+                                     __global const uint* agg, __global const int* act, __global const float* res,
+                                     __global int* box_ok, __global float* box_b) {
+  const uint c = get_global_id(0);
+  if (c >= (uint)bd.w) return;
+  const int3 cc = dfsph_coarse_coords(bd, c);
+  int count = 0;
+  float s = 0.0f;
+  DFSPH_COARSE_FOR_ROWS(&p, cell_start, cc, 0.0f, begin, end)
+  for (uint k = begin; k < end; ++k)
+    if (agg[k] == c && act[k]) ++count, s += res[k];
+  DFSPH_COARSE_END_ROWS
+  box_ok[c] = count >= 4;
+  box_b[c] = s;
+}
+
+/* Sum of one value per work-item over the work-group, in a fixed tree (deterministic). Every
+ * work-item gets the sum. */
+inline float dfsph_coarse_group_sum(__local float* red, const float v) {
+  const uint l = get_local_id(0);
+  red[l] = v;
+  barrier(CLK_LOCAL_MEM_FENCE);
+  for (uint s = DFSPH_COARSE_WG / 2; s > 0; s >>= 1) {
+    if (l < s) red[l] += red[l + s];
+    barrier(CLK_LOCAL_MEM_FENCE);
+  }
+  const float out = red[0];
+  barrier(CLK_LOCAL_MEM_FENCE);
+  return out;
+}
+
+/* Number the aggregates in box order (one work-group; a prefix sum per block of cells in local
+ * memory): num[c] = the aggregate's number of box cell c, -1 where c is no aggregate; cell[k] the
+ * box cell of aggregate k, b (the right-hand side P^T r) and the count m in mcount[0]. */
+__kernel __attribute__((reqd_work_group_size(DFSPH_COARSE_WG, 1, 1)))
+void dfsph_coarse_number(const int4 bd, const uint rows, __global const int* box_ok, __global const float* box_b,
+                         __global int* num, __global uint* cell, __global float* b, __global uint* mcount) {
+  __local uint scan[DFSPH_COARSE_WG];
+  const uint l = get_local_id(0);
+  const uint n = (uint)bd.w;
+  uint base = 0;
+  for (uint start = 0; start < n; start += DFSPH_COARSE_WG) {
+    const uint c = start + l;
+    const uint flag = c < n && box_ok[c] ? 1u : 0u;
+    /* inclusive scan of the flags (Hillis & Steele 1986) */
+    scan[l] = flag;
+    barrier(CLK_LOCAL_MEM_FENCE);
+    for (uint off = 1; off < DFSPH_COARSE_WG; off <<= 1) {
+      const uint v = l >= off ? scan[l - off] : 0u;
+      barrier(CLK_LOCAL_MEM_FENCE);
+      scan[l] += v;
+      barrier(CLK_LOCAL_MEM_FENCE);
+    }
+    if (c < n) {
+      const uint k = base + scan[l] - flag;
+      const int ok = flag && k < rows; /* at most `rows` aggregates (4 active particles each) */
+      num[c] = ok ? (int)k : -1;
+      if (ok) cell[k] = c, b[k] = box_b[c];
+    }
+    base += scan[DFSPH_COARSE_WG - 1];
+    barrier(CLK_LOCAL_MEM_FENCE);
+  }
+  if (l == 0) mcount[0] = min(base, rows);
+}
+
+/* Each particle's aggregate number when it is active and its cell an aggregate, else -1. */
+__kernel void dfsph_coarse_members(const SimParams p, __global const uint* agg, __global const int* act,
+                                   __global const int* num, __global int* mem) {
+  const uint i = get_global_id(0);
+  if (i >= p.n_fluid) return;
+  mem[i] = act[i] ? num[agg[i]] : -1;
+}
+
+/* Per particle i and per aggregate of its 3 x 3 x 3 cell neighbourhood (slot dfsph_coarse_slot of
+ * the aggregate's cell offset): F_i(c) (unit: m^2/kg) and R_i(d) (unit: 1/m^4) of the top of this
+ * file, fr[(i * 27 + slot) * 2] = F, fr[... + 1] = R; only the non-zero slots are written, and
+ * mask = (F slots, R slots) says which. */
+__kernel void dfsph_coarse_pairs(const SimParams p, const int4 bd, __global const float4* pos, __global const uint* phase,
                                  __global const float* density, __global const uint* nbr,
                                  __global const uint* nbr_count, __global const float4* gwall,
-                                 __global const int4* cell, const float wall, __global float4* fr) {
+                                 __global const uint* agg, __global const int* mem, const float wall,
+                                 __global float4* fr, __global uint2* mask) {
   const uint i = get_global_id(0);
   if (i >= p.n_fluid) return;
   const uint K = p.max_neighbours;
@@ -91,10 +209,10 @@ __kernel void dfsph_coarse_pairs(const SimParams p, __global const float4* pos, 
   const float3 xi = pos[i].xyz;
   const float mi = p.phase_mass[phase[i]];
   const float di = density[i] / mi;
-  const int4 ci = cell[i];
+  const int3 ci = dfsph_coarse_coords(bd, agg[i]);
   float3 F[27], R[27];
   for (int s = 0; s < 27; ++s) F[s] = R[s] = (float3)(0.0f);
-  /* i's own aggregate (slot 13): the terms with [i in c], when i is active */
+  uint fm = 0, rm = 0;
   const uint nf = nbr_count[i];
   __global const uint* list = nbr + (size_t)i * K;
   float3 gsum = (float3)(0.0f);
@@ -103,39 +221,152 @@ __kernel void dfsph_coarse_pairs(const SimParams p, __global const float4* pos, 
     const float3 d = xi - pos[j].xyz;
     const float3 g = sph_grad_factor(SPH_KERNEL, length(d), H) * d;
     gsum += g;
-    /* the neighbour's aggregate: the terms with [j in c], when j is active */
-    const int4 cj = cell[j];
-    if (!cj.w) continue;
-    const int ox = cj.x - ci.x, oy = cj.y - ci.y, oz = cj.z - ci.z;
-    if (abs(ox) > 1 || abs(oy) > 1 || abs(oz) > 1) continue; /* within H: cannot happen */
-    const int s = (ox + 1) * 9 + (oy + 1) * 3 + (oz + 1);
+    /* the neighbour's aggregate: the terms with [j in c], when j is a member */
+    if (mem[j] < 0) continue;
+    const int3 o = dfsph_coarse_coords(bd, agg[j]) - ci;
+    if (abs(o.x) > 1 || abs(o.y) > 1 || abs(o.z) > 1) continue; /* within H: cannot happen */
+    const int s = dfsph_coarse_slot(o);
     const float dj = density[j] / p.phase_mass[phase[j]];
     F[s] += g / (dj * dj);
     R[s] += g;
+    fm |= 1u << s;
+    rm |= 1u << s;
   }
-  if (ci.w) {
+  /* i's own aggregate (slot 13): the terms with [i in c], when i is a member */
+  if (mem[i] >= 0) {
     const float3 gb = gwall[i].xyz;
     F[13] += (gsum + wall * gb) / (di * di);
     R[13] += gsum + gb;
+    fm |= 1u << 13;
+    rm |= 1u << 13;
   }
   __global float4* out = fr + (size_t)i * 54;
   for (int s = 0; s < 27; ++s) {
-    out[2 * s] = (float4)(F[s] / mi, 0.0f);
-    out[2 * s + 1] = (float4)(R[s], 0.0f);
+    if (fm & (1u << s)) out[2 * s] = (float4)(F[s] / mi, 0.0f);
+    if (rm & (1u << s)) out[2 * s + 1] = (float4)(R[s], 0.0f);
+  }
+  mask[i] = (uint2)(fm, rm);
+}
+
+/* Row d of K per aggregate: K_dc = scale sum_i F_i(c) . R_i(d) over the particles i whose aggregate
+ * cell is within one of d's (in grid order, each grid cell's particles in index order), into 125
+ * slots by the offset of c from d (kval, (m x 125); unit: m^3 s^2/kg, scale = dt^2 V0) with the
+ * column's aggregate number (kcol, -1: none). */
+__kernel void dfsph_coarse_assemble(const SimParams p, const int4 bd, __global const uint* cell_start,
+                                    __global const uint* agg, __global const uint* mcount, __global const uint* cell,
+                                    __global const int* num, __global const float4* fr, __global const uint2* mask,
+                                    const float scale, __global float* kval, __global int* kcol) {
+  const uint d = get_global_id(0);
+  if (d >= mcount[0]) return;
+  const int3 cd = dfsph_coarse_coords(bd, cell[d]);
+  float row[125];
+  for (int o = 0; o < 125; ++o) row[o] = 0.0f;
+  DFSPH_COARSE_FOR_ROWS(&p, cell_start, cd, 1.0f, begin, end)
+  for (uint k = begin; k < end; ++k) {
+    const uint2 mk = mask[k];
+    if (!mk.y) continue;
+    const int3 ck = dfsph_coarse_coords(bd, agg[k]);
+    const int3 od = cd - ck;
+    if (abs(od.x) > 1 || abs(od.y) > 1 || abs(od.z) > 1) continue;
+    const int sd = dfsph_coarse_slot(od);
+    if (!(mk.y & (1u << sd))) continue;
+    const float3 Rk = fr[(size_t)k * 54 + 2 * sd + 1].xyz;
+    /* F_k(c) for each aggregate c next to k: offset c - d = (ck + o_s) - cd in [-2, 2]^3; the
+     * non-zero slots in ascending order, lowest set bit first (~8 of 27) */
+    for (uint bits = mk.x; bits != 0u; bits &= bits - 1u) {
+      const int s = 31 - (int)clz(bits & (~bits + 1u));
+      const int3 oc = ck + (int3)(s / 9 - 1, (s / 3) % 3 - 1, s % 3 - 1) - cd;
+      const int o = (oc.x + 2) * 25 + (oc.y + 2) * 5 + (oc.z + 2);
+      row[o] += dot(fr[(size_t)k * 54 + 2 * s].xyz, Rk);
+    }
+  }
+  DFSPH_COARSE_END_ROWS
+  /* the columns' aggregates */
+  __global float* kv = kval + (size_t)d * 125;
+  __global int* kc = kcol + (size_t)d * 125;
+  for (int o = 0; o < 125; ++o) {
+    const int3 c = cd + (int3)(o / 25 - 2, (o / 5) % 5 - 2, o % 5 - 2);
+    int col = -1;
+    if (c.x >= 0 && c.y >= 0 && c.z >= 0 && c.x < bd.x && c.y < bd.y && c.z < bd.z)
+      col = num[c.x + bd.x * (c.y + bd.y * c.z)];
+    kc[o] = col;
+    kv[o] = col >= 0 ? scale * row[o] : 0.0f;
   }
 }
 
-/* The correction: p_i <- max(p_i + dp_i, 0) (dp_i = e_c(i) for the active particles, 0 for the
- * others, written by the host), and the packed p / delta^2 the next pressure-force pass gathers. */
-__kernel void dfsph_coarse_apply(const SimParams p, __global const float4* pos, __global const uint* phase,
-                                 __global const float* density, __global const float* dp,
-                                 __global float* pressure, __global float4* xt) {
+/* K e = b by Jacobi-preconditioned conjugate gradients (Saad 2003, Alg. 9.1), in one work-group: aggregate k is handled by work-item k mod DFSPH_COARSE_WG, the dot products
+ * are group sums (fixed order). Stops when |r| <= tol |b| or after max_it iterations, or when the
+ * operator is not positive along the search direction; e in x. mcount[1]: iterations run. */
+__kernel __attribute__((reqd_work_group_size(DFSPH_COARSE_WG, 1, 1)))
+void dfsph_coarse_cg(__global uint* mcount, __global const float* kval, __global const int* kcol,
+                     __global const float* b, __global float* x, __global float* r, __global float* z,
+                     __global float* pv, __global float* q, const int max_it, const float tol) {
+  __local float red[DFSPH_COARSE_WG];
+  const uint l = get_local_id(0);
+  const uint m = mcount[0];
+  /* x = 0, r = b, z = D^-1 r, p = z */
+  float rz_l = 0.0f, bb_l = 0.0f;
+  for (uint k = l; k < m; k += DFSPH_COARSE_WG) {
+    const float rk = b[k], dk = kval[(size_t)k * 125 + 62];
+    const float zk = dk > 0.0f ? rk / dk : 0.0f;
+    x[k] = 0.0f;
+    r[k] = rk;
+    z[k] = zk;
+    pv[k] = zk;
+    rz_l += rk * zk;
+    bb_l += rk * rk;
+  }
+  float rz = dfsph_coarse_group_sum(red, rz_l);
+  const float bb = dfsph_coarse_group_sum(red, bb_l);
+  barrier(CLK_GLOBAL_MEM_FENCE);
+  float rr = bb;
+  int it = 0;
+  float go = rz > 0.0f ? 1.0f : 0.0f;
+  for (; it < max_it && go > 0.0f && rr > tol * tol * bb; ++it) {
+    /* q = K p, <p, q> */
+    float pq_l = 0.0f;
+    for (uint k = l; k < m; k += DFSPH_COARSE_WG) {
+      float s = 0.0f;
+      for (int o = 0; o < 125; ++o) {
+        const int c = kcol[(size_t)k * 125 + o];
+        if (c >= 0) s += kval[(size_t)k * 125 + o] * pv[c];
+      }
+      q[k] = s;
+      pq_l += pv[k] * s;
+    }
+    const float pq = dfsph_coarse_group_sum(red, pq_l);
+    if (!(pq > 0.0f)) go = 0.0f;
+    const float a = go > 0.0f ? rz / pq : 0.0f;
+    /* x += a p, r -= a q, z = D^-1 r */
+    float rz_n = 0.0f, rr_n = 0.0f;
+    for (uint k = l; k < m; k += DFSPH_COARSE_WG) {
+      x[k] += a * pv[k];
+      const float rk = r[k] - a * q[k], dk = kval[(size_t)k * 125 + 62];
+      const float zk = dk > 0.0f ? rk / dk : 0.0f;
+      r[k] = rk;
+      z[k] = zk;
+      rz_n += rk * zk;
+      rr_n += rk * rk;
+    }
+    const float rz_new = dfsph_coarse_group_sum(red, rz_n);
+    rr = dfsph_coarse_group_sum(red, rr_n);
+    const float beta = rz > 0.0f ? rz_new / rz : 0.0f;
+    rz = rz_new;
+    if (!(rz > 0.0f)) go = 0.0f;
+    /* p = z + beta p */
+    for (uint k = l; k < m; k += DFSPH_COARSE_WG) pv[k] = z[k] + beta * pv[k];
+    barrier(CLK_GLOBAL_MEM_FENCE);
+  }
+  if (l == 0) mcount[1] = (uint)it;
+}
+
+/* Prolongation: dp_i = e of i's aggregate for the members, 0 for the others (unit: Pa). */
+__kernel void dfsph_coarse_prolong(const SimParams p, __global const int* mem, __global const float* e,
+                                   __global float* dp) {
   const uint i = get_global_id(0);
   if (i >= p.n_fluid) return;
-  const float p1 = fmax(pressure[i] + dp[i], 0.0f);
-  pressure[i] = p1;
-  const float di = density[i] / p.phase_mass[phase[i]];
-  xt[i] = (float4)(pos[i].xyz, p1 / (di * di));
+  const int k = mem[i];
+  dp[i] = k >= 0 ? e[k] : 0.0f;
 }
 
 /* The line search's trial pressures max(p_i + dp_i, 0) into `trial`, and their packed position and
@@ -147,6 +378,47 @@ __kernel void dfsph_coarse_trial(const SimParams p, __global const float4* pos, 
   if (i >= p.n_fluid) return;
   const float p1 = fmax(pressure[i] + dp[i], 0.0f);
   trial[i] = p1;
+  const float di = density[i] / p.phase_mass[phase[i]];
+  xt[i] = (float4)(pos[i].xyz, p1 / (di * di));
+}
+
+/* The line search's sums per chunk of particles (in order): <q, r> and <q, dr> over the members,
+ * dr = r(p + q) - r(p) (partial[2 c], partial[2 c + 1]). */
+__kernel void dfsph_coarse_dots(const uint n, const uint chunk, const uint chunks, __global const int* mem,
+                                __global const float* dp, __global const float* res, __global const float* trial_res,
+                                __global float* partial) {
+  const uint c = get_global_id(0);
+  if (c >= chunks) return;
+  const uint begin = c * chunk, end = min(begin + chunk, n);
+  float qr = 0.0f, qdr = 0.0f;
+  for (uint k = begin; k < end; ++k) {
+    if (mem[k] < 0) continue;
+    qr += dp[k] * res[k];
+    qdr += dp[k] * (trial_res[k] - res[k]);
+  }
+  partial[2 * c] = qr;
+  partial[2 * c + 1] = qdr;
+}
+
+/* theta = -<q, r> / <q, dr> within [0, theta_max] (0 when q does not lower the residual), the
+ * chunks added in order (one work-item). */
+__kernel void dfsph_coarse_theta(const uint chunks, __global const float* partial, const float theta_max,
+                                 __global float* theta) {
+  if (get_global_id(0) != 0) return;
+  float qr = 0.0f, qdr = 0.0f;
+  for (uint c = 0; c < chunks; ++c) qr += partial[2 * c], qdr += partial[2 * c + 1];
+  theta[0] = qdr < 0.0f ? clamp(-qr / qdr, 0.0f, theta_max) : 0.0f;
+}
+
+/* The correction: p_i <- max(p_i + theta dp_i, 0), and the packed p / delta^2 the next
+ * pressure-force pass gathers. */
+__kernel void dfsph_coarse_apply(const SimParams p, __global const float4* pos, __global const uint* phase,
+                                 __global const float* density, __global const float* dp,
+                                 __global const float* theta, __global float* pressure, __global float4* xt) {
+  const uint i = get_global_id(0);
+  if (i >= p.n_fluid) return;
+  const float p1 = fmax(pressure[i] + theta[0] * dp[i], 0.0f);
+  pressure[i] = p1;
   const float di = density[i] / p.phase_mass[phase[i]];
   xt[i] = (float4)(pos[i].xyz, p1 / (di * di));
 }

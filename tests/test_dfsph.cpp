@@ -44,6 +44,11 @@ struct TankResult {
   double density_iterations_per_step = 0;
   double worst_probe = 0;   // worst |p / p_ref - 1| of the scene's pressure probes deeper than 2h
   int probes_compared = 0;
+  Profile profile;          // steps, iterations and what set each step's length
+  // With per-step probes (probes.rate above the step rate): the largest change of a probe deeper
+  // than 2h between consecutive samples (consecutive steps) from 1 s on (unit: Pa), and the samples.
+  double worst_probe_step_change = 0;
+  std::size_t probe_samples = 0;
 };
 
 TankResult hydrostaticTank(const std::string& solver, std::vector<std::string> sets = {}) {
@@ -63,7 +68,12 @@ TankResult hydrostaticTank(const std::string& solver, std::vector<std::string> s
   const std::vector<double> probe_z{0.02, 0.05, 0.08, 0.11, 0.14, 0.17};
   std::vector<double> probe_p(probe_z.size(), 0.0), probe_above(probe_z.size(), 0.0);
   int probe_frames = 0;
+  std::vector<ProbeSample> samples;  // every probe sample from 1 s on
   app::RunResult r = app::runScene(o, [&](Simulation& sim, const FrameReport&) {
+    // keep every probe sample of the frames from 1 s on (the frame before starts the recording)
+    if (sim.time() >= 0.9 - 1e-9) sim.recordProbeSamples(true);
+    for (ProbeSample& ps : sim.takeProbeSamples())
+      if (ps.time >= 1.0 - 1e-9) samples.push_back(std::move(ps));
     if (sim.time() < 1.0 - 1e-9) return;
     last = sim.readFrame();
     std::vector<float> zs(last.z);
@@ -91,6 +101,7 @@ TankResult hydrostaticTank(const std::string& solver, std::vector<std::string> s
     }
   });
   out.exit_code = r.exit_code;
+  out.profile = r.profile;
   out.particles = last.size();
   out.density_iterations_per_step =
       r.profile.steps ? double(r.profile.density_iterations) / double(r.profile.steps) : 0.0;
@@ -117,7 +128,12 @@ TankResult hydrostaticTank(const std::string& solver, std::vector<std::string> s
     UNSCOPED_INFO("probe at z = " << probe_z[k] << " m, depth " << depth << " m: p = " << p << " Pa, closed form " << p_ref << " Pa");
     out.worst_probe = std::max(out.worst_probe, std::abs(p / p_ref - 1));
     ++out.probes_compared;
+    // its change between consecutive samples
+    for (std::size_t s = 1; s < samples.size(); ++s)
+      out.worst_probe_step_change = std::max(
+          out.worst_probe_step_change, std::abs(samples[s].points[k].pressure - samples[s - 1].points[k].pressure));
   }
+  out.probe_samples = samples.size();
   return out;
 }
 
@@ -256,6 +272,28 @@ TEST_CASE("DFSPH dam break with extrapolated walls: the front, in fewer iteratio
   WARN("dfsph dam break, extrapolated walls: " << d.steps << " steps, " << d.per_step << " density iterations per "
                                                << "step, " << d.crossings << " wall crossings, front error mean "
                                                << 100 * d.e.mean_rel << " %, max " << 100 * d.e.max_rel << " %");
+}
+
+TEST_CASE("DFSPH dam break with the two-level solve on the device: the front, in fewer iterations, without wall crossings", "[dfsph]") {
+  // fluid.dfsph.coarse_interval: 4 (kernels/dfsph_coarse.cl, on the device) in a flow that moves:
+  // aggregates change every step, the free surface breaks up, the lists are rebuilt almost every
+  // step. The same front check and tolerance as the WCSPH test and the plain solve (the test
+  // above), the same crossings allowance, and fewer density iterations per step than the plain
+  // solve's 8.4 (measured 4.9; the correction's purpose).
+  const DamResult d = damBreak({"fluid.dfsph.walls=extrapolated", "fluid.dfsph.coarse_interval=4"});
+  REQUIRE(d.exit_code == 0);
+  CHECK(d.count_conserved);
+  CHECK(d.worst_bound <= 0.0);
+  INFO("dfsph, two-level: " << d.steps << " steps, " << d.per_step << " density iterations per step; " << d.crossings
+                            << " wall crossings; compared " << d.e.points << " points, mean relative error "
+                            << d.e.mean_rel << ", max " << d.e.max_rel);
+  CHECK(d.e.points >= 8);
+  CHECK(d.e.max_rel < 0.10);
+  CHECK(d.crossings <= 10);
+  CHECK(d.per_step < 8.0);
+  WARN("dfsph dam break, two-level solve: " << d.steps << " steps, " << d.per_step << " density iterations per step, "
+                                            << d.crossings << " wall crossings, front error mean " << 100 * d.e.mean_rel
+                                            << " %, max " << 100 * d.e.max_rel << " %");
 }
 
 TEST_CASE("DFSPH: the same scene twice gives bitwise equal states, and the errors stay within their bounds", "[dfsph]") {
@@ -481,8 +519,11 @@ TEST_CASE("DFSPH extrapolated walls: the hydrostatic tank within 5 % in every la
   // dt^2 dp (pi / 2H)^2 / rho0, so a mode of dp_eta = rho0 eta (2H / pi)^2 / dt^2 passes unseen and
   // the column rings within it: at the reference's eta = 5e-4 (dt = 5 ms, H = 0.2 m) dp_eta =
   // 324 Pa, 17 % of rho0 g H, and a layer's pressure swung by 1 kPa between frames (README
-  // "DFSPH"). For 1 % of rho0 g H, eta <= 0.01 g dt^2 pi^2 / (4 H) = 3e-5: the test sets 2e-5.
-  const TankResult d = hydrostaticTank("dfsph", {"fluid.dfsph.walls=extrapolated", "fluid.dfsph.density_error=2e-5"});
+  // "DFSPH"). For 1 % of rho0 g H, eta <= 0.01 g dt^2 pi^2 / (4 H): 3e-5 at 5 ms steps; since the
+  // viscous step bound of the scene's artificial viscosity (alpha 0.1: dt <= 3.46 ms, 15 steps of
+  // 3.33 ms per frame; core/model.cpp, artificialViscosityStepFactor) 1.34e-5: the test sets 1e-5
+  // (at 2e-5 a layer changed by 171 Pa between frames, 9 %).
+  const TankResult d = hydrostaticTank("dfsph", {"fluid.dfsph.walls=extrapolated", "fluid.dfsph.density_error=1e-5"});
   REQUIRE(d.exit_code == 0);
   INFO("extrapolated: " << d.compared << " layers, worst pressure error " << 100 * d.worst << " %, largest "
                         << "frame-to-frame change " << d.worst_change << " Pa (rho0 g H = " << d.p_bottom << " Pa), probes "
@@ -496,11 +537,13 @@ TEST_CASE("DFSPH extrapolated walls: the hydrostatic tank within 5 % in every la
   CHECK(d.probes_compared >= 5);
   CHECK(d.worst_probe <= 0.05);
   // Calm: each frame's reading, not only the average, within the issue's 5 % band: a layer's mean
-  // pressure changes between frames (50 ms) by less than 5 % of rho0 g H. Measured 67 Pa (3.5 %);
-  // at the reference's eta = 5e-4, a mutation, 1045 Pa (55 %). Not robust yet: the same run
-  // averaged over 1-2.75 s reads 7.7 % and 177 Pa, as more steps stop at max_iterations (README).
+  // pressure changes between frames (50 ms) by less than 5 % of rho0 g H. Measured at eta 1e-5 and
+  // 3.33 ms steps: 64 Pa (3.4 %), worst layer 1.6 %, probes 2.9 %, 72 density iterations per step
+  // (at 2e-5 and 5 ms steps, before the viscous step bound: 67 Pa; at the reference's eta = 5e-4,
+  // a mutation, 1045 Pa, 55 %). At 2e-5 and 5 ms steps the calm was not robust: averaged over
+  // 1-2.75 s the run read 7.7 % and 177 Pa, as more steps stopped at max_iterations (README).
   CHECK(d.worst_change < 0.05 * d.p_bottom);
-  WARN("dfsph extrapolated walls, hydrostatic tank (density bound 2e-5): worst layer " << 100 * d.worst
+  WARN("dfsph extrapolated walls, hydrostatic tank (density bound 1e-5): worst layer " << 100 * d.worst
        << " %, frame-to-frame change " << d.worst_change << " Pa, probes " << 100 * d.worst_probe << " %, "
        << d.density_iterations_per_step << " density iterations per step");
 }
@@ -596,6 +639,10 @@ TEST_CASE("DFSPH two-level solve: the hydrostatic tank at the reference's densit
   // off (coarse_interval 0, a mutation): 45 iterations per step (fails), layers 4.3-6.0 %.
   // So the issue's 5 % is reported here (CHECK_NOFAIL) and guarded at 10 %, as the default-settings
   // tank test does; the next test checks the 5 % strictly where the bounce is absent (alpha 0.07).
+  // Session 10: with the viscous step bound (200 frames/s now takes two 2.5 ms steps per frame) and
+  // the correction on the device: worst layer 3.0 %, probes 5.0 %, 55 Pa between steps, 2.4
+  // iterations per step (the reported checks pass; the scene's own 20 frames/s: the viscous step
+  // bound test below).
   const TankResult d = hydrostaticTank(
       "dfsph", {"fluid.dfsph.coarse_interval=4", "simulation.frame_rate=200", "probes.rate=200"});
   REQUIRE(d.exit_code == 0);
@@ -618,8 +665,9 @@ TEST_CASE("DFSPH two-level solve: the hydrostatic tank at the reference's densit
   WARN("dfsph two-level solve, hydrostatic tank (density bound 5e-4), every step: worst layer " << 100 * d.worst
        << " %, step-to-step change " << d.worst_change << " Pa, probes " << 100 * d.worst_probe << " %, "
        << d.density_iterations_per_step << " density iterations per step");
-  // Deterministic: the coarse operator and right-hand side are summed in particle order and solved
-  // by sparse LU on the host; the same run twice gives bitwise equal states.
+  // Deterministic: the coarse operator and right-hand side are summed in a fixed order and solved
+  // by CG in one work-group on the device (kernels/dfsph_coarse.cl); the same run twice gives
+  // bitwise equal states.
   app::RunOptions o = quietRun("tiny_tank.yaml", {"fluid.solver=dfsph", "fluid.dfsph.coarse_interval=2"});
   o.duration = 0.1;
   const app::RunResult a = app::runScene(o);
@@ -647,8 +695,11 @@ TEST_CASE("DFSPH two-level solve: calm between steps at the reference's density 
   // 5e-4 holds every layer calm: this test. Mutations: alpha 0.1 (the scene's): ~1 kPa between
   // steps (fails); the correction off (coarse_interval 0, plain Jacobi) at alpha 0.07: rings
   // (fails).
+  // Sampled every step: since the viscous step bound (alpha 0.07: dt <= 4.94 ms; the last test)
+  // a 5 ms frame would take two 2.5 ms steps, so the frames are 4 ms (one step each, alpha c0 dt /
+  // h = 0.55).
   const TankResult d = hydrostaticTank("dfsph", {"fluid.dfsph.coarse_interval=4", "fluid.artificial_viscosity=0.07",
-                                                 "simulation.frame_rate=200", "probes.rate=200"});
+                                                 "simulation.frame_rate=250", "probes.rate=250"});
   REQUIRE(d.exit_code == 0);
   INFO("two-level, alpha 0.07: " << d.compared << " layers, worst pressure error " << 100 * d.worst << " %, largest "
                                  << "step-to-step change " << d.worst_change << " Pa (rho0 g H = " << d.p_bottom
@@ -670,4 +721,51 @@ TEST_CASE("DFSPH two-level solve: calm between steps at the reference's density 
   WARN("dfsph two-level solve, alpha 0.07, hydrostatic tank (density bound 5e-4), every step: worst layer "
        << 100 * d.worst << " %, step-to-step change " << d.worst_change << " Pa, probes " << 100 * d.worst_probe
        << " %, " << d.density_iterations_per_step << " density iterations per step");
+}
+
+TEST_CASE("DFSPH viscous step bound: the default tank's artificial viscosity sets the step, and two-level it is calm between steps", "[dfsph]") {
+  // The explicit artificial viscosity (Monaghan's, alpha 0.1, c0 19.8 m/s, h 1 cm in the tank)
+  // relaxes neighbouring layers' relative velocity at the rate lambda = alpha c0 S / dx, S = 1.46 / dx
+  // for the cubic spline at H = 2 dx (core/model.cpp, artificialViscosityStepFactor); a step longer
+  // than 1 / lambda reverses that approach within the step and the layers bounce with period 2 (the
+  // tests above: ~1 kPa between 5 ms steps). DFSPH's adaptive step keeps dt <= C h / (alpha c0)
+  // with C = 1 / 1.46 = 0.685: 3.46 ms here instead of the 5 ms cap, so each 50 ms frame takes 15
+  // steps of 3.33 ms (alpha c0 dt / h = 0.66).
+  const Compiled comp = compile(io::loadScene(scenePath("hydrostatic.yaml"), {"fluid.solver=dfsph"}));
+  CHECK(comp.model.artificial_step_factor == Approx(0.685).epsilon(0.01));
+  // The scene as it is (20 frames/s) with the two-level solve at the reference's density bound
+  // 5e-4, to 2.75 s (the robustness span of the README's eta 2e-5 runs), the probes sampled at the
+  // start of every step (rate 1000/s > 300 steps/s): every layer's frame average within 10 % (5 %
+  // reported: the shallowest layer, ~2.5 cm deep, reads 5-6 % with the two-level solve), probes
+  // within the issue's 5 % of rho0 g d, and calm between steps: a probe's pressure changes between
+  // consecutive steps by less than 5 % of rho0 g H. Mutation: the bound off (5 ms steps, the
+  // period-2 bounce): fails.
+  const TankResult d = hydrostaticTank(
+      "dfsph", {"fluid.dfsph.coarse_interval=4", "probes.rate=1000", "simulation.duration=2.75"});
+  REQUIRE(d.exit_code == 0);
+  const auto& by = d.profile.dfsph_step_limiters;
+  const auto viscous = by[static_cast<std::size_t>(StepLimiter::Viscous)];
+  INFO("two-level, alpha 0.1 within its step, 1-2.75 s: " << d.compared << " layers, worst pressure error "
+       << 100 * d.worst << " %, largest frame-to-frame change " << d.worst_change << " Pa (rho0 g H = " << d.p_bottom
+       << " Pa), probes " << 100 * d.worst_probe << " %, largest step-to-step change of a probe "
+       << d.worst_probe_step_change << " Pa over " << d.probe_samples << " samples, "
+       << d.density_iterations_per_step << " density iterations per step, " << d.profile.steps << " steps, "
+       << viscous << " set by the viscous bound");
+  // the bound set the steps (the diagnostics count what set each step: run.json "steps_limited_by")
+  // after the column came to rest: 15 steps per 50 ms frame from then on
+  CHECK(viscous * 2 > d.profile.steps);
+  CHECK(d.profile.steps >= 15 * 50);
+  CHECK(d.compared >= 15);
+  CHECK_NOFAIL(d.worst <= 0.05);
+  CHECK(d.worst <= 0.10);
+  CHECK(d.probes_compared >= 5);
+  CHECK(d.worst_probe <= 0.05);
+  CHECK(d.probe_samples >= 500);
+  CHECK(d.worst_probe_step_change < 0.05 * d.p_bottom);
+  CHECK(d.worst_change < 0.05 * d.p_bottom);
+  CHECK(d.density_iterations_per_step < 10);
+  WARN("dfsph two-level solve, alpha 0.1 with the viscous step bound, hydrostatic tank (density bound 5e-4), 1-2.75 s: "
+       "worst layer " << 100 * d.worst << " %, frame-to-frame change " << d.worst_change << " Pa, probes "
+       << 100 * d.worst_probe << " %, probe step-to-step change " << d.worst_probe_step_change << " Pa, "
+       << d.density_iterations_per_step << " density iterations per step, " << d.profile.steps << " steps");
 }
