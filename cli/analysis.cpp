@@ -85,6 +85,7 @@ FrontError frontError(const std::vector<double>& T_sim, const std::vector<double
     const double Z = Z_sim[i - 1] + w * (Z_sim[i] - Z_sim[i - 1]);
     const double rel = std::abs(Z - Z_exp[k]) / Z_exp[k];
     e.max_rel = std::max(e.max_rel, rel);
+    e.detail.push_back({T_exp[k], Z_exp[k], Z, rel});
     sum += rel;
     ++e.points;
   }

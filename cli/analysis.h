@@ -28,9 +28,15 @@ Table readCsvTable(const std::string& path);
 /// zmin <= Z_e <= zmax, the simulated front Z_s at T_e - shift (linear interpolation of the
 /// simulated series; T = t sqrt(2 g / a), Z = x / a). Returns the largest and mean relative error
 /// |Z_s - Z_e| / Z_e, and the number of points compared (0 if the run is too short).
+struct FrontPoint {
+  double T_exp = 0, Z_exp = 0;  ///< the measurement (unit: 1)
+  double Z_sim = 0;             ///< the simulated front at T_exp - shift (unit: 1)
+  double rel = 0;               ///< |Z_sim - Z_exp| / Z_exp (unit: 1)
+};
 struct FrontError {
   double max_rel = 0, mean_rel = 0;
   int points = 0;
+  std::vector<FrontPoint> detail;  ///< each point compared, in the table's order
 };
 FrontError frontError(const std::vector<double>& T_sim, const std::vector<double>& Z_sim,
                       const std::vector<double>& T_exp, const std::vector<double>& Z_exp, double shift,

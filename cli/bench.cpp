@@ -619,6 +619,15 @@ int benchCommand(const BenchOptions& opt) {
              "simulated T shifted by +0.175\n";
       out << "solver,particles,dx_m,cfl,steps,eos,mean_rel_error,max_rel_error,points,wall_s,particle_steps_per_s,"
              "wall_crossings,iterations_per_step\n";
+      // Each run's front per frame (the row front that is scored, and the farthest particle) and
+      // each scored point's error: where a run's largest error comes from.
+      const fs::path series_csv = fs::path(opt.out) / "accuracy_front.csv";
+      std::ofstream series(series_csv);
+      series << "# sphaptics " << SPHAPTICS_VERSION
+             << " dam-break front per frame (T = t sqrt(2 g / a), Z = x / a; Z_row: the front that is scored, a full "
+                "row of particles across the tank; Z_tip: the farthest particle) and per Martin & Moyce point "
+                "(T_exp, Z_exp; Z_sim at T_exp - 0.175; rel = |Z_sim - Z_exp| / Z_exp)\n";
+      series << "solver,particles,cfl,eos,kind,T,Z_row,Z_tip,Z_exp,rel_error\n";
       std::printf("\n%-18s %-9s %-8s %-5s %-7s %-7s %-10s %-10s %-8s %-9s %-6s\n", "solver", "particles", "dx [m]", "cfl",
                   "steps", "eos", "mean err", "max err", "wall s", "crossings", "it/step");
       // WCSPH: both equations of state at Courant 0.4 and 0.2; DFSPH (no equation of state; its
@@ -648,12 +657,14 @@ int benchCommand(const BenchOptions& opt) {
                        "simulation.numerical_errors=warn", "output.isosurface.enabled=false"};
             if (!walls.empty()) ro.sets.push_back("fluid.dfsph.walls=" + walls);
             ro.duration = duration;
-            std::vector<double> Ts{0.0}, Zs{1.0};
+            std::vector<double> Ts{0.0}, Zs{1.0}, Ztip{1.0};
             double front_seconds = 0;
             auto probe = [&](Simulation& sim, const FrameReport&) {
               const auto t0 = std::chrono::steady_clock::now();
               Ts.push_back(sim.time() * tscale);
-              Zs.push_back((surgeFront(sim.readFrame(), dx, row) - wall_x) / a);
+              const ParticleFrame frame = sim.readFrame();
+              Zs.push_back((surgeFront(frame, dx, row) - wall_x) / a);
+              Ztip.push_back((surgeFront(frame, dx, 1) - wall_x) / a);
               front_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
             };
             const RunResult r = runScene(ro, probe);
@@ -665,6 +676,13 @@ int benchCommand(const BenchOptions& opt) {
             for (const FrameReport& rep : r.reports) crossings += rep.wall_crossings;
             const double its = r.profile.steps ? double(r.profile.density_iterations) / double(r.profile.steps) : 0.0;
             const char* eos_col = dfsph ? "-" : eos.c_str();
+            for (std::size_t k = 0; k < Ts.size(); ++k)
+              series << solver << "," << r.particles << "," << cfl << "," << eos_col << ",frame," << Ts[k] << ","
+                     << Zs[k] << "," << Ztip[k] << ",,\n";
+            for (const FrontPoint& pt : e.detail)
+              series << solver << "," << r.particles << "," << cfl << "," << eos_col << ",point," << pt.T_exp << ","
+                     << pt.Z_sim << ",," << pt.Z_exp << "," << pt.rel << "\n";
+            series.flush();
             out << solver << "," << r.particles << "," << dx << "," << cfl << "," << r.profile.steps << "," << eos_col
                 << "," << e.mean_rel << "," << e.max_rel << "," << e.points << "," << wall << "," << pss << ","
                 << crossings << "," << its << "\n";
@@ -676,7 +694,7 @@ int benchCommand(const BenchOptions& opt) {
         }
       }
       out.close();  // the plot reads the file
-      std::cout << "wrote " << csv.string() << "\n";
+      std::cout << "wrote " << csv.string() << " and " << series_csv.string() << "\n";
       const std::string plot = sourcePath("scripts/plot_bench.py");
       const std::string cmd = "/usr/bin/python3 " + plot + " " + csv.string() + " " +
                               (fs::path(opt.out) / "accuracy.png").string();

@@ -23,13 +23,17 @@ namespace {
 // Verlet-list skin as a share of the support H (the lists hold neighbours within H + skin and are
 // rebuilt when some particle may have moved skin / 2). WCSPH's steps (dt ~ 0.1 ms, bound by the
 // speed of sound) move a particle ~0.02 dx, so a quarter of H lasts ~25 steps. A DFSPH step at
-// CFL 0.4 moves the fastest particle ~0.4 dx: with a quarter of H (0.5 dx) the lists were rebuilt
-// in 40 of 53 steps of the 50k dam break anyway, each build scanning 27 cells of (2.5 dx)^3 and each
-// density pass filtering ~65 candidates. A tenth of H (cells 2.2 dx, ~45 candidates) rebuilds in
-// 46 of 53 steps at ~0.8x the cost per build and the density pass at ~0.6x: 6 % less CPU per step
-// there (the kernels' process CPU time, `--profile-kernels`: 86 against 91 ms), and at rest
-// (speeds ~1 cm/s, dt 5 ms) the lists still last ~50 steps.
-double skinRatio(const FluidSpec& fl) { return fl.solver == FluidSolver::Dfsph ? 0.1 : 0.25; }
+// CFL 0.4 moves the fastest particle ~0.4 dx, more than half of any skin worth having, so in a
+// flowing scene the lists are rebuilt every step whatever the skin, and every build and density
+// pass costs more with it: the cells are H + skin wide (the build scans 27 of them) and the density
+// pass filters the (1 + skin / H)^3 longer lists. Measured (50k dam break, 0.52 s, process CPU of
+// the build per build, loaded machine): skin H/10 17.4 ms, H/20 15.9, H/40 15.4, 0 14.2 ms; the
+// skin H/4 (WCSPH's) was 6 % dearer per step than H/10. A skin H/40 keeps most of that saving
+// (kernels' CPU per step ~3 % below H/10's) while a fluid at rest (speeds ~1 cm/s, dt 5 ms) still
+// keeps its lists ~10 steps: with skin 0 every step rebuilds them (a 60k layer settling on the
+// floor, 0.5 s, 104 steps: lists built 104 times, 8 % more CPU per step than with H/10's 8
+// builds; with H/40 26 builds, ~3 ms more per step in the build, ~2 %).
+double skinRatio(const FluidSpec& fl) { return fl.solver == FluidSolver::Dfsph ? 0.025 : 0.25; }
 }  // namespace
 
 static_assert(sizeof(SimParams) % 4 == 0, "SimParams holds 4-byte scalars only");

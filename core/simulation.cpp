@@ -250,7 +250,7 @@ void Simulation::step(double dt) {
   if (n_ > 0) {
     if (on(Stage::RigidCoupling)) placeBodyParticles(); // moving bodies' particles at their pose
     if (on(Stage::ClothCoupling)) placeClothParticles(); // cloth nodes as boundary particles
-    if (!lists_valid_ || travel_since_build_ > 0.5 * model_.skin) {
+    if (!lists_valid_ || travel_since_build_ > (step_lists_ ? 0.0 : 0.5 * model_.skin)) {
       if (on(Stage::RigidCoupling) || on(Stage::ClothCoupling)) sortBoundary();  // moved particles change cells
       buildGrid();                                     // sort by cell, reorder, Verlet lists
     }
@@ -479,8 +479,17 @@ void Simulation::buildGrid() {
   kernels_.call("grid_reorder", n_, kLocal, params_, sorted_, pos_[cur_], vel_[cur_], colour_[cur_], phase_[cur_], id_[cur_], pos_[nxt], vel_[nxt], colour_[nxt], phase_[nxt], id_[nxt]);
   cur_ = nxt;
   if (dfsph_) dfsph_->reorder(n_, sorted_);  // the accumulated pressures follow their particles
-  // neighbour lists within H + skin
-  kernels_.call("build_neighbour_lists", n_, kLocal, params_, pos_[cur_], cell_start_, bpos_, bcell_start_, nbr_, nbr_count_, bnbr_, bnbr_count_, overflow_);
+  // Neighbour lists within H + skin. DFSPH: when the last step moved some particle a whole skin
+  // (twice what the lists allow: core/model.cpp skinRatio), lists built now would expire after this
+  // step anyway (a flowing scene: each step at CFL 0.4 moves the fastest particle ~0.4 dx, ~8
+  // skins), so they are built at H straight into this step's lists, which the density pass then
+  // only sums over (performance: shorter lists, one list written instead of two); they are
+  // rebuilt at the next step that moves anything. A slower flow keeps the Verlet lists.
+  step_lists_ = dfsph_ && last_step_travel_ > model_.skin;
+  const float radius = step_lists_ ? params_.support : params_.cell_size;  // (unit: m)
+  kernels_.call("build_neighbour_lists", n_, kLocal, params_, pos_[cur_], cell_start_, bpos_, bcell_start_,
+                step_lists_ ? snbr_ : nbr_, step_lists_ ? snbr_count_ : nbr_count_, step_lists_ ? sbnbr_ : bnbr_,
+                step_lists_ ? sbnbr_count_ : bnbr_count_, overflow_, radius);
   lists_valid_ = true;
   grid_built_ = true;
   travel_since_build_ = 0.0;
@@ -490,7 +499,12 @@ void Simulation::buildGrid() {
 void Simulation::computeDensity() {
   StageTimer timer(*this, Stage::Density);
   ++stamp_;  // marks the boundary particles within H of fluid this step (for boundary_pressure)
-  kernels_.call("compute_density", n_, kLocal, params_, pos_[cur_], phase_[cur_], bpos_, nbr_, nbr_count_, bnbr_, bnbr_count_, density_, pressure_, pterm_, snbr_, snbr_count_, sbnbr_, sbnbr_count_, stamp_, bmark_);
+  // the lists (this step's already when buildGrid built them at H: then only the sums)
+  const cl::Buffer& nbr = step_lists_ ? snbr_ : nbr_;
+  const cl::Buffer& nbr_count = step_lists_ ? snbr_count_ : nbr_count_;
+  const cl::Buffer& bnbr = step_lists_ ? sbnbr_ : bnbr_;
+  const cl::Buffer& bnbr_count = step_lists_ ? sbnbr_count_ : bnbr_count_;
+  kernels_.call("compute_density", n_, kLocal, params_, pos_[cur_], phase_[cur_], bpos_, nbr, nbr_count, bnbr, bnbr_count, density_, pressure_, pterm_, snbr_, snbr_count_, sbnbr_, sbnbr_count_, stamp_, bmark_, step_lists_ ? 1 : 0);
 }
 
 void Simulation::sampleProbes() {
@@ -630,7 +644,8 @@ void Simulation::integrate() {
   // Moving boundary particles count too: fluid-body pairs close in at most twice the larger speed.
   const double fastest = std::max(static_cast<double>(vmax), body_speed_);
   step_max_speed_ = std::isfinite(fastest) ? fastest : 0.0;
-  travel_since_build_ += std::isfinite(vmax) ? fastest * params_.dt : INFINITY;
+  last_step_travel_ = std::isfinite(vmax) ? fastest * params_.dt : INFINITY;
+  travel_since_build_ += last_step_travel_;
 }
 
 // --- Rigid coupling (kernels/rigid.cl) ----------------------------------------------------------

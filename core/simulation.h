@@ -263,6 +263,8 @@ class Simulation {
   bool lists_valid_ = false;
   bool grid_built_ = false;  // the fluid is in cell order with cell_start_ (isosurface gathers through it)
   double travel_since_build_ = 0.0;  // sum over steps of max speed * dt (unit: m)
+  double last_step_travel_ = 0.0;    // the last step's max speed * dt (unit: m)
+  bool step_lists_ = false;          // DFSPH: the lists were built at H into the step lists (buildGrid)
   PrefixSum prefix_sum_;
   std::unique_ptr<SurfaceMesher> mesher_;  // isosurface stage, created on first use
   // Bodies other than spheres and cutters that the cloth nodes collide with (host side, once per

@@ -12,14 +12,17 @@
  * Neighbours come from the lists built by the grid stage (grid.cl, build_neighbour_lists),
  * which hold every particle within the list radius H + skin; only those within H count here,
  * and they are written to this step's lists (snbr, sbnbr) so that the force stages visit the
- * ~33 true neighbours rather than the ~65 Verlet candidates. The loop is in shared/pair_loops.h. */
+ * ~33 true neighbours rather than the ~65 Verlet candidates. The loop is in shared/pair_loops.h.
+ * With `step_lists` the lists given are this step's lists already (DFSPH's lists built at H when
+ * they would not outlive the step: core/simulation.cpp buildGrid), so nbr == snbr and the pass
+ * only sums (performance). */
 __kernel void compute_density(const SimParams p, __global const float4* pos, __global const uint* phase,
                               __global const float4* bpos, __global const uint* nbr,
                               __global const uint* nbr_count, __global const uint* bnbr,
                               __global const uint* bnbr_count, __global float* density,
                               __global float* pressure, __global float* pterm, __global uint* snbr,
                               __global uint* snbr_count, __global uint* sbnbr, __global uint* sbnbr_count,
-                              const uint stamp, __global uint* bmark) {
+                              const uint stamp, __global uint* bmark, const int step_lists) {
   const uint i = get_global_id(0);
   if (i >= p.n_fluid) return;
   const float3 xi = pos[i].xyz;
@@ -30,10 +33,15 @@ __kernel void compute_density(const SimParams p, __global const float4* pos, __g
    * the neighbours actually within H go to this step's lists, which the force stages read */
   uint sn = 0, sb = 0;
   float nd = sph_w(SPH_KERNEL, 0.0f, H);
-  nd += sph_list_density(xi, nbr + (size_t)i * K, nbr_count[i], pos, 0, H, snbr + (size_t)i * K, &sn);
-  nd += sph_list_density(xi, bnbr + (size_t)i * K, bnbr_count[i], bpos, 1, H, sbnbr + (size_t)i * K, &sb);
-  snbr_count[i] = sn;
-  sbnbr_count[i] = sb;
+  nd += sph_list_density(xi, nbr + (size_t)i * K, nbr_count[i], pos, 0, H, step_lists ? 0 : snbr + (size_t)i * K, &sn);
+  nd += sph_list_density(xi, bnbr + (size_t)i * K, bnbr_count[i], bpos, 1, H, step_lists ? 0 : sbnbr + (size_t)i * K, &sb);
+  if (step_lists) { /* the lists given hold only neighbours within H: all of them count */
+    sn = nbr_count[i];
+    sb = bnbr_count[i];
+  } else {
+    snbr_count[i] = sn;
+    sbnbr_count[i] = sb;
+  }
   /* mark the boundary particles seen, for boundary_pressure (pressure.cl); all writers of one
    * entry write the same value */
   for (uint k = 0; k < sb; ++k) bmark[sbnbr[(size_t)i * K + k]] = stamp;

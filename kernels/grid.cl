@@ -60,17 +60,19 @@ __kernel void grid_reorder(const SimParams p, __global const uint* sorted,
   id_out[s] = id[j];
 }
 
-/* 5. Neighbour lists: every fluid and boundary particle within the list radius (the cell size),
- * self excluded, in grid order (deterministic). A list that overflows keeps its first
+/* 5. Neighbour lists: every fluid and boundary particle within the list radius `radius` (at most
+ * the cell size: H + skin for Verlet lists, H for DFSPH's lists of one step, core/simulation.cpp
+ * buildGrid), self excluded, in grid order (deterministic). A list that overflows keeps its first
  * max_neighbours entries and the largest count goes to the host, which grows the lists. */
 __kernel void build_neighbour_lists(const SimParams p, __global const float4* pos, __global const uint* cell_start,
                                     __global const float4* bpos, __global const uint* bcell_start,
                                     __global uint* nbr, __global uint* nbr_count, __global uint* bnbr,
-                                    __global uint* bnbr_count, volatile __global uint* overflow) {
+                                    __global uint* bnbr_count, volatile __global uint* overflow,
+                                    const float radius) {
   const uint i = get_global_id(0);
   if (i >= p.n_fluid) return;
   const float3 xi = pos[i].xyz;
-  const float R2 = p.cell_size * p.cell_size;
+  const float R2 = radius * radius; /* (unit: m^2) */
   const uint K = p.max_neighbours;
   __global uint* my_nbr = nbr + (size_t)i * K;
   __global uint* my_bnbr = bnbr + (size_t)i * K;

@@ -1,5 +1,5 @@
 // What the DFSPH speed work (issue 14) may not change: kernel timing (`run --profile-kernels`)
-// leaves every result bitwise as it was, and the Verlet-list skin is DFSPH's H/10 only (WCSPH keeps
+// leaves every result bitwise as it was, and the Verlet-list skin is DFSPH's H/40 only (WCSPH keeps
 // H/4, so its runs stay bitwise those of before). Small scenes from scenes/tests/.
 #include "cli/runner.h"
 #include "core/model.h"
@@ -35,12 +35,12 @@ TEST_CASE("Kernel profiling times every kernel and changes no result (DFSPH, ext
   CHECK(timed.kernel_seconds.count("dfsph_jacobi") == 1);
 }
 
-TEST_CASE("Verlet-list skin: H/10 with solver dfsph, H/4 with wcsph", "[dfsph][profile]") {
+TEST_CASE("Verlet-list skin: H/40 with solver dfsph, H/4 with wcsph", "[dfsph][profile]") {
   const Compiled w = compile(io::loadScene(scenePath("dam_break_slab.yaml"), {"fluid.solver=wcsph"}));
   const Compiled d = compile(io::loadScene(scenePath("dam_break_slab.yaml"), {"fluid.solver=dfsph"}));
   CHECK(w.model.skin == Approx(0.25 * w.model.support).epsilon(1e-12));
-  CHECK(d.model.skin == Approx(0.1 * d.model.support).epsilon(1e-12));
+  CHECK(d.model.skin == Approx(0.025 * d.model.support).epsilon(1e-12));
   // the grid's cells are the list radius H + skin
   CHECK(w.model.params.cell_size == Approx(1.25 * w.model.support).epsilon(1e-6));
-  CHECK(d.model.params.cell_size == Approx(1.1 * d.model.support).epsilon(1e-6));
+  CHECK(d.model.params.cell_size == Approx(1.025 * d.model.support).epsilon(1e-6));
 }

@@ -390,6 +390,7 @@ struct Device {
   cl::Buffer cell, rank, sorted, cell_count, cell_start, scan_sums, bpos, bcell_start;
   cl::Buffer density, pressure, pterm, nbr, nbr_count, bnbr, bnbr_count, overflow, acc, crossings, max_speed;
   cl::Buffer snbr, snbr_count, sbnbr, sbnbr_count;  // this step's neighbours within H (density pass)
+  float list_radius = 0;  // build_neighbour_lists' radius (unit: m); 0: the cell size (Verlet lists)
   // Boundary velocities (random, as if every boundary particle were on a moving body), wall
   // pressures and the density pass's marks.
   std::vector<F4> bvel_host;
@@ -463,7 +464,7 @@ struct Device {
     cur = nxt;
   }
   void buildLists() {
-    ks.call("build_neighbour_lists", n, kLocal, P, pos[cur], cell_start, bpos, bcell_start, nbr, nbr_count, bnbr, bnbr_count, overflow);
+    ks.call("build_neighbour_lists", n, kLocal, P, pos[cur], cell_start, bpos, bcell_start, nbr, nbr_count, bnbr, bnbr_count, overflow, list_radius > 0 ? list_radius : P.cell_size);
   }
   void buildGrid() {
     gridAssign();
@@ -474,7 +475,7 @@ struct Device {
   }
   void computeDensity() {
     ++stamp;
-    ks.call("compute_density", n, kLocal, P, pos[cur], phase[cur], bpos, nbr, nbr_count, bnbr, bnbr_count, density, pressure, pterm, snbr, snbr_count, sbnbr, sbnbr_count, stamp, bmark);
+    ks.call("compute_density", n, kLocal, P, pos[cur], phase[cur], bpos, nbr, nbr_count, bnbr, bnbr_count, density, pressure, pterm, snbr, snbr_count, sbnbr, sbnbr_count, stamp, bmark, 0);
   }
   void boundaryPressure() {
     if (nb > 0) ks.call("boundary_pressure", nb, kLocal, P, nb, stamp, bpos, bmark, pos[cur], density, pressure, cell_start, bpressure);
@@ -776,6 +777,37 @@ TEST_CASE("build_neighbour_lists: fluid and boundary lists equal brute force wit
     if (c.boundary) CHECK(with_boundary > n / 10);
     if (!c.boundary) CHECK(with_boundary == 0u);
   }
+}
+
+TEST_CASE("build_neighbour_lists at a radius below the cell size (DFSPH's lists of one step, at H) equal brute force",
+          "[kernels]") {
+  // Cells H + skin (skin H/4), lists at H: the 27 cells cover the radius; every pair within H,
+  // none beyond (core/simulation.cpp buildGrid builds DFSPH's lists so when they expire anyway).
+  const Scene s = makeScene(SPH_KERNEL_CUBIC_SPLINE, 2.0f, true, SPH_EOS_LINEAR, false, 5, 0.25f);
+  const SimParams& P = s.P;
+  Device d(kernelSet(SPH_KERNEL_CUBIC_SPLINE, false), s);
+  d.list_radius = P.support;
+  d.buildGrid();
+  const std::size_t n = d.n, K = P.max_neighbours;
+  const auto pos = fromDevice<F4>(d.pos[d.cur], n);
+  const auto nbr = fromDevice<uint32_t>(d.nbr, n * K), nbr_count = fromDevice<uint32_t>(d.nbr_count, n);
+  const auto bnbr = fromDevice<uint32_t>(d.bnbr, n * K), bnbr_count = fromDevice<uint32_t>(d.bnbr_count, n);
+  REQUIRE(fromDevice<uint32_t>(d.overflow, 1)[0] == 0u);
+  REQUIRE(P.support < 0.9f * P.cell_size);
+  Failures f;
+  std::size_t total = 0, with_boundary = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    std::set<uint32_t> in, band, bin, bband;
+    bruteNeighbours(pos, pos[i], i, P.support, in, band);
+    checkList(f, "fluid", i, &nbr[i * K], nbr_count[i], in, band);
+    bruteNeighbours(s.bpos, pos[i], std::size_t(-1), P.support, bin, bband);
+    checkList(f, "boundary", i, &bnbr[i * K], bnbr_count[i], bin, bband);
+    total += in.size();
+    if (!bin.empty()) ++with_boundary;
+  }
+  INFO("mean neighbours within H " << double(total) / n);
+  CHECK_NO_FAILURES(f);
+  CHECK(with_boundary > n / 10);
 }
 
 TEST_CASE("build_neighbour_lists: overflowing lists keep max_neighbours entries and report the largest count",

@@ -75,7 +75,8 @@ inline float sph_hsum8(const float8 a) {
  * sum_k w_k W(|x - x_k|) over a Verlet list, w_k = pts[k].w when `weighted` (the boundary's
  * V_b / V0) else 1. The candidates within H are appended to `out` in list order and counted in
  * *out_n: every candidate is stored and the count advances only for those inside, so the loop has
- * no data-dependent branch. */
+ * no data-dependent branch. With out = 0 the list is this step's list already (DFSPH's lists
+ * built at H, core/simulation.cpp buildGrid): only the sum (and *out_n is not the count). */
 inline float sph_list_density(const float3 xi, __global const uint* list, const uint n, __global const float4* pts,
                               const int weighted, const float H, __global uint* out, uint* out_n) {
   const float H2 = H * H;
@@ -91,7 +92,7 @@ inline float sph_list_density(const float3 xi, __global const uint* list, const 
     if (weighted) w *= SPH_LANES8(p, w);
     acc += w;
     const int8 in = -(r2 < H2); /* 1 inside, 0 outside */
-    SPH_APPEND8(out, m, j, in);
+    if (out) SPH_APPEND8(out, m, j, in);
   }
   float sum = sph_hsum8(acc);
   for (; k < n; ++k) {
@@ -100,7 +101,7 @@ inline float sph_list_density(const float3 xi, __global const uint* list, const 
     const float3 d = xi - pj.xyz;
     const float r2 = dot(d, d);
     sum += (weighted ? pj.w : 1.0f) * sph_w(SPH_KERNEL, sqrt(r2), H);
-    out[m] = j;
+    if (out) out[m] = j;
     m += r2 < H2;
   }
   *out_n = m;
