@@ -259,7 +259,7 @@ int forceChecks(const BenchOptions& opt) {
   };
   for (const std::string& solver : opt.force_solvers) {
     // DFSPH with extrapolated walls: the wall's pressure from the fluid, as WCSPH's (the right
-    // pressure on bodies: README, Forces on bodies); its viscous terms see the walls' own
+    // pressure on bodies: docs/forces.md); its viscous terms see the walls' own
     // velocities and, where the body's term is laminar, the no-slip ghost velocities at moving
     // bodies (`boundary_velocity: auto` with DFSPH, session 10). `dfsph-ghost`: the ghost
     // velocities (Adami, Hu & Adams 2012 eq. 22-23) at every wall and body, as WCSPH's laminar runs.
@@ -362,7 +362,7 @@ int forceChecks(const BenchOptions& opt) {
     }
     for (double dx : {0.01, 0.0075, 0.2 / 30, 0.2 / 53}) {
       // R/dx 3, 4, 4.5 (`sink`); 7.95 (`sink-fine`, a spacing that divides the 20 cm tank: 205k
-      // particles, ~10 min per run here, so only when named; R/dx 6: session 9's replica, README)
+      // particles, ~10 min per run here, so only when named; R/dx 6: session 9's replica, docs/forces.md)
       const bool fine = dx < 0.006;
       if (fine ? std::find(opt.force_checks.begin(), opt.force_checks.end(), "sink-fine") == opt.force_checks.end()
                : !on("sink"))
@@ -386,7 +386,7 @@ int forceChecks(const BenchOptions& opt) {
       row("sink_mean_Cd_ringing_margin", solver, dx, k.radius / dx, k.cd_ringing, 0.0, 0.0, k.wall_seconds);
       row("sink_mean_Cd_held_subtracted", solver, dx, k.radius / dx, k.cd_held_subtracted, 0.0, cd_hi, k.wall_seconds);
       // That impulse split into added mass, quadratic drag and a drag linear in v (SinkCheck::fit_*):
-      // the excess over the band is the linear part (README, Forces on bodies, session 9).
+      // the excess over the band is the linear part (docs/forces.md, session 9).
       row("sink_fit_Cm", solver, dx, k.radius / dx, k.fit_cm, 0.375, 0.725, k.wall_seconds);
       row("sink_fit_Cd", solver, dx, k.radius / dx, k.fit_cd, 0.0, cd_hi, k.wall_seconds);
       row("sink_fit_linear_drag_Nspm", solver, dx, k.radius / dx, k.fit_b, 0.0, 0.0, k.wall_seconds);
@@ -434,7 +434,7 @@ int forceChecks(const BenchOptions& opt) {
   // Moderate Re in a long tank, DFSPH (scenes/tests/tow_re20.yaml sets the solver): the ball towed
   // 10 diameters at Re = 20 after a smooth start, the drag averaged over the second half (1-2 s)
   // against Schiller-Naumann with the duct's confinement (moderateReBand). Not a test: at R/dx = 4
-  // a run takes minutes (README, Forces on bodies).
+  // a run takes minutes (docs/forces.md).
   const std::string tow20 = sourcePath("scenes/tests/tow_re20.yaml");
   for (double dx : {0.01, 0.2 / 27}) {
     if (!opt.force_long_tank || !on("long-tank")) break;  // --no-long-tank

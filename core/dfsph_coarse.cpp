@@ -1,9 +1,10 @@
 // DFSPH two-level solve, host side: enqueues the coarse-grid correction of kernels/dfsph_coarse.cl
-// (which derives it). Everything runs on the device: the aggregates (the neighbour grid's cells at
-// the last list build), their numbering, the Galerkin operator K (a 125-point stencil per
-// aggregate, assembled per row in a fixed order), its solve (conjugate gradients in one
-// work-group), the prolongation and the line search; no host transfer and no host solve. Every sum
-// runs in a fixed order: bitwise deterministic.
+// (which derives it). Everything runs on the device: the aggregates (cells of H aligned with the
+// domain, their particles found through the neighbour grid of the last list build), their
+// numbering, the Galerkin operator K (a 125-point stencil per aggregate, assembled per row in a
+// fixed order), its solve (conjugate gradients in one work-group), the prolongation and the line
+// search; no host transfer and no host solve. Every sum runs in a fixed order: bitwise
+// deterministic.
 //
 // Session 9's version summed K on the host in particle order and factorized it by sparse LU: 2.8x
 // plain Jacobi's CPU time on the slab dam break and 5.2x at 50k (each correction read back n x 864 B

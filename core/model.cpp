@@ -345,7 +345,7 @@ namespace {
 // The explicit step v <- (1 - lambda dt) v reverses that mode when lambda dt > 1: a layer pair's
 // approach becomes a separation within one step, the term switches off (approaching pairs only),
 // and the layers bounce with period 2 (measured on the hydrostatic tank with the two-level solve,
-// README "What makes the tank alternate": calm at alpha c0 dt / h = 0.49-0.69, 1-12 Pa at 0.79,
+// docs/dfsph.md "What makes the tank alternate": calm at alpha c0 dt / h = 0.49-0.69, 1-12 Pa at 0.79,
 // the period-2 bounce at 0.99). So dt <= 1 / lambda = C h / (alpha c0) with C = dx / (h S): 0.685
 // for the cubic spline at H = 2 dx (e along a lattice axis gives the largest S, 1.46 / dx).
 double artificialViscosityStepFactor(int kernel, double support_ratio) {
@@ -906,7 +906,7 @@ Compiled compile(const SceneSpec& spec, const ResourceLimits& limits) {
   // where their term is laminar (viscosity_model laminar or body_viscosity physical), the walls
   // keeping their own velocity as before session 10, so DFSPH scenes without moving bodies run as
   // before. Session 10 measured the towed and falling balls' Stokes drag: 0.75-0.82 and 1.66-1.79
-  // x 6 pi mu R U without them, inside the wall factor's band with them (README, Forces on bodies).
+  // x 6 pi mu R U without them, inside the wall factor's band with them (docs/forces.md).
   bool moving_bodies = false;
   for (const auto& b : m.bodies) moving_bodies = moving_bodies || b.kind != rigid::BodyKind::Static;
   const BoundaryVelocity bv = fl.boundary_velocity;

@@ -438,7 +438,7 @@ std::vector<KeyDef> buildTable() {
                "extrapolated (the default): the wall's pressure extrapolated from the fluid (Adami et al. 2012 eq. 27, "
                "as WCSPH's walls) in each iteration of single's solve (right pressure next to walls and on bodies, "
                "Archimedes draft 2.4 %, ~2 wall crossings where the others have ~140; at rest the pressure rings "
-               "within what the density bound cannot see: README \"DFSPH\")"));
+               "within what the density bound cannot see: docs/dfsph.md)"));
   add(field<InScene>("fluid.dfsph.warm_start", [](auto& s) -> auto& { return s.fluid.dfsph.warm_start; })
           .doc("start each solve from the pressure of the previous step (where the flow compresses)"));
   add(field<InScene>("fluid.dfsph.relaxation", [](auto& s) -> auto& { return s.fluid.dfsph.relaxation; })
@@ -450,7 +450,7 @@ std::vector<KeyDef> buildTable() {
                "aggregates of one support H (Galerkin operator from the Jacobi pass's pair terms, assembled and "
                "solved by conjugate gradients on the device in a fixed order) after Jacobi iterations 1, 1 + n, "
                "1 + 2n, ... of both solves; it removes the smooth pressure errors that the average-error stop "
-               "cannot see (the resting column's ringing, README \"DFSPH\": calm at the reference's bound in ~2 "
+               "cannot see (the resting column's ringing, docs/dfsph.md: calm at the reference's bound in ~2 "
                "iterations per step; 2.8x the CPU time of plain Jacobi in the slab dam break and 2.5x at 50k, so "
                "it is off by default); 0 = off (plain Jacobi, the default)"));
   add(field<InScene>("fluid.dfsph.cfl", [](auto& s) -> auto& { return s.fluid.dfsph.cfl; })

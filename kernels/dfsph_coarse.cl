@@ -6,7 +6,7 @@
  * error of wavelength L only in ~(L / dx)^2 iterations, and the solve stops on the average error
  * eta; a pressure error smooth over a column of depth H changes the density over a step by only
  * dt^2 dp (pi / 2H)^2 / rho0, so up to dp_eta = rho0 eta (2H / pi)^2 / dt^2 passes unseen and the
- * column rings within it (README "DFSPH"). A two-level method (Briggs, Henson & McCormick 2000,
+ * column rings within it (docs/dfsph.md). A two-level method (Briggs, Henson & McCormick 2000,
  * "A Multigrid Tutorial", ch. 3 and 5: smoothing plus coarse-grid correction; Vanek, Mandel &
  * Brezina 1996: aggregation) solves the smooth part on aggregates instead:
  *

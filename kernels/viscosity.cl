@@ -38,7 +38,7 @@ __kernel void viscosity_force(const SimParams p, __global const float4* pos, __g
  * side of the boundary particle, so the wall stress is that of a no-slip wall. (With v_b itself,
  * the boundary particles dx/2 behind the wall moving at the wall's speed, the fluid-boundary term
  * sees about half the shear: the Stokes drag of a towed ball came out 0.9 x 6 pi mu R U where the
- * box's wall factor asks for 2.0-2.6; README, Forces on bodies.)
+ * box's wall factor asks for 2.0-2.6; docs/forces.md.)
  * Used only in the viscous term (pressure.cl's fused pass, viscosity_force, rigid.cl's reaction);
  * the rigid motion in bvel is unchanged. `mode`: 1 = every boundary particle, 2 = only moving
  * bodies' particles (bvel.w = 1; the laminar body term of body_viscosity physical); the others

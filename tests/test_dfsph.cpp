@@ -518,8 +518,7 @@ TEST_CASE("DFSPH extrapolated walls: the hydrostatic tank within 5 % in every la
   // pressure error dp smooth over the column's depth H changes the density over a step by only
   // dt^2 dp (pi / 2H)^2 / rho0, so a mode of dp_eta = rho0 eta (2H / pi)^2 / dt^2 passes unseen and
   // the column rings within it: at the reference's eta = 5e-4 (dt = 5 ms, H = 0.2 m) dp_eta =
-  // 324 Pa, 17 % of rho0 g H, and a layer's pressure swung by 1 kPa between frames (README
-  // "DFSPH"). For 1 % of rho0 g H, eta <= 0.01 g dt^2 pi^2 / (4 H): 3e-5 at 5 ms steps; since the
+  // 324 Pa, 17 % of rho0 g H, and a layer's pressure swung by 1 kPa between frames (docs/dfsph.md). For 1 % of rho0 g H, eta <= 0.01 g dt^2 pi^2 / (4 H): 3e-5 at 5 ms steps; since the
   // viscous step bound of the scene's artificial viscosity (alpha 0.1: dt <= 3.46 ms, 15 steps of
   // 3.33 ms per frame; core/model.cpp, artificialViscosityStepFactor) 1.34e-5: the test sets 1e-5
   // (at 2e-5 a layer changed by 171 Pa between frames, 9 %).
@@ -541,7 +540,7 @@ TEST_CASE("DFSPH extrapolated walls: the hydrostatic tank within 5 % in every la
   // 3.33 ms steps: 64 Pa (3.4 %), worst layer 1.6 %, probes 2.9 %, 72 density iterations per step
   // (at 2e-5 and 5 ms steps, before the viscous step bound: 67 Pa; at the reference's eta = 5e-4,
   // a mutation, 1045 Pa, 55 %). At 2e-5 and 5 ms steps the calm was not robust: averaged over
-  // 1-2.75 s the run read 7.7 % and 177 Pa, as more steps stopped at max_iterations (README).
+  // 1-2.75 s the run read 7.7 % and 177 Pa, as more steps stopped at max_iterations (docs/dfsph.md).
   CHECK(d.worst_change < 0.05 * d.p_bottom);
   WARN("dfsph extrapolated walls, hydrostatic tank (density bound 1e-5): worst layer " << 100 * d.worst
        << " %, frame-to-frame change " << d.worst_change << " Pa, probes " << 100 * d.worst_probe << " %, "
@@ -602,7 +601,7 @@ TEST_CASE("DFSPH extrapolated walls: a splash far from the walls is as fast as w
   // (measured: 3.77 and 3.79 m/s; mirrored walls 4.05). Before, a splash particle with fewer
   // neighbours than the divergence solve's minimum kept its warm-started pressure (the solve skips
   // it) for as long as it flew, and that pressure shot it off: 9.3 m/s here, and the 10-11 m/s
-  // "jet" of the 50k dam break (README, DFSPH). That rule restored, a mutation: fails.
+  // "jet" of the 50k dam break (docs/dfsph.md). That rule restored, a mutation: fails.
   const auto fastest = [](const std::string& walls) {
     double vmax = 0.0;
     app::RunResult r = app::runScene(quietRun("dfsph_collide.yaml", {"fluid.dfsph.walls=" + walls}),
@@ -660,7 +659,7 @@ TEST_CASE("DFSPH two-level solve: the hydrostatic tank at the reference's densit
   // Not calm: a layer changes by ~1 kPa between steps (plain Jacobi: 2.5 kPa), alternating from
   // step to step (two steps apart: ~175 Pa). Not the solve's error but the scene's explicit
   // artificial viscosity at this step (alpha c0 dt / h = 0.99): the next test says how it was
-  // found, and is calm (18 Pa) with alpha 0.07. Reported here (README "DFSPH").
+  // found, and is calm (18 Pa) with alpha 0.07. Reported here (docs/dfsph.md).
   CHECK_NOFAIL(d.worst_change < 0.05 * d.p_bottom);
   WARN("dfsph two-level solve, hydrostatic tank (density bound 5e-4), every step: worst layer " << 100 * d.worst
        << " %, step-to-step change " << d.worst_change << " Pa, probes " << 100 * d.worst_probe << " %, "
@@ -683,7 +682,7 @@ TEST_CASE("DFSPH two-level solve: the hydrostatic tank at the reference's densit
 TEST_CASE("DFSPH two-level solve: calm between steps at the reference's density bound when the viscous term fits the step", "[dfsph]") {
   // What makes the tank's pressure alternate from step to step with the two-level solve at the
   // scene's artificial viscosity (alpha 0.1; the test above): not the solve. Measured on that run
-  // (README "DFSPH"): each step's density solve ends within 20-60 Pa of the converged solution of
+  // (docs/dfsph.md): each step's density solve ends within 20-60 Pa of the converged solution of
   // its own problem (solved on to an average error of 5e-7), yet that converged solution itself
   // alternates by ~900 Pa, and a density bound of 1e-5 (73 iterations per step) leaves the
   // alternation at 725 Pa (d2, two steps apart: 4 Pa). The state alternates: the floor layer's
@@ -734,7 +733,7 @@ TEST_CASE("DFSPH viscous step bound: the default tank's artificial viscosity set
   const Compiled comp = compile(io::loadScene(scenePath("hydrostatic.yaml"), {"fluid.solver=dfsph"}));
   CHECK(comp.model.artificial_step_factor == Approx(0.685).epsilon(0.01));
   // The scene as it is (20 frames/s) with the two-level solve at the reference's density bound
-  // 5e-4, to 2.75 s (the robustness span of the README's eta 2e-5 runs), the probes sampled at the
+  // 5e-4, to 2.75 s (the robustness span of docs/dfsph.md's eta 2e-5 runs), the probes sampled at the
   // start of every step (rate 1000/s > 300 steps/s): every layer's frame average within 10 % (5 %
   // reported: the shallowest layer, ~2.5 cm deep, reads 5-6 % with the two-level solve), probes
   // within the issue's 5 % of rho0 g d, and calm between steps: a probe's pressure changes between

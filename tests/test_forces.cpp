@@ -4,7 +4,7 @@
 // ball, a dense ball sinking from rest, and the Stokes terminal velocity of a falling ball. The
 // checks themselves are in cli/force_checks.cpp (the `bench` force table runs them at more
 // resolutions). Tolerances are derived next to each check; each check fails when the
-// coupling force (kernels/rigid.cl, rigid_fluid_forces) is halved (README, Forces on bodies).
+// coupling force (kernels/rigid.cl, rigid_fluid_forces) is halved (docs/forces.md).
 #include "cli/force_checks.h"
 #include "cli/runner.h"
 #include "core/model.h"
@@ -116,7 +116,7 @@ TEST_CASE("Forces: the Stokes drag of a towed ball matches 6 pi mu R U with the 
   // (TowCheck::expected_lo/hi). Measured: 1.53 (0.88 before issue 15's ghost velocities, wall
   // pressure and c0; 1.24 with fluid.boundary_velocity: wall, below the band: the test sees the
   // no-slip condition). Halving the coupling force gives 0.77: below. The sideways force is reported, not tested here
-  // (the sphere's surface sampling: 0-14 % of the drag, README).
+  // (the sphere's surface sampling: 0-14 % of the drag, docs/forces.md).
   const app::TowCheck c = app::towedBall(scenePath("stokes_tow.yaml"), 0.01);
   INFO(c.message);
   REQUIRE(c.exit_code == 0);
@@ -167,8 +167,7 @@ TEST_CASE("Forces: a buoyant ball released one spacing above the floor accelerat
   // Stokes checks; the floor's at its wall), so C_m(h + dx/2) .. C_m(h - dx/2) = 0.559 .. 0.639,
   // and 10 % beyond (the shaken ball's: the sampled ball's displaced volume is known to ~7 % at
   // R / dx = 3). Measured 0.594 (session 7). At R / dx = 4 (bench) 0.693 against 0.578 .. 0.660:
-  // 5 % over, inside the 10 %. Why it is above the centre value and grows with resolution (README,
-  // Forces on bodies): not the artificial viscosity's squeeze film (laminar water gives 0.75 at
+  // 5 % over, inside the 10 %. Why it is above the centre value and grows with resolution (docs/forces.md): not the artificial viscosity's squeeze film (laminar water gives 0.75 at
   // R / dx = 4, measured), but the 10 ms window: the estimate moves with it (0.59, 0.69, 0.78,
   // 0.84 over 5, 10, 15, 20 ms at R / dx = 4 with alpha = 0.1; laminar 0.64, 0.75, 0.53, 0.55 as
   // the ball rings on the liquid's compressibility).
@@ -232,7 +231,7 @@ TEST_CASE("Forces: a dense ball sinking from rest follows added mass and a spher
   // inside it, and v(0.2 s) > 0.4 m/s (the issue: a dense block settled at 0.20-0.27 m/s).
   // Before issue 15's contact range (the fluid-body contact within dx of a body particle, now
   // dx/2: shared/pair_loops.h) the ball's mean C_d was 3.9 and v(0.2 s) 0.44 m/s, below this
-  // envelope from ~50 ms on (measured; README, Forces on bodies). Measured now: v(0.2 s) 0.61 in
+  // envelope from ~50 ms on (measured; docs/forces.md). Measured now: v(0.2 s) 0.61 in
   // 0.60 .. 0.83 m/s, mean C_d 1.2 (from momentum with C_m = 1/2).
   // Halving the coupling force: a0 = (m - rho V / 2) g / (m + C_m rho V / 2), 1.7 x faster, and half
   // the drag: above the envelope.
@@ -288,7 +287,7 @@ TEST_CASE("Forces with DFSPH and extrapolated walls: a free body feels its held 
   //    0.725) and drag (C_d 0 .. 0.97) with the hold's ringing as margin, past 0.4 m/s at 0.2 s
   //    (measured 0.582 m/s against 0.589 .. 0.812, inside the margin; mean C_d 1.41; before
   //    session 10's ghost velocities at the body, 0.573 m/s and 1.6).
-  // The Stokes drag with DFSPH: the next test. Not tested with DFSPH (bench rows, README): the
+  // The Stokes drag with DFSPH: the next test. Not tested with DFSPH (bench rows, docs/forces.md): the
   // released buoyant ball's added mass (it has not risen 10 ms after the release mid-water; C_m
   // 2.2 near the floor).
   // Halving the coupling force halves the held force (0.52 N against rho g V = 1.10 N) and speeds
@@ -376,7 +375,7 @@ TEST_CASE("Forces: DFSPH takes the no-slip ghost velocities at every boundary wi
   // factor's band with them), the walls keeping their own velocity (as before), and none in a
   // scene with no moving body or with the artificial viscosity; WCSPH's `auto` with the laminar
   // model takes them everywhere. At Re = 20 in that scene the drag is 3.20 x 6 pi mu R U with
-  // them and 2.55 without (README, Forces on bodies; a bench row, minutes per run).
+  // them and 2.55 without (docs/forces.md; a bench row, minutes per run).
   const std::string scene = scenePath("tow_re20.yaml");
   CHECK(compile(io::loadScene(scene)).model.ghost_velocity_mode == 1u);
   CHECK(compile(io::loadScene(scene, {"fluid.boundary_velocity=auto"})).model.ghost_velocity_mode == 2u);
@@ -392,7 +391,7 @@ TEST_CASE("Forces: DFSPH takes the no-slip ghost velocities at every boundary wi
 
 TEST_CASE("Forces: a body's per-particle fluid forces (readBodyParticles) sum to its fluid force", "[forces]") {
   // The diagnostic read-back that session 9 used for the pressure distribution on the sinking ball
-  // (README, Forces on bodies): each moving particle's position, volume ratio, fluid force and
+  // (docs/forces.md): each moving particle's position, volume ratio, fluid force and
   // wall pressure, in body order. Its forces must add up to the body's fluid force of the same
   // step (rigid_reduce sums the same numbers in float, in the same order: rounding only), its
   // volume ratios be positive and its positions lie dx/2 inside the ball's surface (compile's inset).

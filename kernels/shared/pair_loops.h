@@ -244,7 +244,7 @@ inline float3 sph_boundary_viscosity(const SimParams* p, const float m, const fl
    * term with the liquid's own viscosity nu, whatever the fluid's model (Akinci et al. 2012 eq. 11
    * gives the fluid-body term its own coefficient). The artificial alpha is a numerical viscosity,
    * nu_eff ~ alpha h c0 / 10 (Monaghan 2005), ~1000x water's at dx = 1 cm: on a body it is the drag
-   * and squeeze film of syrup (README, Forces on bodies). */
+   * and squeeze film of syrup (docs/forces.md). */
   if (p->body_viscosity && vb.w > 0.5f) return (2.0f * w * m * nu / rho) * (F * r2) / (r2 + eta2) * v;
 #if SPH_LAMINAR
   return (2.0f * w * m * nu / rho) * (F * r2) / (r2 + eta2) * v; /* (mu_i + mu_b) / (rho_i rho_b) = 2 nu / rho */
