@@ -744,6 +744,30 @@ void checkList(Failures& f, const char* what, std::size_t i, const uint32_t* lis
     if (!got.count(j)) f.add([&](auto& o) { o << what << " list of " << i << ": neighbour " << j << " missing"; });
 }
 
+// Every fluid particle's fluid and boundary lists after d.buildGrid() against brute force within
+// `radius` (m), up to the float-rounding band; returns how many particles have a boundary neighbour.
+std::size_t checkListsBruteForce(Device& d, const Scene& s, float radius) {
+  const std::size_t n = d.n, K = s.P.max_neighbours;
+  const auto pos = fromDevice<F4>(d.pos[d.cur], n);
+  const auto nbr = fromDevice<uint32_t>(d.nbr, n * K), nbr_count = fromDevice<uint32_t>(d.nbr_count, n);
+  const auto bnbr = fromDevice<uint32_t>(d.bnbr, n * K), bnbr_count = fromDevice<uint32_t>(d.bnbr_count, n);
+  REQUIRE(fromDevice<uint32_t>(d.overflow, 1)[0] == 0u);
+  Failures f;
+  std::size_t with_boundary = 0, total = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    std::set<uint32_t> in, band, bin, bband;
+    bruteNeighbours(pos, pos[i], i, radius, in, band);
+    checkList(f, "fluid", i, &nbr[i * K], nbr_count[i], in, band);
+    bruteNeighbours(s.bpos, pos[i], std::size_t(-1), radius, bin, bband);
+    checkList(f, "boundary", i, &bnbr[i * K], bnbr_count[i], bin, bband);
+    if (!bin.empty()) ++with_boundary;
+    total += in.size();
+  }
+  INFO("mean neighbours within " << radius << " m: " << double(total) / n);
+  CHECK_NO_FAILURES(f);
+  return with_boundary;
+}
+
 TEST_CASE("build_neighbour_lists: fluid and boundary lists equal brute force within the list radius", "[kernels]") {
   struct Case {
     float ratio, skin;
@@ -756,25 +780,8 @@ TEST_CASE("build_neighbour_lists: fluid and boundary lists equal brute force wit
     const SimParams& P = s.P;
     Device d(kernelSet(SPH_KERNEL_CUBIC_SPLINE, false), s);
     d.buildGrid();
-    const std::size_t n = d.n, K = P.max_neighbours;
-    const auto pos = fromDevice<F4>(d.pos[d.cur], n);
-    const auto nbr = fromDevice<uint32_t>(d.nbr, n * K), nbr_count = fromDevice<uint32_t>(d.nbr_count, n);
-    const auto bnbr = fromDevice<uint32_t>(d.bnbr, n * K), bnbr_count = fromDevice<uint32_t>(d.bnbr_count, n);
-    REQUIRE(fromDevice<uint32_t>(d.overflow, 1)[0] == 0u);
-    Failures f;
-    std::size_t with_boundary = 0, total = 0;
-    for (std::size_t i = 0; i < n; ++i) {
-      std::set<uint32_t> in, band, bin, bband;
-      bruteNeighbours(pos, pos[i], i, P.cell_size, in, band);
-      checkList(f, "fluid", i, &nbr[i * K], nbr_count[i], in, band);
-      bruteNeighbours(s.bpos, pos[i], std::size_t(-1), P.cell_size, bin, bband);
-      checkList(f, "boundary", i, &bnbr[i * K], bnbr_count[i], bin, bband);
-      if (!bin.empty()) ++with_boundary;
-      total += in.size();
-    }
-    INFO("mean neighbours " << double(total) / n);
-    CHECK_NO_FAILURES(f);
-    if (c.boundary) CHECK(with_boundary > n / 10);
+    const std::size_t with_boundary = checkListsBruteForce(d, s, P.cell_size);
+    if (c.boundary) CHECK(with_boundary > d.n / 10);
     if (!c.boundary) CHECK(with_boundary == 0u);
   }
 }
@@ -788,26 +795,8 @@ TEST_CASE("build_neighbour_lists at a radius below the cell size (DFSPH's lists 
   Device d(kernelSet(SPH_KERNEL_CUBIC_SPLINE, false), s);
   d.list_radius = P.support;
   d.buildGrid();
-  const std::size_t n = d.n, K = P.max_neighbours;
-  const auto pos = fromDevice<F4>(d.pos[d.cur], n);
-  const auto nbr = fromDevice<uint32_t>(d.nbr, n * K), nbr_count = fromDevice<uint32_t>(d.nbr_count, n);
-  const auto bnbr = fromDevice<uint32_t>(d.bnbr, n * K), bnbr_count = fromDevice<uint32_t>(d.bnbr_count, n);
-  REQUIRE(fromDevice<uint32_t>(d.overflow, 1)[0] == 0u);
   REQUIRE(P.support < 0.9f * P.cell_size);
-  Failures f;
-  std::size_t total = 0, with_boundary = 0;
-  for (std::size_t i = 0; i < n; ++i) {
-    std::set<uint32_t> in, band, bin, bband;
-    bruteNeighbours(pos, pos[i], i, P.support, in, band);
-    checkList(f, "fluid", i, &nbr[i * K], nbr_count[i], in, band);
-    bruteNeighbours(s.bpos, pos[i], std::size_t(-1), P.support, bin, bband);
-    checkList(f, "boundary", i, &bnbr[i * K], bnbr_count[i], bin, bband);
-    total += in.size();
-    if (!bin.empty()) ++with_boundary;
-  }
-  INFO("mean neighbours within H " << double(total) / n);
-  CHECK_NO_FAILURES(f);
-  CHECK(with_boundary > n / 10);
+  CHECK(checkListsBruteForce(d, s, P.support) > d.n / 10);
 }
 
 TEST_CASE("build_neighbour_lists: overflowing lists keep max_neighbours entries and report the largest count",
