@@ -762,7 +762,7 @@ int benchCommand(const BenchOptions& opt) {
                 << " (iso % and iso+obj %: (t_on - t_off) / t_on from the medians of separate runs, noisy on a shared "
                    "machine; cost %: (isosurface + hand-off + writer thread) / frame loop within each export run)\n";
     }
-    if (opt.forces && !opt.speed_only && !opt.iso_only) forceChecks(opt);
+    if (opt.forces && !opt.speed_only && !opt.accuracy_only && !opt.iso_only) forceChecks(opt);
     if (opt.cloth && !opt.accuracy_only && !opt.iso_only) return clothSweep(opt);
     return kExitOk;
   } catch (const InputError& e) {

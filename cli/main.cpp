@@ -121,8 +121,11 @@ int main(int argc, char** argv) {
   cmd_bench->add_option("--frames", bench.frames, "Frames per speed run")->capture_default_str();
   cmd_bench->add_option("--repeats", bench.repeats, "Runs per configuration (the median is reported)")
       ->capture_default_str();
-  cmd_bench->add_flag("--speed-only", bench.speed_only, "Skip the accuracy benchmark");
-  cmd_bench->add_flag("--accuracy-only", bench.accuracy_only, "Skip the speed benchmark");
+  cmd_bench->add_flag("--speed-only", bench.speed_only,
+                      "Skip the accuracy, impact and force tables (the isosurface and cloth tables run unless "
+                      "--no-iso / --no-cloth)");
+  cmd_bench->add_flag("--accuracy-only", bench.accuracy_only,
+                      "Only the accuracy table (and the impact table unless --no-impact)");
   cmd_bench->add_option("--iso-sizes", bench.iso_sizes, "Particle counts for the isosurface table")
       ->capture_default_str();
   cmd_bench->add_flag("--iso-only", bench.iso_only, "Only the isosurface table (off / on / on + OBJ export)");
