@@ -49,6 +49,10 @@ struct BenchOptions {
   std::vector<std::string> accuracy_solvers{"wcsph", "dfsph"};
   std::vector<double> accuracy_cfls{0.4, 0.2};
   std::vector<std::string> accuracy_eos{"linear", "tait"};
+  // Scene overrides (KEY=VALUE, as run --set) added to every accuracy run after the bench's own:
+  // to compare one setting's front against the default's.
+  std::vector<std::string> accuracy_sets;
+  double accuracy_until = 3.6;  ///< end of the accuracy runs in T = t sqrt(2 g / a) (unit: 1)
 };
 
 /// Speed table (dam break at several sizes and substep counts) and accuracy-versus-time table

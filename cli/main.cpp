@@ -168,6 +168,14 @@ int main(int argc, char** argv) {
   cmd_bench->add_option("--accuracy-eos", bench.accuracy_eos, "WCSPH's equations of state in the accuracy table")
       ->check(CLI::IsMember({"linear", "tait"}))
       ->capture_default_str();
+  cmd_bench->add_option("--accuracy-set", bench.accuracy_sets,
+                        "Scene override for every accuracy run, after the bench's own (as run --set), e.g. "
+                        "--accuracy-set fluid.dfsph.density_error=1e-4");
+  cmd_bench->add_option("--accuracy-until", bench.accuracy_until,
+                        "End of the accuracy runs in T = t sqrt(2 g / a) (3.6 covers the data to Z ~ 4; less scores "
+                        "fewer points)")
+      ->check(CLI::Range(0.5, 10.0))
+      ->capture_default_str();
 
   // compare
   app::CompareOptions compare;

@@ -264,6 +264,18 @@ TEST_CASE("cli: unknown options and a missing command exit with 2", "[cli]") {
   INFO(solver.err);
   CHECK(solver.code == 2);
   CHECK(contains(solver.err, "dfsph-gost"));
+  // the accuracy runs' scene overrides are checked before anything runs, as run --set's
+  const Result set = sphaptics(tmp.path, {"bench", "--accuracy-only", "--no-impact", "--accuracy-set",
+                                          "fluid.artificial_viscosty=0"});
+  INFO(set.err);
+  CHECK(set.code == 2);
+  CHECK(contains(set.err, "did you mean 'fluid.artificial_viscosity'"));
+  const Result range = sphaptics(tmp.path, {"bench", "--accuracy-only", "--no-impact", "--accuracy-set",
+                                            "fluid.artificial_viscosity=-1"});
+  INFO(range.err);
+  CHECK(range.code == 2);
+  CHECK(contains(range.err, "out of range"));
+  CHECK_FALSE(fs::exists(tmp.path / "bench" / "accuracy.csv"));
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -349,4 +361,24 @@ TEST_CASE("cli: a complete run writes particles.h5part and a run.json that says 
   CHECK(fs::exists(out / "particles.h5part"));
   CHECK_FALSE(fs::exists(out / "particles.h5part.partial"));
   CHECK(contains(readFile(out / "run.json"), "\"status\": \"complete\""));
+}
+
+TEST_CASE("cli: bench --accuracy-set and --accuracy-until reach the accuracy runs", "[cli]") {
+  // The smallest accuracy run (1,000 particles) to T = 0.5 (t = 56.4 ms, 6.8 frames at 120 frames/s,
+  // 3.4 at the scene's 60): the front series holds the start and one row per frame, 1 + 7 rows
+  // (without the override, 1 + 3: measured).
+  TempDir tmp;
+  const Result r = sphaptics(tmp.path, {"bench", "--accuracy-only", "--no-impact", "--no-forces", "--no-iso",
+                                        "--no-cloth", "--accuracy-sizes", "1000", "--accuracy-solvers", "dfsph",
+                                        "--accuracy-cfl", "0.4", "--accuracy-until", "0.5", "--accuracy-set",
+                                        "simulation.frame_rate=120", "--device", "cpu", "--out", "b"});
+  INFO("exit " << r.code << ", stderr:\n" << r.err);
+  REQUIRE(r.code == 0);
+  const std::string series = readFile(tmp.path / "b" / "accuracy_front.csv");
+  int frames = 0;
+  for (std::size_t at = series.find(",frame,"); at != std::string::npos; at = series.find(",frame,", at + 1)) ++frames;
+  CHECK(frames == 8);
+  // both files say which overrides their runs took
+  CHECK(contains(series, "# scene overrides of every run: simulation.frame_rate=120"));
+  CHECK(contains(readFile(tmp.path / "b" / "accuracy.csv"), "# scene overrides of every run: simulation.frame_rate=120"));
 }
