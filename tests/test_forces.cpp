@@ -287,9 +287,8 @@ TEST_CASE("Forces with DFSPH and extrapolated walls: a free body feels its held 
   //    0.725) and drag (C_d 0 .. 0.97) with the hold's ringing as margin, past 0.4 m/s at 0.2 s
   //    (measured 0.582 m/s against 0.589 .. 0.812, inside the margin; mean C_d 1.41; before
   //    session 10's ghost velocities at the body, 0.573 m/s and 1.6).
-  // The Stokes drag with DFSPH: the next test. Not tested with DFSPH (bench rows, docs/forces.md): the
-  // released buoyant ball's added mass (it has not risen 10 ms after the release mid-water; C_m
-  // 2.2 near the floor).
+  // The Stokes drag with DFSPH and the released buoyant ball's added mass (which needs the
+  // fictitious mass fluid.dfsph.body_added_mass, session 11): the next tests.
   // Halving the coupling force halves the held force (0.52 N against rho g V = 1.10 N) and speeds
   // the sinking ball above the envelope (1.07 m/s at 0.2 s; measured).
   const std::vector<std::string> dfsph = {"fluid.solver=dfsph", "fluid.dfsph.walls=extrapolated"};
@@ -319,22 +318,26 @@ TEST_CASE("Forces with DFSPH: a buoyant ball released from rest accelerates with
   // (rho V v(T)) over T = 10 ms against 1/2 .. Lamb's 0.58 (25 %) mid-water and the method of
   // images' 0.559 .. 0.639 (10 %) one spacing above the floor; and the mean acceleration v(T) / T
   // against (mean F_held - m g) / (m + C_m rho V) over the same C_m range (the issue's a0).
-  // Two DFSPH settings, both needed (session 11, measured):
-  //  - fluid.dfsph.body_added_mass: 0.5 (the fictitious mass 1/2 rho V, Baek & Karniadakis 2012):
-  //    the solve answers the ball's last step's acceleration at once, so the staggered update reads
-  //    a_n = (F0 - m_a a_{n-1}) / m; for this ball m_a (~0.8 rho V in one 3.3 ms step) exceeds m =
-  //    0.5 rho V and the free ball swings with period 2 steps, growing (+-6 rho g V within 6 steps;
-  //    C_m 0.04 over 10 ms, and 49 with the default solve). Not the step: at max_time_step 1 ms it
-  //    swings the same way.
+  // DFSPH settings (session 11, measured):
+  //  - fluid.dfsph.body_added_mass: 0.5 (the fictitious mass 1/2 rho V, Baek & Karniadakis 2012),
+  //    needed: the solve answers the ball's last step's acceleration at once, so the staggered update
+  //    reads a_n = (F0 - m_a a_{n-1}) / m; for this ball m_a (~0.8 rho V in one 3.3 ms step) exceeds
+  //    m = 0.5 rho V and the free ball swings with period 2 steps, growing (+-6 rho g V within 6
+  //    steps; C_m -0.18 here without it, 49 in the session-9 bench). Not the step length: at
+  //    max_time_step 1 ms it swings the same way.
   //  - fluid.dfsph.coarse_interval: 4: at the default bound the plain Jacobi solve leaves the tank
-  //    ringing (the held force swings 0.19 .. 1.86 rho g V with period ~20 ms); the two-level solve
-  //    calms it (0.93 .. 0.95) and is cheaper here.
-  // Measured: mid-water C_m 0.474 (0.528 at R / dx = 4, bench), above the floor 0.568 (0.647).
-  // With steps of 3.3 ms (the artificial viscosity's bound) there are 3 in the window, and the
-  // ball's own acceleration lags the fluid's answer by one step: v(T) / T reads C_m ~0.63 mid-water,
-  // inside the 25 %; at max_time_step 2 / 1 ms: 0.59 / 0.54 (momentum 0.50 / 0.51), converging.
-  // Mutations: halving the coupling force (kernels/rigid.cl) and body_added_mass 0 both fail
-  // (session 11's note).
+  //    ringing (the held force swings 0.19 .. 1.86 rho g V, period ~20 ms, at 3.3 ms steps); the
+  //    two-level solve calms it (0.93 .. 0.95 at 3.3 ms; +-40 % at 2 ms, like WCSPH's tank, which
+  //    the held run takes out) and is cheaper.
+  //  - fluid.dfsph.max_time_step: 0.002, 5 steps in the window: the ball's own acceleration lags
+  //    the fluid's answer by about one step, so v(T) / T reads a larger C_m than the force does:
+  //    0.63 / 0.47 at the default 3.3 ms (3 steps; a0 below its range), 0.59 / 0.50 at 2 ms, 0.54 /
+  //    0.51 at 1 ms (converging; 1 ms costs twice as much).
+  // Measured: mid-water C_m 0.502, a0 3.85 m/s^2 (3.77 .. 4.90); above the floor 0.569, a0 3.66
+  // (3.52 .. 4.95). Bench at R / dx = 4: 0.551 and 0.659 (inside), a0 mid-water 3.21 against 3.25
+  // .. 4.23 (1 % below: the lag), floor 3.64 (3.64 .. 5.23).
+  // Mutations (session 11): halving the coupling force (kernels/rigid.cl) fails (the ball does not
+  // rise); body_added_mass 0 fails (C_m -0.18 / -0.27, a0 13.6 / 19.0 m/s^2).
   const std::vector<std::string> dfsph = {"fluid.solver=dfsph", "fluid.dfsph.walls=extrapolated",
                                           "fluid.dfsph.body_added_mass=0.5", "fluid.dfsph.coarse_interval=4",
                                           "fluid.dfsph.max_time_step=0.002"};
