@@ -746,7 +746,9 @@ void Simulation::integrateBodies(double dt) {
   // m_a a_{n-1}) / m, which flips and grows where m_a > m (a 500 kg/m^3 ball in water: measured
   // period-2 swings of +-6 rho g V within 6 steps of its release). M in the body's inertia and
   // M a_{n-1} in its force (Baek & Karniadakis 2012) make the ratio (M - m_a) / (m + M).
-  const double fictitious = dfsph_ && !model_.spec.fluid.phases.empty() ? model_.spec.fluid.dfsph.body_added_mass * model_.spec.fluid.phases[0].rest_density : 0.0;
+  const double fictitious = dfsph_ && !model_.spec.fluid.phases.empty()
+                                ? model_.spec.fluid.dfsph.body_added_mass * model_.spec.fluid.phases[0].rest_density
+                                : 0.0;  // C rho0 (unit: kg/m^3)
   std::vector<Eigen::Vector3d> v_before(bodies_.size());
   for (std::size_t b = 0; b < bodies_.size(); ++b) {
     v_before[b] = bodies_[b].v;
