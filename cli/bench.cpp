@@ -423,7 +423,10 @@ int forceChecks(const BenchOptions& opt) {
       // water level, within dx/2) with a damped heave whose undamped period lies in the floating
       // hemisphere's band (Hulme 1982), +-17 % for the waterplane radius known to dx/2
       // (tests/test_forces.cpp). R/dx 3 is the test's; 4.05 (a spacing that divides the tank) here.
-      const HeaveCheck h = floatingBallHeave(release, dx, 1.5, sets, opt.device);
+      // DFSPH: the same ball as the release rows, so the same fictitious mass (session 11).
+      std::vector<std::string> heave_sets = sets;
+      if (base == "dfsph") heave_sets.push_back("fluid.dfsph.body_added_mass=0.5");
+      const HeaveCheck h = floatingBallHeave(release, dx, 1.5, heave_sets, opt.device);
       if (h.exit_code != 0) {
         std::printf("heave at dx %g (%s): %s\n", dx, solver.c_str(), h.message.c_str());
         continue;
