@@ -284,12 +284,14 @@ Eigen::Quaterniond rotated(const Eigen::Quaterniond& q, const Eigen::Vector3d& t
 }
 }  // namespace
 
-void integrateVelocity(const RigidBody& body, BodyState& s, const Eigen::Vector3d& g, double dt) {
+void integrateVelocity(const RigidBody& body, BodyState& s, const Eigen::Vector3d& g, double dt,
+                       double fictitious_mass) {
   if (body.kind != BodyKind::Dynamic) return;
   // Forces at the start of the step. (Contact acts by impulses, core/contact.h; contact_force only
   // records them.)
   const Eigen::Vector3d force = body.mass * g + s.fluid_force + s.external_force;
-  s.v += dt * force / body.mass;
+  // Baek & Karniadakis 2012, eq. 9: (m + M) a_n = F_n + M a_{n-1} (M = 0: v += dt F / m).
+  s.v += dt * (force + fictitious_mass * s.accel) / (body.mass + fictitious_mass);
   s.L += dt * (s.fluid_torque + s.external_torque);
   s.w = worldInverseInertia(body, s.q) * s.L;
 }

@@ -103,6 +103,9 @@ struct BodyState {
   Eigen::Vector3d contact_torque = Eigen::Vector3d::Zero();///< (unit: N m)
   Eigen::Vector3d external_force = Eigen::Vector3d::Zero(); ///< from outside (a haptic grab), this step (unit: N)
   Eigen::Vector3d external_torque = Eigen::Vector3d::Zero();///< about the centre of mass (unit: N m)
+  /// the centre's acceleration over the last step, (v after - v before) / dt, contacts included;
+  /// zero while held (the fictitious mass of integrateVelocity reads it) (unit: m/s^2)
+  Eigen::Vector3d accel = Eigen::Vector3d::Zero();
   /// A body-frame point in the world.
   Eigen::Vector3d toWorld(const Eigen::Vector3d& p) const { return x + q * p; }
 };
@@ -127,8 +130,14 @@ Eigen::Matrix3d worldInverseInertia(const RigidBody& body, const Eigen::Quaterni
 /// exactly. Kinematic with a constant motion: the scripted velocities, integrated exactly;
 /// keyframed: nothing here (the pose is a function of time: followKeyframes, called by the
 /// Simulation). Static: nothing moves.
-/// integrateVelocity: the momenta of a dynamic body (nothing for the others).
-void integrateVelocity(const RigidBody& body, BodyState& s, const Eigen::Vector3d& g, double dt);
+/// integrateVelocity: the momenta of a dynamic body (nothing for the others). With a fictitious
+/// mass M > 0 (DFSPH's fluid.dfsph.body_added_mass; Simulation::integrateBodies) the translation
+/// takes Baek & Karniadakis' (2012, J. Comput. Phys. 231, 629, eq. 9) stabilised update
+///     (m + M) a_n = F_n + M a_{n-1},   v += dt a_n,   a_{n-1} = s.accel (the last step's),
+/// the same motion as v += dt F / m wherever the acceleration is steady, but stable for a body
+/// lighter than the liquid's lagged reaction (the added-mass instability of a staggered coupling).
+void integrateVelocity(const RigidBody& body, BodyState& s, const Eigen::Vector3d& g, double dt,
+                       double fictitious_mass = 0.0);
 /// integratePosition: the pose from the velocities. With `walls` (the domain; null = none), a
 /// dynamic body left inside a closed wall (by rounding or unresolved contacts) is moved out along
 /// the wall's normal, velocities untouched.

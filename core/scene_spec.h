@@ -129,6 +129,9 @@ struct DfsphSpec {
   int coarse_interval = 0;           ///< two-level solve: coarse-grid correction after Jacobi iterations 1, 1 + n, 1 + 2n, ...; 0 = off (kernels/dfsph_coarse.cl) (unit: 1)
   double cfl = 0.4;                  ///< Courant number: dt <= cfl * dx / |v|max (unit: 1)
   double max_time_step = 0.005;      ///< largest step (unit: s)
+  /// dynamic bodies' fictitious mass C rho0 V in their translation (Baek & Karniadakis 2012), against
+  /// the added-mass instability of light bodies; 0 = off (unit: 1)
+  double body_added_mass = 0.0;
   SourceLoc loc;
 };
 

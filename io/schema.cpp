@@ -457,6 +457,12 @@ std::vector<KeyDef> buildTable() {
           .unit("1").greaterThan(0).atMost(1).doc("Courant number of the adaptive step: dt <= cfl * dx / |v|max"));
   add(field<InScene>("fluid.dfsph.max_time_step", [](auto& s) -> auto& { return s.fluid.dfsph.max_time_step; })
           .unit("s").greaterThan(0).doc("largest time step; frames end exactly (the last steps of a frame are evened out)"));
+  add(field<InScene>("fluid.dfsph.body_added_mass", [](auto& s) -> auto& { return s.fluid.dfsph.body_added_mass; })
+          .unit("1").atLeast(0).atMost(10)
+          .doc("fictitious mass C rho0 V of each dynamic body in its translation, (m + M) a_n = F_n + M a_{n-1} "
+               "(Baek & Karniadakis 2012): the incompressible solve answers a body's motion one step late, so a body "
+               "lighter than its added mass (e.g. 500 kg/m^3 in water) swings with period 2 steps and grows; 1/2, a "
+               "sphere's added mass, makes it stable (docs/forces.md); 0 = off (the plain update)"));
   add(field<InScene>("fluid.particle_spacing", [](auto& s) -> auto& { return s.fluid.particle_spacing; })
           .unit("m").greaterThan(0).doc("lattice spacing dx of the fluid particles"));
   add(field<InScene>("fluid.equation_of_state", [](auto& s) -> auto& { return s.fluid.equation_of_state; })

@@ -850,3 +850,48 @@ TEST_CASE("Coupling: a block denser than water sinks to the floor", "[rigid]") {
   CHECK(end.v.norm() < 0.01);  // at rest: under 1 cm/s
   CHECK(std::abs(end.fluid_force.z() + end.contact_force.z() - weight) < 0.1 * weight);
 }
+
+TEST_CASE("rigid: the fictitious mass keeps a steady acceleration and stabilises a lagged added mass", "[rigid]") {
+  // rigid::integrateVelocity with a fictitious mass M (fluid.dfsph.body_added_mass; Baek &
+  // Karniadakis 2012): (m + M) a_n = F_n + M a_{n-1}. A model of DFSPH's staggered coupling: the
+  // fluid answers the body's last step's acceleration in full, F_n = F0 - m_a a_{n-1}, whose exact
+  // answer is the added-mass acceleration a* = F0 / (m + m_a). Plain update: a_n = (F0 - m_a
+  // a_{n-1}) / m, its error times -m_a / m per step: it grows when m_a > m (the released 500
+  // kg/m^3 ball, m_a ~ 1.6 m per 3.3 ms step, docs/forces.md session 11). With M: times (M - m_a)
+  // / (m + M). And with no fluid answer (m_a = 0) a steady force still gives F0 / m: the error
+  // shrinks by M / (m + M) per step.
+  rigid::RigidBody body;
+  body.kind = rigid::BodyKind::Dynamic;
+  body.mass = 0.5;  // kg
+  body.inertia = body.inv_inertia = Eigen::Matrix3d::Identity();
+  const double F0 = 0.5, dt = 0.003;  // N, s
+  const Eigen::Vector3d g = Eigen::Vector3d::Zero();
+  // The acceleration after `steps` steps of the model with answer m_a (kg) and fictitious mass M (kg).
+  auto run = [&](double m_a, double M, int steps) {
+    rigid::BodyState s;
+    for (int n = 0; n < steps; ++n) {
+      s.fluid_force = Eigen::Vector3d(0, 0, F0 - m_a * s.accel.z());
+      const Eigen::Vector3d v0 = s.v;
+      rigid::integrateVelocity(body, s, g, dt, M);
+      s.accel = (s.v - v0) / dt;
+    }
+    return s.accel.z();
+  };
+  const double m_a = 1.6 * body.mass, exact = F0 / (body.mass + m_a);
+  // Plain: the error after 30 steps is 1.6^30 ~ 1e6 times the first step's.
+  CHECK(std::abs(run(m_a, 0.0, 30) - exact) > 1e3 * std::abs(run(m_a, 0.0, 1) - exact));
+  // A sphere's 1/2 rho V = m here (a 500 kg/m^3 ball): ratio -0.3 per step, 1e-15 after 30.
+  CHECK(std::abs(run(m_a, body.mass, 30) - exact) < 1e-9 * exact);
+  // Lighter (m_a < m): both converge to the same answer.
+  CHECK(std::abs(run(0.5 * body.mass, 0.0, 60) - F0 / (1.5 * body.mass)) < 1e-9 * F0);
+  CHECK(std::abs(run(0.5 * body.mass, body.mass, 60) - F0 / (1.5 * body.mass)) < 1e-9 * F0);
+  // No fluid answer: F0 / m (ratio 1/2 per step), not F0 / (m + M).
+  CHECK(std::abs(run(0.0, body.mass, 60) - F0 / body.mass) < 1e-9 * F0 / body.mass);
+  // M = 0 is the plain update, bit for bit.
+  rigid::BodyState a, b;
+  a.fluid_force = b.fluid_force = Eigen::Vector3d(0.1, -0.2, 0.3);
+  a.accel = b.accel = Eigen::Vector3d(1.0, 2.0, -3.0);
+  rigid::integrateVelocity(body, a, Eigen::Vector3d(0, 0, -9.81), dt, 0.0);
+  b.v += dt * (body.mass * Eigen::Vector3d(0, 0, -9.81) + b.fluid_force) / body.mass;
+  CHECK(a.v == b.v);
+}
