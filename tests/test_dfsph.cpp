@@ -674,9 +674,9 @@ TEST_CASE("DFSPH two-level solve: the hydrostatic tank at the reference's densit
   REQUIRE(a.exit_code == 0);
   CHECK(a.state_hash == b.state_hash);
   CHECK(a.profile.density_iterations == b.profile.density_iterations);
-  o.sets = {"fluid.solver=dfsph"};
+  o.sets = {"fluid.solver=dfsph", "fluid.dfsph.coarse_interval=0"};
   const app::RunResult c = app::runScene(o);
-  CHECK(c.state_hash != a.state_hash);  // and the correction acts
+  CHECK(c.state_hash != a.state_hash);  // and the correction acts (plain Jacobi gives another state)
 }
 
 TEST_CASE("DFSPH two-level solve: calm between steps at the reference's density bound when the viscous term fits the step", "[dfsph]") {
@@ -697,7 +697,11 @@ TEST_CASE("DFSPH two-level solve: calm between steps at the reference's density 
   // Sampled every step: since the viscous step bound (alpha 0.07: dt <= 4.94 ms; the last test)
   // a 5 ms frame would take two 2.5 ms steps, so the frames are 4 ms (one step each, alpha c0 dt /
   // h = 0.55).
-  const TankResult d = hydrostaticTank("dfsph", {"fluid.dfsph.coarse_interval=4", "fluid.artificial_viscosity=0.07",
+  // The correction's schedule of session 10 (after iterations 1, 5, 9, ... of both solves):
+  // coarse_start 1 and the rest rule off. (Session 11's default schedule, the rest rule with
+  // coarse_start 12: calm, 8.9 Pa between steps, but the shallowest layer 5.4 %.)
+  const TankResult d = hydrostaticTank("dfsph", {"fluid.dfsph.coarse_interval=4", "fluid.dfsph.coarse_start=1",
+                                                 "fluid.dfsph.coarse_rest_travel=0", "fluid.artificial_viscosity=0.07",
                                                  "simulation.frame_rate=250", "probes.rate=250"});
   REQUIRE(d.exit_code == 0);
   INFO("two-level, alpha 0.07: " << d.compared << " layers, worst pressure error " << 100 * d.worst << " %, largest "
@@ -767,4 +771,48 @@ TEST_CASE("DFSPH viscous step bound: the default tank's artificial viscosity set
        "worst layer " << 100 * d.worst << " %, frame-to-frame change " << d.worst_change << " Pa, probes "
        << 100 * d.worst_probe << " %, probe step-to-step change " << d.worst_probe_step_change << " Pa, "
        << d.density_iterations_per_step << " density iterations per step, " << d.profile.steps << " steps");
+}
+
+
+TEST_CASE("DFSPH default settings: the hydrostatic tank is calm at the reference's density bound (two-level solve at rest)", "[dfsph]") {
+  // Nothing set but the solver: the default density bound 5e-4 (the reference's) and the default
+  // two-level solve (coarse_interval 4, coarse_start 12, coarse_rest_travel 0.1; core/dfsph.cpp).
+  // The tank's fastest particle moves ~0.01-0.03 dx per step (a dam break 0.2-0.4 dx), so every
+  // density solve takes a coarse correction after its first Jacobi iteration. Plain Jacobi cannot
+  // see a pressure error smooth over the column below dp_eta = rho0 eta (2H / pi)^2 / dt^2 = 730 Pa
+  // at the viscous step bound's 3.33 ms (38 % of rho0 g H; the extrapolated-walls test above derives
+  // it), and the column rings within it. The probes sampled at every step (rate 1000/s > 300 steps/s)
+  // from 1 s to 1.5 s: calm means a probe's change between consecutive steps, and a layer's between
+  // frames, below 5 % of rho0 g H (the issue's 5 % band); the layers' and probes' averages within
+  // the issue's 5 % of rho0 g (H - z) (the layers' 5 % reported and 10 % checked, as the other
+  // two-level tank tests: the shallowest layer read 5-6.6 % before).
+  // Measured: 2.7 Pa between steps, 28 Pa between frames, worst layer 4.6 %, probes 2.6 %,
+  // 2.7 density iterations per step, 475 corrections in 450 steps. Mutation: the correction off
+  // (coarse_interval 0, plain Jacobi): 1,505 Pa between steps, 1,577 Pa between frames, worst layer
+  // 10.4 %, 37.5 iterations per step: fails. (The stall rule alone, coarse_rest_travel 0 with
+  // coarse_start 8: 2.9 kPa between steps, fails: docs/dfsph.md.)
+  const TankResult d = hydrostaticTank("dfsph", {"probes.rate=1000"});
+  REQUIRE(d.exit_code == 0);
+  INFO("default dfsph: " << d.compared << " layers, worst pressure error " << 100 * d.worst << " %, largest "
+       << "frame-to-frame change " << d.worst_change << " Pa (rho0 g H = " << d.p_bottom << " Pa), probes "
+       << 100 * d.worst_probe << " %, largest step-to-step change of a probe " << d.worst_probe_step_change
+       << " Pa over " << d.probe_samples << " samples, " << d.density_iterations_per_step
+       << " density iterations per step, " << d.profile.density_corrections << " density corrections in "
+       << d.profile.steps << " steps");
+  CHECK(d.compared >= 15);
+  CHECK(d.probes_compared >= 5);
+  CHECK(d.probe_samples >= 100);
+  CHECK(d.worst_probe_step_change < 0.05 * d.p_bottom);
+  CHECK(d.worst_change < 0.05 * d.p_bottom);
+  CHECK_NOFAIL(d.worst <= 0.05);
+  CHECK(d.worst <= 0.10);
+  CHECK(d.worst_probe <= 0.05);
+  CHECK(d.density_iterations_per_step < 10);
+  // at rest every density solve took its correction; the divergence solve none (it converges in
+  // ~1 iteration at rest, and a correction there only cost: measured calm either way)
+  CHECK(d.profile.density_corrections >= d.profile.steps);
+  CHECK(d.profile.divergence_corrections == 0);
+  WARN("dfsph default settings, hydrostatic tank: probe step-to-step change " << d.worst_probe_step_change
+       << " Pa, frame-to-frame " << d.worst_change << " Pa, worst layer " << 100 * d.worst << " %, probes "
+       << 100 * d.worst_probe << " %, " << d.density_iterations_per_step << " density iterations per step");
 }
