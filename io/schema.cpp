@@ -449,15 +449,17 @@ std::vector<KeyDef> buildTable() {
           .doc("two-level solve (walls single or extrapolated): a coarse-grid correction of the pressures on "
                "aggregates of one support H (Galerkin operator from the Jacobi pass's pair terms, assembled and "
                "solved by conjugate gradients on the device in a fixed order); it removes the smooth pressure errors "
-               "that the average-error stop cannot see (the resting column's ringing, docs/dfsph.md). Applied where "
-               "plain Jacobi cannot do the work: after the first iteration of the density solve at rest "
-               "(coarse_rest_travel), and every n iterations of a solve still above its bound from coarse_start on; "
-               "a flow that moves converges before that and pays nothing (the dam breaks within ~5 % of plain "
-               "Jacobi's CPU time). 0 = off (plain Jacobi)"));
+               "that the average-error stop cannot see (the resting column's ringing, docs/dfsph.md). Applied after "
+               "the first iteration of the density solve at rest (coarse_rest_travel: calm at the reference's "
+               "density bound), and, with coarse_start k0 > 0, every n iterations of a solve still above its bound "
+               "from k0 on; a flow that moves takes none (the dam breaks at plain Jacobi's CPU time but for their "
+               "first steps at rest). 0 = off (plain Jacobi)"));
   add(field<InScene>("fluid.dfsph.coarse_start", [](auto& s) -> auto& { return s.fluid.dfsph.coarse_start; })
-          .unit("1").atLeast(1).atMost(10000)
+          .unit("1").atLeast(0).atMost(10000)
           .doc("two-level solve: a solve (density or divergence) still above its bound after this many Jacobi "
-               "iterations takes a coarse-grid correction, and another every coarse_interval iterations after"));
+               "iterations takes a coarse-grid correction, and another every coarse_interval iterations after "
+               "(fewer iterations in moving flows, but a body's force then depends on it at the default density "
+               "bound: docs/dfsph.md); 0 = never (the default: only the rest rule, coarse_rest_travel)"));
   add(field<InScene>("fluid.dfsph.coarse_rest_travel", [](auto& s) -> auto& { return s.fluid.dfsph.coarse_rest_travel; })
           .unit("1").atLeast(0)
           .doc("two-level solve: a step whose fastest particle (or body) moved less than this many particle spacings "
