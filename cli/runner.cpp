@@ -164,6 +164,12 @@ std::string profileLine(const Profile& p) {
                   100.0 * p.max_density_error, 100.0 * p.max_divergence_error,
                   static_cast<unsigned long long>(p.unconverged_steps));
     s << buf;
+    // The two-level solve's coarse-grid corrections (fluid.dfsph.coarse_interval > 0)
+    if (p.density_corrections + p.divergence_corrections > 0) {
+      std::snprintf(buf, sizeof buf, "; %.2f density and %.2f divergence coarse corrections per step",
+                    double(p.density_corrections) / double(p.steps), double(p.divergence_corrections) / double(p.steps));
+      s << buf;
+    }
     // What set the steps' length (Simulation::dfsphStepLimit)
     s << "; steps set by";
     for (int l = 0; l < kNumStepLimiters; ++l)

@@ -52,6 +52,7 @@ struct DfsphFields {
   const cl::Buffer* bmark = nullptr;      ///< (n_boundary) the step each was last seen by fluid
   const cl::Buffer* cell_start = nullptr; ///< the fluid grid's cells
   cl::Buffer* bpressure = nullptr;        ///< (n_boundary) written by finish: both solves' wall pressure (unit: Pa)
+  double max_speed = 0.0;                 ///< the last step's largest particle speed, fluid and bodies (unit: m/s)
 };
 
 /// How one solve ended.
@@ -59,6 +60,7 @@ struct DfsphSolveResult {
   int iterations = 0;     ///< relaxed Jacobi iterations on the pressures (unit: 1)
   double error = 0.0;     ///< average error reached (unit: 1, relative to rho0)
   bool converged = true;  ///< error <= bound when it stopped
+  int corrections = 0;    ///< coarse-grid corrections of the two-level solve (unit: 1)
 };
 
 class DfsphSolver {
@@ -128,6 +130,7 @@ class DfsphSolver {
   KernelSet& kernels_;
   DfsphSpec spec_;
   bool one_mass_ = false;        // every phase's particle mass is the same (kernels/dfsph.cl, dfsph_factor)
+  double dx_ = 0.0;              // the lattice spacing (unit: m)
   uint32_t min_neighbours_ = 0;  // divergence solve: fewer neighbours = free surface, left alone
   std::size_t bytes_ = 0;
   static constexpr uint32_t kChunks = 64;  // chunks of the error reduction

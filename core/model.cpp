@@ -160,7 +160,7 @@ constexpr double kBytesPerGridCell = 16;          ///< cell start tables, host a
 /// wall pressures (8), the step's 32 listed fluid neighbours and their weights (256), the count,
 /// the active index (8) and the pressure-free sums (16): 288 (core/dfsph.cpp), rounded up.
 constexpr double kBytesPerDfsphWallParticle = 300;  ///< (unit: bytes)
-/// DFSPH's two-level solve (fluid.dfsph.coarse_interval > 0; all on the device since session 10),
+/// DFSPH's two-level solve (fluid.dfsph.coarse_interval > 0, the default since session 11; on the device),
 /// per fluid particle: the pair sums (27 x 2 float4, 864), their masks (8) and seven more values
 /// (28), and per aggregate (at most one per 4 particles) K's 125-slot row and columns (1,000) and
 /// the CG vectors (24): 1,156 (core/dfsph.cpp), rounded up; and per cell of H of the domain box

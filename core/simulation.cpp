@@ -578,6 +578,7 @@ DfsphFields Simulation::dfsphFields() {
   f.bmark = &bmark_;
   f.cell_start = &cell_start_;
   f.bpressure = &bpressure_;
+  f.max_speed = step_max_speed_;
   return f;
 }
 
@@ -589,6 +590,7 @@ void Simulation::divergenceSolve() {
   dfsph_frame_.divergence_iterations += r.iterations;
   dfsph_frame_.divergence_error = std::max(dfsph_frame_.divergence_error, r.error);
   profile_.divergence_iterations += static_cast<uint64_t>(r.iterations);
+  profile_.divergence_corrections += static_cast<uint64_t>(r.corrections);
   profile_.max_divergence_error = std::max(profile_.max_divergence_error, r.error);
 }
 
@@ -602,6 +604,7 @@ void Simulation::densitySolve() {
   dfsph_frame_.density_error = std::max(dfsph_frame_.density_error, r.error);
   if (!r.converged) ++dfsph_frame_.unconverged_steps, ++profile_.unconverged_steps;
   profile_.density_iterations += static_cast<uint64_t>(r.iterations);
+  profile_.density_corrections += static_cast<uint64_t>(r.corrections);
   profile_.max_density_error = std::max(profile_.max_density_error, r.error);
 }
 

@@ -106,6 +106,8 @@ void writeRunJson(const std::string& path, const RunInfo& info) {
   // DFSPH solver (zero with solver wcsph): iterations, steps above the bound, largest errors reached
   j << "  \"dfsph\": {\"density_iterations\": " << info.profile.density_iterations
     << ", \"divergence_iterations\": " << info.profile.divergence_iterations
+    << ", \"density_corrections\": " << info.profile.density_corrections
+    << ", \"divergence_corrections\": " << info.profile.divergence_corrections
     << ", \"density_iterations_per_step\": "
     << (info.profile.steps ? double(info.profile.density_iterations) / double(info.profile.steps) : 0.0)
     << ", \"unconverged_steps\": " << info.profile.unconverged_steps

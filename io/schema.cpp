@@ -448,11 +448,24 @@ std::vector<KeyDef> buildTable() {
           .unit("1").atLeast(0).atMost(10000)
           .doc("two-level solve (walls single or extrapolated): a coarse-grid correction of the pressures on "
                "aggregates of one support H (Galerkin operator from the Jacobi pass's pair terms, assembled and "
-               "solved by conjugate gradients on the device in a fixed order) after Jacobi iterations 1, 1 + n, "
-               "1 + 2n, ... of both solves; it removes the smooth pressure errors that the average-error stop "
-               "cannot see (the resting column's ringing, docs/dfsph.md: calm at the reference's bound in ~2 "
-               "iterations per step; 2.8x the CPU time of plain Jacobi in the slab dam break and 2.5x at 50k, so "
-               "it is off by default); 0 = off (plain Jacobi, the default)"));
+               "solved by conjugate gradients on the device in a fixed order); it removes the smooth pressure errors "
+               "that the average-error stop cannot see (the resting column's ringing, docs/dfsph.md). Applied after "
+               "the first iteration of the density solve at rest (coarse_rest_travel: calm at the reference's "
+               "density bound), and, with coarse_start k0 > 0, every n iterations of a solve still above its bound "
+               "from k0 on; a flow that moves takes none (the dam breaks at plain Jacobi's CPU time but for their "
+               "first steps at rest). 0 = off (plain Jacobi)"));
+  add(field<InScene>("fluid.dfsph.coarse_start", [](auto& s) -> auto& { return s.fluid.dfsph.coarse_start; })
+          .unit("1").atLeast(0).atMost(10000)
+          .doc("two-level solve: a solve (density or divergence) still above its bound after this many Jacobi "
+               "iterations takes a coarse-grid correction, and another every coarse_interval iterations after "
+               "(fewer iterations in moving flows, but a body's force then depends on it at the default density "
+               "bound: docs/dfsph.md); 0 = never (the default: only the rest rule, coarse_rest_travel)"));
+  add(field<InScene>("fluid.dfsph.coarse_rest_travel", [](auto& s) -> auto& { return s.fluid.dfsph.coarse_rest_travel; })
+          .unit("1").atLeast(0)
+          .doc("two-level solve: a step whose fastest particle (or body) moved less than this many particle spacings "
+               "in the last step is at rest, and its density solve takes a coarse-grid correction after the first "
+               "Jacobi iteration (a fluid at rest rings at the default density bound without it; moving flows move "
+               "~0.2-0.4 spacings per step at the Courant number 0.4); 0 = never"));
   add(field<InScene>("fluid.dfsph.cfl", [](auto& s) -> auto& { return s.fluid.dfsph.cfl; })
           .unit("1").greaterThan(0).atMost(1).doc("Courant number of the adaptive step: dt <= cfl * dx / |v|max"));
   add(field<InScene>("fluid.dfsph.max_time_step", [](auto& s) -> auto& { return s.fluid.dfsph.max_time_step; })
