@@ -22,6 +22,9 @@ static constexpr std::size_t kLocal = 64;
 // lands at 1 m/s on a floor at dt = 4 ms, dx = 1 cm (72 crossings, 31 with it, 32 with s = 2).
 static constexpr float kWallContactStiffness = 0.3f;  ///< dt^2 k_w / dx (unit: 1)
 static constexpr float kWallContactRange = 0.75f;     ///< r0 / dx (unit: 1)
+// Extrapolated walls' non-penetration (kernels/dfsph.cl, dfsph_wall_impulse): no particle centre
+// comes closer than this to a closed domain wall's plane. GAP_PLACEHOLDER
+static constexpr float kWallGap = 0.5f;  ///< gap / dx (unit: 1)
 
 cl::Buffer DfsphSolver::makeBuffer(std::size_t bytes) {
   bytes = std::max<std::size_t>(bytes, 16);
@@ -321,7 +324,12 @@ DfsphSolveResult DfsphSolver::densitySolve(const SimParams& p, const DfsphFields
   const int contact = extrapolated() && f.n_boundary > 0 ? 1 : 0;
   kernels_.call("dfsph_predict", p.n_fluid, kLocal, p, *f.vel, *f.acc, contact, *f.pos, *f.bpos, *f.bvel, *f.sbnbr,
                 *f.sbnbr_count, kWallContactStiffness, kWallContactRange);
-  return solve(Kind::Density, p, f);
+  const DfsphSolveResult r = solve(Kind::Density, p, f);
+  // Extrapolated walls: the velocities after the solve move no particle closer than the gap to a
+  // closed wall's plane (kernels/dfsph.cl, dfsph_wall_impulse: an inelastic contact).
+  if (extrapolated() && p.closed_mask != 0)
+    kernels_.call("dfsph_wall_impulse", p.n_fluid, kLocal, p, *f.pos, *f.vel, static_cast<float>(kWallGap * dx_));
+  return r;
 }
 
 void DfsphSolver::finish(const SimParams& p, const DfsphFields& f) {
