@@ -19,7 +19,8 @@ static constexpr std::size_t kLocal = 64;
 // dx / dt = 0.16 dx / dt: 2.1 m/s at the 50k dam break's dt ~ 2 ms, more than the thin layers that
 // sank slowly through the floor there (p = 0, sliding at ~1 m/s along it). Measured (50k dam break,
 // 0.6 s): 89 wall crossings without it, 2 with it. Not enough for a sheet one particle thick that
-// lands at 1 m/s on a floor at dt = 4 ms, dx = 1 cm (72 crossings, 31 with it, 32 with s = 2).
+// lands at 1 m/s on a floor at dt = 4 ms, dx = 1 cm (72 crossings, 31 with it, 32 with s = 2): the
+// closed walls' non-penetration contact below (kWallGap) holds those.
 static constexpr float kWallContactStiffness = 0.3f;  ///< dt^2 k_w / dx (unit: 1)
 static constexpr float kWallContactRange = 0.75f;     ///< r0 / dx (unit: 1)
 // Extrapolated walls' non-penetration (kernels/dfsph.cl, dfsph_wall_impulse): no particle centre

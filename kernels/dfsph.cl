@@ -56,7 +56,8 @@
  * counts: with the one-sided error and full warm start the pressures ratcheted up 89 %). A
  * particle the divergence solve skips (too few neighbours) keeps that warm start only while its
  * neighbours close in (dfsph_source), and the particles the solve leaves at p = 0 at a wall get a
- * contact force (dfsph_wall_contact_accel, in dfsph_predict).
+ * contact force (dfsph_wall_contact_accel, in dfsph_predict) and, at the closed domain walls, a
+ * non-penetration contact after the density solve (dfsph_wall_impulse: layers one particle thick).
  *
  * Neighbours: this step's lists within H (snbr, sbnbr; density.cl). */
 
@@ -542,9 +543,10 @@ __kernel void dfsph_predict(const SimParams p, __global float4* vel, __global fl
 
 /* Extrapolated walls: the closed domain walls as a unilateral contact (a non-penetration condition
  * on the velocity, Signorini's condition x_n >= gap written for one step of the symplectic update
- * x += dt v, as in velocity-level contact solvers: Moreau 1988; for SPH boundaries, the
- * non-penetration that Band et al. 2018 add to their pressure boundaries, "Pressure boundaries for
- * implicit incompressible SPH", ACM TOG 37(2), section 5), after the density solve: the velocity
+ * x += dt v, as velocity-level contact solvers do: Moreau 1988, "Unilateral contact and dry
+ * friction in finite freedom dynamics"; particle fluids solved for incompressibility handle their
+ * solid boundaries so too, e.g. Macklin & Mueller 2013, Position Based Fluids, section 5), after
+ * the density solve: the velocity
  * the integrator moves the particle with never brings its centre closer than `gap` to a closed wall's
  * plane. Its normal component toward the wall is cut to what reaches the plane at `gap` in this step,
  *     v_n >= min((gap - x_n) / dt, 0)     (x_n: distance to the wall plane, v_n: velocity away from it),
