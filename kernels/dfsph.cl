@@ -545,7 +545,7 @@ __kernel void dfsph_predict(const SimParams p, __global float4* vel, __global fl
  * on the velocity, Signorini's condition x_n >= gap written for one step of the symplectic update
  * x += dt v, as velocity-level contact solvers do: Moreau 1988, "Unilateral contact and dry
  * friction in finite freedom dynamics"; particle fluids solved for incompressibility handle their
- * solid boundaries so too, e.g. Macklin & Mueller 2013, Position Based Fluids, section 5), after
+ * solid boundaries so too, e.g. Macklin & Mueller 2013, "Position Based Fluids", their collision response), after
  * the density solve: the velocity
  * the integrator moves the particle with never brings its centre closer than `gap` to a closed wall's
  * plane. Its normal component toward the wall is cut to what reaches the plane at `gap` in this step,
