@@ -64,6 +64,21 @@ TEST_CASE("DFSPH extrapolated walls: a sheet one particle thick lands on a dry f
   CHECK(lowest >= (0.25 - 1e-4) * dx);
   CHECK(worst_gain <= 1e-4);
   CHECK(top <= 3 * dx);
+  // The contact is one pass per step, after the density solve, with the default walls only.
+  CHECK(r.dispatch_counts.at("dfsph_wall_impulse") == r.profile.steps);
   WARN(crossings << " wall crossings; lowest centre " << lowest / dx << " dx; energy gain at worst " << worst_gain
                  << "; top " << top / dx << " dx");
+}
+
+TEST_CASE("DFSPH floor contact: only with extrapolated walls", "[dfsph]") {
+  // Mirrored and single walls keep their own behaviour (tests/test_dfsph.cpp counts their wall
+  // crossings): no dfsph_wall_impulse pass there.
+  for (const char* walls : {"mirrored", "single"}) {
+    app::RunOptions o = testing::quietRun("dfsph_floor.yaml", {std::string("fluid.dfsph.walls=") + walls});
+    o.duration = 0.04;
+    const app::RunResult r = app::runScene(o);
+    INFO(walls);
+    REQUIRE(r.exit_code == 0);
+    CHECK(r.dispatch_counts.count("dfsph_wall_impulse") == 0);
+  }
 }
