@@ -466,6 +466,12 @@ std::vector<KeyDef> buildTable() {
                "in the last step is at rest, and its density solve takes a coarse-grid correction after the first "
                "Jacobi iteration (a fluid at rest rings at the default density bound without it; moving flows move "
                "~0.2-0.4 spacings per step at the Courant number 0.4); 0 = never"));
+  add(field<InScene>("fluid.dfsph.coarse_rest_start", [](auto& s) -> auto& { return s.fluid.dfsph.coarse_rest_start; })
+          .unit("1").atLeast(0).atMost(10000)
+          .doc("two-level solve: a density solve at rest (coarse_rest_travel) still above its bound after this many "
+               "Jacobi iterations takes another coarse-grid correction, and another every coarse_interval iterations "
+               "after: tight density bounds at rest converge in few iterations (docs/dfsph.md, session 12); moving "
+               "flows and bodies are unaffected; 0 = never"));
   add(field<InScene>("fluid.dfsph.cfl", [](auto& s) -> auto& { return s.fluid.dfsph.cfl; })
           .unit("1").greaterThan(0).atMost(1).doc("Courant number of the adaptive step: dt <= cfl * dx / |v|max"));
   add(field<InScene>("fluid.dfsph.max_time_step", [](auto& s) -> auto& { return s.fluid.dfsph.max_time_step; })
