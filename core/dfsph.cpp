@@ -276,7 +276,10 @@ DfsphSolveResult DfsphSolver::solve(Kind kind, const SimParams& p, const DfsphFi
   //   dam break: 6.6 per step at k0 12 against 8.5), but in a moving flow it changes which smooth
   //   pressure error the stop leaves, and a body feels that: the sinking ball of tests/test_forces.cpp
   //   at 0.2 s read 0.58 m/s at k0 16 or without the rule, 0.58 - 0.009 below its envelope at k0 12,
-  //   0.35 m/s at k0 20 (measured, session 11). Moving flows converge in a few iterations (the dam
+  //   0.35 m/s at k0 20 (measured, session 11; session 12 found why: that scene's column still
+  //   bounces from its start-up at the release, nearly pressureless with a cavity under the held
+  //   ball, and the schedule moves the landing's slam before or after the release; plain Jacobi
+  //   converged to 1e-5 reads 0.571 m/s, docs/dfsph.md). Moving flows converge in a few iterations (the dam
   //   breaks: 4-8 per step) and take no correction, whose cost is ~10 iterations.
   // - stalled at rest (the density solve of a step at rest, coarse_rest_start k_rest, default 1):
   //   after iterations k_rest, k_rest + n, ... while above the bound (with k_rest 1: after 1, 5,
