@@ -287,8 +287,19 @@ DfsphSolveResult DfsphSolver::solve(Kind kind, const SimParams& p, const DfsphFi
   //   dam break: 6.6 per step at k0 12 against 8.5), but in a moving flow it changes which smooth
   //   pressure error the stop leaves, and a body feels that: the sinking ball of tests/test_forces.cpp
   //   at 0.2 s read 0.58 m/s at k0 16 or without the rule, 0.58 - 0.009 below its envelope at k0 12,
-  //   0.35 m/s at k0 20 (measured, session 11). Moving flows converge in a few iterations (the dam
+  //   0.35 m/s at k0 20 (measured, session 11; session 12 found why: that scene's column still
+  //   bounces from its start-up at the release, nearly pressureless with a cavity under the held
+  //   ball, and the schedule moves the landing's slam before or after the release; plain Jacobi
+  //   converged to 1e-5 reads 0.571 m/s, docs/dfsph.md). Moving flows converge in a few iterations (the dam
   //   breaks: 4-8 per step) and take no correction, whose cost is ~10 iterations.
+  // - stalled at rest (the density solve of a step at rest, coarse_rest_start k_rest, default 1):
+  //   after iterations k_rest, k_rest + n, ... while above the bound (with k_rest 1: after 1, 5,
+  //   9, ...). One correction leaves an error Jacobi removes slowly (the piecewise-constant
+  //   prolongation's jumps), so a tight bound needs later ones: at density_error 1e-5 the resting
+  //   tank took 35 iterations per step with the rest correction alone (124 of 450 steps at
+  //   max_iterations), 71 with plain Jacobi, and takes 7.2 with this rule (docs/dfsph.md, session
+  //   12). Moving flows take none: there a correction (~10 iterations' cost) saves too few
+  //   iterations (the slab dam break at 1e-5: 56 per step instead of 66, at 3.5x the CPU).
   // Every correction is followed by at least one Jacobi iteration and its error check: a solve never
   // ends on an unchecked correction (session 10's schedule did, after iterations 1, 5, 9, ... of a
   // solve that stopped there: the sinking ball of tests/test_forces.cpp then jumped 0.24 m/s above
@@ -302,8 +313,10 @@ DfsphSolveResult DfsphSolver::solve(Kind kind, const SimParams& p, const DfsphFi
     if (r.iterations >= min_it || r.iterations >= max_it) r.error = averageError(n);
     const bool stop = (r.iterations >= min_it && r.error <= bound) || r.iterations >= max_it;
     const bool rest_now = at_rest && r.iterations == 1 && r.iterations < max_it;
-    const bool stalled = coarse() && !stop && spec_.coarse_start > 0 && r.iterations >= spec_.coarse_start &&
-                         (r.iterations - spec_.coarse_start) % spec_.coarse_interval == 0;
+    // the stall rules: from k0 (coarse_start) in any solve; from k_rest (coarse_rest_start) in a
+    // density solve at rest
+    auto due = [&](int k0) { return k0 > 0 && r.iterations >= k0 && (r.iterations - k0) % spec_.coarse_interval == 0; };
+    const bool stalled = coarse() && !stop && (due(spec_.coarse_start) || (at_rest && due(spec_.coarse_rest_start)));
     again = false;
     if (rest_now || stalled) {
       coarseCorrection(kind, p, f, pressure);

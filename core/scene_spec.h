@@ -126,9 +126,10 @@ struct DfsphSpec {
   DfsphWalls walls = DfsphWalls::Extrapolated;  ///< wall pressure and Jacobi variant (see DfsphWalls)
   bool warm_start = true;            ///< start each solve from the previous step's pressure
   double relaxation = 0.5;           ///< Jacobi relaxation omega of both solves' pressure increments (unit: 1)
-  int coarse_interval = 4;           ///< two-level solve: a coarse-grid correction after the first iteration of the density solve at rest, and every n Jacobi iterations of a stalled solve from coarse_start (if > 0); 0 = off, plain Jacobi (kernels/dfsph_coarse.cl) (unit: 1)
+  int coarse_interval = 4;           ///< two-level solve: a coarse-grid correction after the first iteration of the density solve at rest (and every n iterations after from coarse_rest_start while above its bound), and every n Jacobi iterations of a stalled solve from coarse_start (if > 0); 0 = off, plain Jacobi (kernels/dfsph_coarse.cl) (unit: 1)
   int coarse_start = 0;              ///< two-level solve: a solve still above its bound after k0 iterations takes a correction then and every coarse_interval after; 0 = never (unit: 1)
   double coarse_rest_travel = 0.1;   ///< two-level solve: a step whose fastest particle moved less than this many spacings dx in the last step is at rest: its density solve takes a correction after the first iteration (unit: 1)
+  int coarse_rest_start = 1;         ///< two-level solve: a density solve at rest (coarse_rest_travel) still above its bound after this many iterations takes another correction then and every coarse_interval after; 0 = never (unit: 1)
   double cfl = 0.4;                  ///< Courant number: dt <= cfl * dx / |v|max (unit: 1)
   double max_time_step = 0.005;      ///< largest step (unit: s)
   /// dynamic bodies' fictitious mass C rho0 V in their translation (Baek & Karniadakis 2012), against

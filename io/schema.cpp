@@ -451,7 +451,7 @@ std::vector<KeyDef> buildTable() {
                "solved by conjugate gradients on the device in a fixed order); it removes the smooth pressure errors "
                "that the average-error stop cannot see (the resting column's ringing, docs/dfsph.md). Applied after "
                "the first iteration of the density solve at rest (coarse_rest_travel: calm at the reference's "
-               "density bound), and, with coarse_start k0 > 0, every n iterations of a solve still above its bound "
+               "density bound) and every n iterations after while it is above its bound (coarse_rest_start), and, with coarse_start k0 > 0, every n iterations of a solve still above its bound "
                "from k0 on; a flow that moves takes none (the dam breaks at plain Jacobi's CPU time but for their "
                "first steps at rest). 0 = off (plain Jacobi)"));
   add(field<InScene>("fluid.dfsph.coarse_start", [](auto& s) -> auto& { return s.fluid.dfsph.coarse_start; })
@@ -466,6 +466,12 @@ std::vector<KeyDef> buildTable() {
                "in the last step is at rest, and its density solve takes a coarse-grid correction after the first "
                "Jacobi iteration (a fluid at rest rings at the default density bound without it; moving flows move "
                "~0.2-0.4 spacings per step at the Courant number 0.4); 0 = never"));
+  add(field<InScene>("fluid.dfsph.coarse_rest_start", [](auto& s) -> auto& { return s.fluid.dfsph.coarse_rest_start; })
+          .unit("1").atLeast(0).atMost(10000)
+          .doc("two-level solve: a density solve at rest (coarse_rest_travel) still above its bound after this many "
+               "Jacobi iterations takes another coarse-grid correction, and another every coarse_interval iterations "
+               "after: tight density bounds at rest converge in few iterations (docs/dfsph.md, session 12); moving "
+               "flows take none; 0 = never (one correction per step at rest, as before session 12)"));
   add(field<InScene>("fluid.dfsph.cfl", [](auto& s) -> auto& { return s.fluid.dfsph.cfl; })
           .unit("1").greaterThan(0).atMost(1).doc("Courant number of the adaptive step: dt <= cfl * dx / |v|max"));
   add(field<InScene>("fluid.dfsph.max_time_step", [](auto& s) -> auto& { return s.fluid.dfsph.max_time_step; })
