@@ -296,6 +296,14 @@ void integrateVelocity(const RigidBody& body, BodyState& s, const Eigen::Vector3
   s.w = worldInverseInertia(body, s.q) * s.L;
 }
 
+Eigen::Vector3d fictitiousForce(const RigidBody& body, const BodyState& s, const Eigen::Vector3d& g,
+                                double fictitious_mass) {
+  if (body.kind != BodyKind::Dynamic || fictitious_mass == 0.0) return Eigen::Vector3d::Zero();
+  // The same forces as integrateVelocity; M (a_{n-1} - a_n) with its a_n (Baek & Karniadakis 2012, eq. 9).
+  const Eigen::Vector3d force = body.mass * g + s.fluid_force + s.external_force;
+  return fictitious_mass * (body.mass * s.accel - force) / (body.mass + fictitious_mass);
+}
+
 void integratePosition(const RigidBody& body, BodyState& s, double dt, const DomainSpec* walls) {
   switch (body.kind) {
     case BodyKind::Static: return;

@@ -103,9 +103,15 @@ struct BodyState {
   Eigen::Vector3d contact_torque = Eigen::Vector3d::Zero();///< (unit: N m)
   Eigen::Vector3d external_force = Eigen::Vector3d::Zero(); ///< from outside (a haptic grab), this step (unit: N)
   Eigen::Vector3d external_torque = Eigen::Vector3d::Zero();///< about the centre of mass (unit: N m)
-  /// the centre's acceleration over the last step, (v after - v before) / dt, contacts included;
-  /// zero while held (the fictitious mass of integrateVelocity reads it) (unit: m/s^2)
+  /// the centre's acceleration over the last step from the forces, (v after - v before) / dt before
+  /// the contact impulses (the fictitious mass's own a_n: at rest on a floor it tends to the
+  /// forces' F / m, so the fictitious force fades there); zero while held (the fictitious mass of
+  /// integrateVelocity reads it) (unit: m/s^2)
   Eigen::Vector3d accel = Eigen::Vector3d::Zero();
+  /// DFSPH's fictitious-mass force M (a_{n-1} - a_n) of this step (fictitiousForce), part of
+  /// fluid_force once the body has moved (Simulation::integrateBodies): the added-mass reaction
+  /// the lagged solve has not answered yet; its opposite went to the fluid (unit: N)
+  Eigen::Vector3d added_mass_force = Eigen::Vector3d::Zero();
   /// A body-frame point in the world.
   Eigen::Vector3d toWorld(const Eigen::Vector3d& p) const { return x + q * p; }
 };
@@ -138,6 +144,13 @@ Eigen::Matrix3d worldInverseInertia(const RigidBody& body, const Eigen::Quaterni
 /// lighter than the liquid's lagged reaction (the added-mass instability of a staggered coupling).
 void integrateVelocity(const RigidBody& body, BodyState& s, const Eigen::Vector3d& g, double dt,
                        double fictitious_mass = 0.0);
+/// The fictitious mass's own force on a dynamic body this step (zero for the others, and for M = 0):
+///     F_M = M (a_{n-1} - a_n) = M (m a_{n-1} - F_n) / (m + M),
+/// a_n = (F_n + M a_{n-1}) / (m + M) as integrateVelocity moves it, F_n = m g + fluid_force +
+/// external_force. integrateVelocity's update is v += dt (F_n + F_M) / m, so the fluid must take
+/// -F_M dt for the total momentum to be conserved (Simulation::addedMassReaction) (unit: N).
+Eigen::Vector3d fictitiousForce(const RigidBody& body, const BodyState& s, const Eigen::Vector3d& g,
+                                double fictitious_mass);
 /// integratePosition: the pose from the velocities. With `walls` (the domain; null = none), a
 /// dynamic body left inside a closed wall (by rounding or unresolved contacts) is moved out along
 /// the wall's normal, velocities untouched.

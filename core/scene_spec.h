@@ -133,8 +133,10 @@ struct DfsphSpec {
   double cfl = 0.4;                  ///< Courant number: dt <= cfl * dx / |v|max (unit: 1)
   double max_time_step = 0.005;      ///< largest step (unit: s)
   /// dynamic bodies' fictitious mass C rho0 V in their translation (Baek & Karniadakis 2012), against
-  /// the added-mass instability of light bodies; 0 = off (unit: 1)
-  double body_added_mass = 0.0;
+  /// the added-mass instability of light bodies; its force counts in the body's fluid force and its
+  /// reaction goes to the fluid near the body (momentum conserved); 0.5, a sphere's added mass, by
+  /// default; 0 = off (unit: 1)
+  double body_added_mass = 0.5;
   SourceLoc loc;
 };
 

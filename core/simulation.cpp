@@ -266,9 +266,13 @@ void Simulation::step(double dt) {
     if (on(Stage::DensitySolve)) densitySolve();       // DFSPH: v* = v + dt a, constant density (B&K 2017 Alg. 3)
     if (on(Stage::RigidCoupling)) gatherBodyForces();  // fluid -> bodies: 6 numbers per body to the host
     if (on(Stage::ClothCoupling)) gatherClothForces(); // fluid -> cloth: one force per node, on the device
-    integrate();                                       // semi-implicit Euler, closed walls
   }
   if (on(Stage::Haptics) && external_) applyExternalForces(dt);  // a grabbed body's coupling spring
+  if (n_ > 0) {
+    if (on(Stage::RigidCoupling) && on(Stage::RigidDynamics))
+      addedMassReaction(dt);                           // DFSPH: bodies' fictitious mass, its reaction to the fluid
+    integrate();                                       // semi-implicit Euler, closed walls
+  }
   if (on(Stage::RigidDynamics)) integrateBodies(dt);   // rigid bodies: momenta, poses (host)
   if (on(Stage::Cloth)) stepCloth(dt);                 // cloth springs: XPBD or explicit, tearing
   time_ += dt;
@@ -729,6 +733,68 @@ void Simulation::applyExternalForces(double dt) {
   }
 }
 
+bool Simulation::heldBody(std::size_t b) const {
+  // A dynamic body with hold_until is held still at its pose until then.
+  return model_.bodies[b].kind == rigid::BodyKind::Dynamic && time_ < model_.bodies[b].spec.hold_until;
+}
+
+void Simulation::addedMassReaction(double dt) {
+  // DFSPH: a dynamic body's fictitious mass M = C rho0 V (C = fluid.dfsph.body_added_mass, rho0
+  // the first phase's rest density, V the body's volume). The incompressible solve answers the
+  // body's last step's motion at once (the fluid is made divergence-free about the body's velocity
+  // at the step's start), so a staggered update sees the added mass one step late: a_n = (F0 -
+  // m_a a_{n-1}) / m, which flips and grows where m_a > m (a 500 kg/m^3 ball in water: measured
+  // period-2 swings of +-6 rho g V within 6 steps of its release). M in the body's inertia and
+  // M a_{n-1} in its force (Baek & Karniadakis 2012, eq. 9) make the ratio (M - m_a) / (m + M).
+  // The body then feels F_M = M (a_{n-1} - a_n) besides the gathered force: the added-mass
+  // reaction to its change of acceleration that the solve answers only next step. It is the
+  // fluid's force, so the fluid takes -F_M dt now (kernels/rigid.cl, (4)): the total momentum is
+  // conserved, and the body's reported fluid force includes F_M (integrateBodies).
+  const double c_rho = dfsph_ && !model_.spec.fluid.phases.empty()
+                           ? model_.spec.fluid.dfsph.body_added_mass * model_.spec.fluid.phases[0].rest_density
+                           : 0.0;  // C rho0 (unit: kg/m^3)
+  if (c_rho == 0.0 || n_moving_ == 0) return;
+  bool free_body = false;
+  for (std::size_t b : moving_) free_body = free_body || (model_.bodies[b].kind == rigid::BodyKind::Dynamic && !heldBody(b));
+  if (!free_body) return;
+  StageTimer timer(*this, Stage::RigidCoupling);
+  const uint32_t nb = static_cast<uint32_t>(moving_.size());
+  if (!bweight_()) {
+    bweight_ = makeBuffer(n_moving_ * 4);
+    bweight_sum_ = makeBuffer(nb * 4);
+    bshare_ = makeBuffer(nb * 16);
+  }
+  // The fluid within H of each body, weighed as its reaction will be spread: S = sum_b psi_b
+  // sum_i m_i W_ib, summed per body in particle order (deterministic); one float per body to the host.
+  kernels_.call("rigid_wet_weight", n_moving_, kLocal, params_, n_moving_, n_static_, bsrc_, pos_[cur_], phase_[cur_], cell_start_, bweight_);
+  kernels_.call("rigid_reduce_weight", nb, 0, nb, brange_, bweight_, bweight_sum_);
+  std::vector<float> S(nb);
+  clCall("reading the bodies' fluid weights",
+         [&] { return cl_.queue().enqueueReadBuffer(bweight_sum_, CL_TRUE, 0, nb * 4, S.data()); });
+  // Each free dynamic body with fluid within H: M, F_M (rigid::fictitiousForce, the forces of this
+  // step as integrateBodies will take them) and the fluid's share -F_M dt / S. A body with no fluid
+  // near (falling through air) has no added mass: M = 0.
+  const Eigen::Vector3d g = gravityAt(model_.spec.simulation, time_);
+  added_mass_.assign(bodies_.size(), 0.0);
+  std::vector<Eigen::Vector4f> share(nb, Eigen::Vector4f::Zero());
+  const std::size_t first_record = step_forces_.size() >= nb ? step_forces_.size() - nb : 0;
+  for (uint32_t m = 0; m < nb; ++m) {
+    const std::size_t b = moving_[m];
+    rigid::BodyState& s = bodies_[b];
+    s.added_mass_force.setZero();
+    if (model_.bodies[b].kind != rigid::BodyKind::Dynamic || heldBody(b) || !(S[m] > 0.0f)) continue;
+    added_mass_[b] = c_rho * model_.bodies[b].volume;
+    s.added_mass_force = rigid::fictitiousForce(model_.bodies[b], s, g, added_mass_[b]);
+    share[m].head<3>() = (-dt * s.added_mass_force / static_cast<double>(S[m])).cast<float>();
+    // The per-step force log (gatherBodyForces recorded this step's bodies last, in this order).
+    if (record_forces_ && first_record + m < step_forces_.size()) step_forces_[first_record + m].force += s.added_mass_force;
+  }
+  // The reaction: each fluid particle gathers its share from the body particles within H.
+  clCall("uploading the fictitious-mass reactions",
+         [&] { return cl_.queue().enqueueWriteBuffer(bshare_, CL_TRUE, 0, nb * 16, share.data()); });
+  kernels_.call("rigid_added_mass_reaction", n_, kLocal, params_, n_static_, n_moving_, pos_[cur_], bpos_, sbnbr_, sbnbr_count_, bsorted_, bbody_, bshare_, vel_[cur_]);
+}
+
 void Simulation::integrateBodies(double dt) {
   StageTimer timer(*this, Stage::RigidDynamics);
   // Gravity at the start of the step, as the fluid sees it (in double: the host integrates in double).
@@ -739,28 +805,25 @@ void Simulation::integrateBodies(double dt) {
   // itself, no drift); penetration removed by split impulses.
   // A dynamic body with hold_until is held still at its pose until then (its fluid force is still
   // gathered, as a held body's), and released from rest after: the fluid settles around it first.
-  auto held = [&](std::size_t b) {
-    return model_.bodies[b].kind == rigid::BodyKind::Dynamic && time_ < model_.bodies[b].spec.hold_until;
-  };
-  // DFSPH: a dynamic body's fictitious mass M = C rho0 V (C = fluid.dfsph.body_added_mass, rho0
-  // the first phase's rest density, V the body's volume). The incompressible solve answers the
-  // body's last step's motion at once (the fluid is made divergence-free about the body's velocity
-  // at the step's start), so a staggered update sees the added mass one step late: a_n = (F0 -
-  // m_a a_{n-1}) / m, which flips and grows where m_a > m (a 500 kg/m^3 ball in water: measured
-  // period-2 swings of +-6 rho g V within 6 steps of its release). M in the body's inertia and
-  // M a_{n-1} in its force (Baek & Karniadakis 2012) make the ratio (M - m_a) / (m + M).
-  const double fictitious = dfsph_ && !model_.spec.fluid.phases.empty()
-                                ? model_.spec.fluid.dfsph.body_added_mass * model_.spec.fluid.phases[0].rest_density
-                                : 0.0;  // C rho0 (unit: kg/m^3)
+  auto held = [&](std::size_t b) { return heldBody(b); };
+  // DFSPH: a dynamic body's fictitious mass M of this step (addedMassReaction; 0 = none), whose
+  // force F_M = M (a_{n-1} - a_n) the fluid has taken back already; it counts in the body's fluid
+  // force once the body has moved. The acceleration kept for the next step is the forces' own,
+  // before the contact impulses: at rest on a floor it tends to F / m, and F_M to 0 (with the
+  // contacts in, a_{n-1} = 0 there, and F_M = -M F / (m + M) would push the fluid every step).
   std::vector<Eigen::Vector3d> v_before(bodies_.size());
   for (std::size_t b = 0; b < bodies_.size(); ++b) {
-    v_before[b] = bodies_[b].v;
-    if (!held(b)) rigid::integrateVelocity(model_.bodies[b], bodies_[b], g, dt, fictitious * model_.bodies[b].volume);
+    rigid::BodyState& s = bodies_[b];
+    v_before[b] = s.v;
+    const double M = b < added_mass_.size() ? added_mass_[b] : 0.0;
+    if (!held(b)) rigid::integrateVelocity(model_.bodies[b], s, g, dt, M);
+    s.accel = held(b) ? Eigen::Vector3d::Zero() : Eigen::Vector3d((s.v - v_before[b]) / dt);
+    if (M > 0.0) s.fluid_force += s.added_mass_force;
+    else s.added_mass_force.setZero();
   }
+  added_mass_.clear();
   contacts_->solve(model_.bodies, bodies_, walls, g, dt);
   for (std::size_t b = 0; b < bodies_.size(); ++b) {
-    // The last step's acceleration, contacts included (the motion the fluid answers next step).
-    bodies_[b].accel = held(b) ? Eigen::Vector3d::Zero() : Eigen::Vector3d((bodies_[b].v - v_before[b]) / dt);
     if (held(b)) {
       bodies_[b].v.setZero();
       bodies_[b].w.setZero();

@@ -197,6 +197,8 @@ class Simulation {
   void placeBodyParticles();
   void sortBoundary();
   void gatherBodyForces();
+  void addedMassReaction(double dt);
+  bool heldBody(std::size_t b) const;
   void stepCloth(double dt);
   void placeClothParticles();
   void gatherClothForces();
@@ -245,6 +247,11 @@ class Simulation {
   bool record_forces_ = false;            // per-step force log on
   std::vector<StepForce> step_forces_;    // recorded since the last takeStepForces()
   cl::Buffer bsrc_, blocal_, bbody_, bslot_, bpose_, bforce_, brange_, bsum_, bcell_, brank_, bsorted_, bcount_;
+  // DFSPH's fictitious body mass (addedMassReaction): this step's M per body (unit: kg; 0 = none),
+  // and on the device s_k per moving particle, S per moving body (unit: kg/m^3), -J / S per
+  // moving body (unit: m^4/s).
+  std::vector<double> added_mass_;
+  cl::Buffer bweight_, bweight_sum_, bshare_;
 
   // Per-particle fields, double-buffered for the reorder (cur_ is the live half).
   int cur_ = 0;

@@ -16,7 +16,8 @@ std::string bodiesCsvHeader() {
          "# com_*: centre of mass (world); q*: orientation quaternion body -> world (w, x, y, z);\n"
          "# v*: velocity of the centre of mass; w*: angular velocity (world frame).\n"
          "# fluid_f*, fluid_t*: the fluid's force and torque about the centre of mass in the frame's last step\n"
-         "# (the fluid's pressure, viscous and contact forces; 0 for static bodies);\n"
+         "# (the fluid's pressure, viscous and contact forces, and with DFSPH a dynamic body's fictitious-mass\n"
+         "# force M (a_{n-1} - a_n), fluid.dfsph.body_added_mass; 0 for static bodies);\n"
          "# contact_f*: the contact force in that step, from the closed walls and other bodies (on static and\n"
          "# kinematic bodies: the reaction of the dynamic ones they touch).\n"
          "time,body,com_x,com_y,com_z,qw,qx,qy,qz,vx,vy,vz,wx,wy,wz,"
@@ -62,7 +63,8 @@ StepForcesCsvWriter::StepForcesCsvWriter(const std::string& path) : path_(path),
   if (!out_) throw std::runtime_error("cannot write " + path + ": " + std::strerror(errno));
   out_ << "# sphaptics per-step fluid forces on the moving bodies (output.step_forces), one row per body per time step.\n"
           "# SI units: s, m/s, rad/s, N, N m. time: start of the step (the pose the force acts at); v*, w*: the body's\n"
-          "# velocity and angular velocity (world); fluid_f*, fluid_t*: the fluid's force and torque about the centre of mass.\n"
+          "# velocity and angular velocity (world); fluid_f*, fluid_t*: the fluid's force and torque about the centre of mass\n"
+          "# (with DFSPH, a dynamic body's force includes its fictitious-mass force, fluid.dfsph.body_added_mass).\n"
           "time,body,vx,vy,vz,wx,wy,wz,fluid_fx,fluid_fy,fluid_fz,fluid_tx,fluid_ty,fluid_tz\n";
 }
 

@@ -481,7 +481,9 @@ std::vector<KeyDef> buildTable() {
           .doc("fictitious mass C rho0 V of each dynamic body in its translation, (m + M) a_n = F_n + M a_{n-1} "
                "(Baek & Karniadakis 2012): the incompressible solve answers a body's motion one step late, so a body "
                "lighter than its added mass (e.g. 500 kg/m^3 in water) swings with period 2 steps and grows; 1/2, a "
-               "sphere's added mass, makes it stable (docs/forces.md); 0 = off (the plain update)"));
+               "sphere's added mass, makes it stable (docs/forces.md). The fictitious force M (a_{n-1} - a_n) counts "
+               "in the body's fluid force, and the fluid within H of the body takes its reaction, so momentum is "
+               "conserved; a body with no fluid within H has none; 0 = off (the plain update)"));
   add(field<InScene>("fluid.particle_spacing", [](auto& s) -> auto& { return s.fluid.particle_spacing; })
           .unit("m").greaterThan(0).doc("lattice spacing dx of the fluid particles"));
   add(field<InScene>("fluid.equation_of_state", [](auto& s) -> auto& { return s.fluid.equation_of_state; })

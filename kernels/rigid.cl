@@ -134,3 +134,76 @@ __kernel void rigid_reduce(const uint n_bodies, const uint n_static, __global co
   out[2 * b] = (float4)(F, 0.0f);
   out[2 * b + 1] = (float4)(T, 0.0f);
 }
+
+/* (4) DFSPH's fictitious body mass (Baek & Karniadakis 2012, J. Comput. Phys. 231, 629, eq. 9;
+ * Simulation::addedMassReaction). A dynamic body with the fictitious mass M feels, besides the
+ * gathered fluid force, M (a_{n-1} - a_n): the added-mass reaction that the lagged solve has not
+ * answered yet. Its opposite, -J = -M (a_{n-1} - a_n) dt, goes to the fluid near the body, spread
+ * in proportion to psi_b W(x_i - x_b) over the pairs (fluid i, body particle b) within H:
+ *     dv_i = sum_b psi_b W_ib share_body(b),   share = -J / S,   S = sum_b psi_b sum_i m_i W_ib,
+ * so sum_i m_i dv_i = -J exactly (up to rounding): the total momentum is conserved. Gathers only:
+ * (4a) each body particle sums its own s_b, (4b) each body sums its particles in order, (4c)
+ * each fluid particle sums its own dv_i. (4a) reads the fluid grid, (4c) this step's boundary
+ * lists: both hold every pair within H at the step's start, and W is continuous at H (0), so
+ * they weigh the same pairs. */
+
+/* (4a) s_k = psi_b sum_i m_i W(|x_i - x_b|) over the fluid within H of moving particle k
+ * (unit: kg/m^3). */
+__kernel void rigid_wet_weight(const SimParams p, const uint n, const uint n_static, __global const float4* bsrc,
+                               __global const float4* pos, __global const uint* phase,
+                               __global const uint* cell_start, __global float* weight) {
+  const uint k = get_global_id(0);
+  if (k >= n) return;
+  const float4 bb = bsrc[n_static + k];
+  const float3 xb = bb.xyz;
+  const float H = p.support;
+  const float H2 = H * H;
+  float s = 0.0f;
+  SPH_FOR_NEIGHBOURS(&p, cell_start, xb, i) {
+    const float3 d = pos[i].xyz - xb;
+    const float r2 = dot(d, d);
+    if (r2 < H2) s += p.phase_mass[phase[i]] * sph_w(SPH_KERNEL, sqrt(r2), H);
+  }
+  SPH_END_NEIGHBOURS
+  weight[k] = bb.w * s;
+}
+
+/* (4b) Per body b: S_b = sum of s_k over its particles range[2b] .. range[2b] + range[2b+1] - 1,
+ * in order (unit: kg/m^3). */
+__kernel void rigid_reduce_weight(const uint n_bodies, __global const uint* range, __global const float* weight,
+                                  __global float* out) {
+  const uint b = get_global_id(0);
+  if (b >= n_bodies) return;
+  float S = 0.0f;
+  const uint begin = range[2 * b], end = begin + range[2 * b + 1];
+  for (uint k = begin; k < end; ++k) S += weight[k];
+  out[b] = S;
+}
+
+/* (4c) Each fluid particle i: v_i += sum over this step's boundary neighbours b within H that
+ * belong to a moving body: psi_b W_ib share[body] (share: -J / S, unit: m^4/s). Slot s of bpos
+ * holds boundary particle sorted[s]; n_static <= it < n_static + n_moving: a moving body's. */
+__kernel void rigid_added_mass_reaction(const SimParams p, const uint n_static, const uint n_moving,
+                                        __global const float4* pos, __global const float4* bpos,
+                                        __global const uint* sbnbr, __global const uint* sbnbr_count,
+                                        __global const uint* sorted, __global const uint* body,
+                                        __global const float4* share, __global float4* vel) {
+  const uint i = get_global_id(0);
+  if (i >= p.n_fluid) return;
+  const uint K = p.max_neighbours;
+  const float3 xi = pos[i].xyz;
+  const float H = p.support;
+  const float H2 = H * H;
+  float3 dv = (float3)(0.0f);
+  const uint nb = sbnbr_count[i];
+  for (uint q = 0; q < nb; ++q) {
+    const uint s = sbnbr[(size_t)i * K + q];
+    const uint k = sorted[s];
+    if (k < n_static || k >= n_static + n_moving) continue; /* a wall or a cloth node */
+    const float4 pb = bpos[s];
+    const float3 d = xi - pb.xyz;
+    const float r2 = dot(d, d);
+    if (r2 < H2) dv += pb.w * sph_w(SPH_KERNEL, sqrt(r2), H) * share[body[k - n_static]].xyz;
+  }
+  if (nb > 0) vel[i] = (float4)(vel[i].xyz + dv, vel[i].w);
+}

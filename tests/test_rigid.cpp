@@ -894,4 +894,19 @@ TEST_CASE("rigid: the fictitious mass keeps a steady acceleration and stabilises
   rigid::integrateVelocity(body, a, Eigen::Vector3d(0, 0, -9.81), dt, 0.0);
   b.v += dt * (body.mass * Eigen::Vector3d(0, 0, -9.81) + b.fluid_force) / body.mass;
   CHECK(a.v == b.v);
+  // The fictitious force (rigid::fictitiousForce, given back to the fluid by the Simulation) is
+  // all that moves the body besides its forces: m (v' - v) = dt (F + F_M), F_M = M (a_{n-1} - a_n).
+  rigid::BodyState c;
+  c.fluid_force = Eigen::Vector3d(0.1, -0.2, 0.3);
+  c.external_force = Eigen::Vector3d(0.05, 0.0, -0.1);
+  c.accel = Eigen::Vector3d(1.0, 2.0, -3.0);
+  c.v = Eigen::Vector3d(0.2, 0.1, -0.3);
+  const Eigen::Vector3d gz(0, 0, -9.81), v0 = c.v, a_prev = c.accel;
+  const double M = 0.7;  // kg
+  const Eigen::Vector3d F_M = rigid::fictitiousForce(body, c, gz, M);
+  rigid::integrateVelocity(body, c, gz, dt, M);
+  const Eigen::Vector3d F = body.mass * gz + c.fluid_force + c.external_force;
+  CHECK((body.mass * (c.v - v0) - dt * (F + F_M)).norm() < 1e-12);
+  CHECK((F_M - M * (a_prev - (c.v - v0) / dt)).norm() < 1e-9);
+  CHECK(rigid::fictitiousForce(body, c, gz, 0.0).norm() == 0.0);
 }
