@@ -395,6 +395,37 @@ TEST_CASE("DFSPH settings: bad values are reported at file:line:col", "[dfsph]")
   CHECK(testing::issuesOf(dir, head + "    density_error: 0.001\n    max_iterations: 50\n").empty());
 }
 
+namespace {
+/// The ball of push_blob.yaml pushed into the free blob (gravity off, no wall within reach): the
+/// largest drift of the total momentum (fluid + ball) from its start, the largest momentum the ball
+/// exchanged, and the largest fictitious-mass force at a frame end (units: kg m/s, kg m/s, N).
+struct BlobMomentum {
+  int exit_code = 0;
+  Eigen::Vector3d p0 = Eigen::Vector3d::Constant(NAN);
+  double worst = 0, exchanged = 0, fictitious = 0;
+};
+
+BlobMomentum pushBlobMomentum(const std::vector<std::string>& sets) {
+  BlobMomentum out;
+  app::RunOptions o = quietRun("push_blob.yaml", sets);
+  const app::RunResult r = app::runScene(o, [&](Simulation& sim, const FrameReport&) {
+    const rigid::RigidBody& ball = sim.model().bodies[0];
+    const rigid::BodyState& s = sim.bodies()[0];
+    if (std::isnan(out.p0.x())) out.p0 = ball.mass * rigid::initialState(ball).v;
+    const ParticleFrame f = sim.readFrame();
+    const double m = sim.model().params.phase_mass[0];
+    Eigen::Vector3d fluid = Eigen::Vector3d::Zero();
+    for (std::size_t i = 0; i < f.size(); ++i) fluid += m * Eigen::Vector3d(f.vx[i], f.vy[i], f.vz[i]);
+    const Eigen::Vector3d p_ball = ball.mass * s.v;
+    out.worst = std::max(out.worst, (fluid + p_ball - out.p0).norm());
+    out.exchanged = std::max(out.exchanged, (p_ball - out.p0).norm());
+    out.fictitious = std::max(out.fictitious, s.added_mass_force.norm());
+  });
+  out.exit_code = r.exit_code;
+  return out;
+}
+}  // namespace
+
 TEST_CASE("DFSPH coupling: a ball pushed into a free blob conserves the total momentum (Newton's third law)", "[dfsph]") {
   // As the WCSPH test (test_rigid.cpp): gravity off, no wall within reach. The body receives the
   // reaction to the pressure of both solves (dfsph_finish: p / delta^2 of all pressure that acted
@@ -404,22 +435,10 @@ TEST_CASE("DFSPH coupling: a ball pushed into a free blob conserves the total mo
   // extrapolated wall pressure).
   const std::string walls = GENERATE(std::string("mirrored"), std::string("single"), std::string("extrapolated"));
   INFO("fluid.dfsph.walls: " << walls);
-  app::RunOptions o = quietRun("push_blob.yaml", {"fluid.solver=dfsph", "fluid.dfsph.walls=" + walls});
-  Eigen::Vector3d p0 = Eigen::Vector3d::Constant(NAN);
-  double worst = 0, exchanged = 0;
-  const app::RunResult r = app::runScene(o, [&](Simulation& sim, const FrameReport&) {
-    const rigid::RigidBody& ball = sim.model().bodies[0];
-    const rigid::BodyState& s = sim.bodies()[0];
-    if (std::isnan(p0.x())) p0 = ball.mass * rigid::initialState(ball).v;
-    const ParticleFrame f = sim.readFrame();
-    const double m = sim.model().params.phase_mass[0];
-    Eigen::Vector3d fluid = Eigen::Vector3d::Zero();
-    for (std::size_t i = 0; i < f.size(); ++i) fluid += m * Eigen::Vector3d(f.vx[i], f.vy[i], f.vz[i]);
-    const Eigen::Vector3d p_ball = ball.mass * s.v;
-    worst = std::max(worst, (fluid + p_ball - p0).norm());
-    exchanged = std::max(exchanged, (p_ball - p0).norm());
-  });
-  REQUIRE(r.exit_code == 0);
+  const BlobMomentum b = pushBlobMomentum({"fluid.solver=dfsph", "fluid.dfsph.walls=" + walls});
+  REQUIRE(b.exit_code == 0);
+  const Eigen::Vector3d p0 = b.p0;
+  const double exchanged = b.exchanged, worst = b.worst;
   INFO("initial momentum " << p0.transpose() << " kg m/s; exchanged " << exchanged << "; worst total drift " << worst);
   CHECK(exchanged > 0.1 * p0.norm());
   CHECK(worst < 1e-3 * exchanged);
@@ -437,24 +456,11 @@ TEST_CASE("DFSPH coupling: with the fictitious body mass, a light ball pushed in
   // M (a_0 - a_N) dt: 0.0045 and 0.0027 kg m/s, fails.
   const std::string density = GENERATE(std::string("500"), std::string("1000"));
   INFO("ball density " << density << " kg/m^3");
-  app::RunOptions o = quietRun("push_blob.yaml", {"fluid.solver=dfsph", "fluid.dfsph.body_added_mass=0.5",
-                                                  "rigid_bodies[0].density=" + density});
-  Eigen::Vector3d p0 = Eigen::Vector3d::Constant(NAN);
-  double worst = 0, exchanged = 0, fictitious = 0;
-  const app::RunResult r = app::runScene(o, [&](Simulation& sim, const FrameReport&) {
-    const rigid::RigidBody& ball = sim.model().bodies[0];
-    const rigid::BodyState& s = sim.bodies()[0];
-    if (std::isnan(p0.x())) p0 = ball.mass * rigid::initialState(ball).v;
-    const ParticleFrame f = sim.readFrame();
-    const double m = sim.model().params.phase_mass[0];
-    Eigen::Vector3d fluid = Eigen::Vector3d::Zero();
-    for (std::size_t i = 0; i < f.size(); ++i) fluid += m * Eigen::Vector3d(f.vx[i], f.vy[i], f.vz[i]);
-    const Eigen::Vector3d p_ball = ball.mass * s.v;
-    worst = std::max(worst, (fluid + p_ball - p0).norm());
-    exchanged = std::max(exchanged, (p_ball - p0).norm());
-    fictitious = std::max(fictitious, s.added_mass_force.norm());
-  });
-  REQUIRE(r.exit_code == 0);
+  const BlobMomentum b = pushBlobMomentum({"fluid.solver=dfsph", "fluid.dfsph.body_added_mass=0.5",
+                                          "rigid_bodies[0].density=" + density});
+  REQUIRE(b.exit_code == 0);
+  const Eigen::Vector3d p0 = b.p0;
+  const double exchanged = b.exchanged, worst = b.worst, fictitious = b.fictitious;
   INFO("initial momentum " << p0.transpose() << " kg m/s; exchanged " << exchanged << "; worst total drift " << worst
                            << "; largest fictitious force at a frame end " << fictitious << " N");
   CHECK(exchanged > 0.1 * p0.norm());
