@@ -296,6 +296,7 @@ TEST_CASE("Forces with DFSPH and extrapolated walls: a free body feels its held 
   //    session 10's ghost velocities at the body, 0.573 m/s and 1.6; session 12's default
   //    coarse_rest_start 1: 0.558 m/s, ringing margin 0.32 m/s, where plain Jacobi converged to
   //    1e-5 reads 0.571: the release meets the column's start-up bounce, docs/dfsph.md session 12).
+  //    On main at 2929065: 0.537 m/s, ringing margin 0.31 m/s (bench row sink_speed_0.2s_mps).
   //    Released into a tank at rest instead (sink_ball_rest.yaml, session 12: the held force
   //    0.96 rho g V over the hold's last 0.1 s where this scene's column is in free flight, 0.52;
   //    ringing margin 0.024 m/s against 0.31) the ball reads 0.556 m/s (0.539 held to 0.7 s),
