@@ -301,7 +301,8 @@ TEST_CASE("Forces with DFSPH and extrapolated walls: a free body feels its held 
   //    0.96 rho g V over the hold's last 0.1 s where this scene's column is in free flight, 0.52;
   //    ringing margin 0.024 m/s against 0.31) the ball reads 0.556 m/s (0.539 held to 0.7 s),
   //    0.029 m/s outside the envelope's slow side: this check passes at R / dx = 3 on its margin
-  //    (docs/forces.md). Not loosened; the scene is the lead's call.
+  //    (docs/forces.md). With session 12's default fictitious mass (body_added_mass 0.5, main at
+  //    d196c81): 0.546 m/s here, 0.535 at rest. Not loosened; the scene is the lead's call.
   // The Stokes drag with DFSPH and the released buoyant ball's added mass (which needs the
   // fictitious mass fluid.dfsph.body_added_mass, session 11): the next tests.
   // Halving the coupling force halves the held force (0.52 N against rho g V = 1.10 N) and speeds
