@@ -18,7 +18,7 @@
 //     held, added mass of a released ball (mid-water and near the floor, R / dx = 3, 4), Stokes
 //     drag and sideways force of a towed ball (R / dx = 3, 3.75, 4.5), a dense ball sinking from
 //     rest (R / dx = 3, 4, 4.5, and 7.95 with --force-checks sink-fine; its drag split into added
-//     mass, quadratic and linear parts), a buoyant block placed flush on the floor (h / dx = 6, 8),
+//     mass, quadratic and linear parts; released into a tank at rest, R / dx = 3, 4: sink-rest), a buoyant block placed flush on the floor (h / dx = 6, 8),
 //     the released buoyant ball's float and heave (R / dx = 3, 4.05), the Stokes terminal velocity
 //     of a falling ball (R / dx = 3, 3.75), the Re-20 tow in the 80 cm tank (DFSPH; --no-long-tank) and
 //     the towed ball's drag at Re = 20 (two sound speeds), each against its closed form, with
@@ -251,6 +251,7 @@ int forceChecks(const BenchOptions& opt) {
   const std::string release = sourcePath("scenes/tests/release_ball.yaml");
   const std::string tow = sourcePath("scenes/tests/stokes_tow.yaml");
   const std::string sink = sourcePath("scenes/tests/sink_ball.yaml");
+  const std::string sink_rest = sourcePath("scenes/tests/sink_ball_rest.yaml");
   const std::string fall = sourcePath("scenes/tests/stokes_fall.yaml");
   // --force-checks: the groups to run (all when none is named).
   auto on = [&](const char* group) {
@@ -383,36 +384,48 @@ int forceChecks(const BenchOptions& opt) {
       row("re20_drag_se_over_6piMuRU" + tag, solver, 0.01, t.radius / 0.01, t.drag_noise / t.stokes, 0.0, 0.0,
           t.wall_seconds);
     }
-    for (double dx : {0.01, 0.0075, 0.2 / 30, 0.2 / 53}) {
-      // R/dx 3, 4, 4.5 (`sink`); 7.95 (`sink-fine`, a spacing that divides the 20 cm tank: 205k
-      // particles, ~10 min per run here, so only when named; R/dx 6: session 9's replica, docs/forces.md)
-      const bool fine = dx < 0.006;
-      if (fine ? std::find(opt.force_checks.begin(), opt.force_checks.end(), "sink-fine") == opt.force_checks.end()
-               : !on("sink"))
-        continue;
+    // sink_ball.yaml at R/dx 3, 4, 4.5 (`sink`) and 7.95 (`sink-fine`); the same ball released into
+    // a tank at rest, sink_ball_rest.yaml (gravity ramped in, held 0.2 s after), at R/dx 3, 4
+    // (`sink-rest`, rows sink_rest_*: session 12, docs/forces.md).
+    struct SinkRun {
+      const std::string* scene;
+      double dx;
+      const char* group;
+      const char* prefix;
+    };
+    const SinkRun sink_runs[] = {{&sink, 0.01, "sink", "sink_"},           {&sink, 0.0075, "sink", "sink_"},
+                                 {&sink, 0.2 / 30, "sink", "sink_"},       {&sink, 0.2 / 53, "sink-fine", "sink_"},
+                                 {&sink_rest, 0.01, "sink-rest", "sink_rest_"}, {&sink_rest, 0.0075, "sink-rest", "sink_rest_"}};
+    for (const SinkRun& run : sink_runs) {
+      // R/dx 7.95 (`sink-fine`, a spacing that divides the 20 cm tank: 205k particles, ~10 min per
+      // run here) only when named; R/dx 6: session 9's replica, docs/forces.md
+      const double dx = run.dx;
+      const std::string p = run.prefix;
+      const bool named = std::find(opt.force_checks.begin(), opt.force_checks.end(), run.group) != opt.force_checks.end();
+      if (std::string(run.group) == "sink-fine" ? !named : !on(run.group)) continue;
       // A dense ball sinking from rest: its speed 0.2 s after the release against the closed form
       // with added mass and quadratic drag, C_m 0.375 .. 0.725, C_d 0 .. sinkingDragBound (a
       // sphere's 0.5 with the resolution's and the tank's factors; tests/test_forces.cpp); the
       // largest distance outside that envelope (ringing margin included) over the 0.2 s; the
       // mean C_d over the 0.2 s from momentum against 0 .. that bound.
       const double cd_hi = sinkingDragBound(0.03, dx, 0.2);
-      const SinkCheck k = sinkingBallHeldDrag(sink, dx, 0.02, 0.2, 0.375, 0.725, 0.0, cd_hi, sets, opt.device);
+      const SinkCheck k = sinkingBallHeldDrag(*run.scene, dx, 0.02, 0.2, 0.375, 0.725, 0.0, cd_hi, sets, opt.device);
       if (k.exit_code != 0) {
-        std::printf("sinking ball at dx %g (%s): %s\n", dx, solver.c_str(), k.message.c_str());
+        std::printf("sinking ball (%s) at dx %g (%s): %s\n", run.group, dx, solver.c_str(), k.message.c_str());
         continue;
       }
-      row("sink_speed_0.2s_mps", solver, dx, k.radius / dx, k.v_end, k.v_lo, k.v_hi, k.wall_seconds);
-      row("sink_outside_envelope_mps", solver, dx, k.radius / dx, k.worst, 0.0, 0.0, k.wall_seconds);
-      row("sink_mean_Cd", solver, dx, k.radius / dx, k.cd_effective, 0.0, cd_hi, k.wall_seconds);
+      row(p + "speed_0.2s_mps", solver, dx, k.radius / dx, k.v_end, k.v_lo, k.v_hi, k.wall_seconds);
+      row(p + "outside_envelope_mps", solver, dx, k.radius / dx, k.worst, 0.0, 0.0, k.wall_seconds);
+      row(p + "mean_Cd", solver, dx, k.radius / dx, k.cd_effective, 0.0, cd_hi, k.wall_seconds);
       // The ringing margin as a margin on that C_d (the envelope's), and the C_d with the ringing
       // and the sampled buoyancy taken out by the same ball held throughout.
-      row("sink_mean_Cd_ringing_margin", solver, dx, k.radius / dx, k.cd_ringing, 0.0, 0.0, k.wall_seconds);
-      row("sink_mean_Cd_held_subtracted", solver, dx, k.radius / dx, k.cd_held_subtracted, 0.0, cd_hi, k.wall_seconds);
+      row(p + "mean_Cd_ringing_margin", solver, dx, k.radius / dx, k.cd_ringing, 0.0, 0.0, k.wall_seconds);
+      row(p + "mean_Cd_held_subtracted", solver, dx, k.radius / dx, k.cd_held_subtracted, 0.0, cd_hi, k.wall_seconds);
       // That impulse split into added mass, quadratic drag and a drag linear in v (SinkCheck::fit_*):
       // the excess over the band is the linear part (docs/forces.md, session 9).
-      row("sink_fit_Cm", solver, dx, k.radius / dx, k.fit_cm, 0.375, 0.725, k.wall_seconds);
-      row("sink_fit_Cd", solver, dx, k.radius / dx, k.fit_cd, 0.0, cd_hi, k.wall_seconds);
-      row("sink_fit_linear_drag_Nspm", solver, dx, k.radius / dx, k.fit_b, 0.0, 0.0, k.wall_seconds);
+      row(p + "fit_Cm", solver, dx, k.radius / dx, k.fit_cm, 0.375, 0.725, k.wall_seconds);
+      row(p + "fit_Cd", solver, dx, k.radius / dx, k.fit_cd, 0.0, cd_hi, k.wall_seconds);
+      row(p + "fit_linear_drag_Nspm", solver, dx, k.radius / dx, k.fit_b, 0.0, 0.0, k.wall_seconds);
     }
     for (double dx : {0.01, 0.0075}) {
       if (!on("flush")) break;

@@ -142,9 +142,9 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   cmd_bench->add_option("--force-checks", bench.force_checks,
                         "Only these groups of force checks (default: all): added-mass, free-held, release, stokes, "
-                        "re20, sink, sink-fine, flush, fall, heave, long-tank")
-      ->check(CLI::IsMember({"added-mass", "free-held", "release", "stokes", "re20", "sink", "sink-fine", "flush",
-                             "fall", "heave", "long-tank"}));
+                        "re20, sink, sink-fine, sink-rest, flush, fall, heave, long-tank")
+      ->check(CLI::IsMember({"added-mass", "free-held", "release", "stokes", "re20", "sink", "sink-fine",
+                             "sink-rest", "flush", "fall", "heave", "long-tank"}));
   cmd_bench->add_flag("!--no-long-tank", bench.force_long_tank,
                       "Skip the force checks' drag at Re 20 in the 80 cm tank (DFSPH; ~1 min at R/dx 3, ~13 min at 4)");
   cmd_bench->add_flag("--impact-only", bench.impact_only,

@@ -232,7 +232,14 @@ TEST_CASE("Forces: a dense ball sinking from rest follows added mass and a spher
   // Before issue 15's contact range (the fluid-body contact within dx of a body particle, now
   // dx/2: shared/pair_loops.h) the ball's mean C_d was 3.9 and v(0.2 s) 0.44 m/s, below this
   // envelope from ~50 ms on (measured; docs/forces.md). Measured now: v(0.2 s) 0.61 in
-  // 0.60 .. 0.83 m/s, mean C_d 1.2 (from momentum with C_m = 1/2).
+  // 0.60 .. 0.83 m/s, mean C_d 1.14 (from momentum with C_m = 1/2), ringing margin 0.057 m/s.
+  // This scene switches gravity on at t = 0 and the laminar water still rings at the release
+  // (+-40 % of rho g d at the ball's depth over the hold's last 0.1 s). Released into a tank at
+  // rest (sink_ball_rest.yaml: gravity ramped in over 0.4 s, held to 0.6 s; session 12) the same
+  // ball reads 0.572 m/s (0.551 held to 0.7 s), 0.026 m/s below this envelope's slow side beyond
+  // its ringing margin there (0.008 m/s), mean C_d 1.65: this check passes at R / dx = 3 on the
+  // start-up's ringing; at rest it passes at R / dx = 4 (0.644 in 0.603 .. 0.825; bench
+  // `--force-checks sink-rest`, docs/forces.md). Not loosened; the scene is the lead's call.
   // Halving the coupling force: a0 = (m - rho V / 2) g / (m + C_m rho V / 2), 1.7 x faster, and half
   // the drag: above the envelope.
   const double dx = 0.01, radius = 0.03, tank = 0.2;
@@ -289,6 +296,13 @@ TEST_CASE("Forces with DFSPH and extrapolated walls: a free body feels its held 
   //    session 10's ghost velocities at the body, 0.573 m/s and 1.6; session 12's default
   //    coarse_rest_start 1: 0.558 m/s, ringing margin 0.32 m/s, where plain Jacobi converged to
   //    1e-5 reads 0.571: the release meets the column's start-up bounce, docs/dfsph.md session 12).
+  //    On main at 2929065: 0.537 m/s, ringing margin 0.31 m/s (bench row sink_speed_0.2s_mps).
+  //    Released into a tank at rest instead (sink_ball_rest.yaml, session 12: the held force
+  //    0.96 rho g V over the hold's last 0.1 s where this scene's column is in free flight, 0.52;
+  //    ringing margin 0.024 m/s against 0.31) the ball reads 0.556 m/s (0.539 held to 0.7 s),
+  //    0.029 m/s outside the envelope's slow side: this check passes at R / dx = 3 on its margin
+  //    (docs/forces.md). With session 12's default fictitious mass (body_added_mass 0.5, main at
+  //    d196c81): 0.546 m/s here, 0.535 at rest. Not loosened; the scene is the lead's call.
   // The Stokes drag with DFSPH and the released buoyant ball's added mass (which needs the
   // fictitious mass fluid.dfsph.body_added_mass, session 11): the next tests.
   // Halving the coupling force halves the held force (0.52 N against rho g V = 1.10 N) and speeds
