@@ -805,7 +805,6 @@ void Simulation::integrateBodies(double dt) {
   // itself, no drift); penetration removed by split impulses.
   // A dynamic body with hold_until is held still at its pose until then (its fluid force is still
   // gathered, as a held body's), and released from rest after: the fluid settles around it first.
-  auto held = [&](std::size_t b) { return heldBody(b); };
   // DFSPH: a dynamic body's fictitious mass M of this step (addedMassReaction; 0 = none), whose
   // force F_M = M (a_{n-1} - a_n) the fluid has taken back already; it counts in the body's fluid
   // force once the body has moved. The acceleration kept for the next step is the forces' own,
@@ -816,15 +815,15 @@ void Simulation::integrateBodies(double dt) {
     rigid::BodyState& s = bodies_[b];
     v_before[b] = s.v;
     const double M = b < added_mass_.size() ? added_mass_[b] : 0.0;
-    if (!held(b)) rigid::integrateVelocity(model_.bodies[b], s, g, dt, M);
-    s.accel = held(b) ? Eigen::Vector3d::Zero() : Eigen::Vector3d((s.v - v_before[b]) / dt);
+    if (!heldBody(b)) rigid::integrateVelocity(model_.bodies[b], s, g, dt, M);
+    s.accel = heldBody(b) ? Eigen::Vector3d::Zero() : Eigen::Vector3d((s.v - v_before[b]) / dt);
     if (M > 0.0) s.fluid_force += s.added_mass_force;
     else s.added_mass_force.setZero();
   }
   added_mass_.clear();
   contacts_->solve(model_.bodies, bodies_, walls, g, dt);
   for (std::size_t b = 0; b < bodies_.size(); ++b) {
-    if (held(b)) {
+    if (heldBody(b)) {
       bodies_[b].v.setZero();
       bodies_[b].w.setZero();
       bodies_[b].L.setZero();
