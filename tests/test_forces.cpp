@@ -35,6 +35,12 @@ TEST_CASE("Forces: a ball shaken in still water feels the added mass C_m = 1/2",
   // liquid) leaked into the 10 Hz fit: 0.46, 0.55 (0.43, 0.64 with the body contact range dx,
   // before issue 15's fix), with a spurious drag B of 1.3 N s/m (0.57, 0.93 now). Halving the
   // coupling force halves C_m (the body is kinematic: 0.256, 0.252, measured): below the band.
+  // Session 13: the closed walls now sit on the particle lattice (core/model.cpp,
+  // snapWallsToLattice). The 20 cm tank was 26.67 spacings at R/dx = 4, its wall moved to 27 (ball
+  // 1.25 mm off centre) and C_m read 0.450 there (0.505 with the old 5 mm gaps the water fell into);
+  // the tank is now 21 cm, a whole number of spacings at R/dx = 3, 4 and 5 with the ball centred:
+  // 0.471 and 0.511 (B 1.17, 1.12 N s/m). The fit is noisy: its two periods alone read 0.42 / 0.51
+  // (R/dx 3) and 0.60 / 0.43 (R/dx 4), and 4 periods in the 20 cm tank 0.39-0.51 each (snapped).
   for (const double dx : {0.01, 0.0075}) {
     const app::AccelCheck c = app::acceleratedBall(scenePath("accel_ball.yaml"), dx);
     INFO(c.message);
