@@ -39,7 +39,7 @@ TEST_CASE("Forces: a ball shaken in still water feels the added mass C_m = 1/2",
   // snapWallsToLattice). The 20 cm tank was 26.67 spacings at R/dx = 4, its wall moved to 27 (ball
   // 1.25 mm off centre) and C_m read 0.450 there (0.505 with the old 5 mm gaps the water fell into);
   // the tank is now 21 cm, a whole number of spacings at R/dx = 3, 4 and 5 with the ball centred:
-  // 0.471 and 0.511 (B 1.17, 1.12 N s/m). The fit is noisy: its two periods alone read 0.42 / 0.51
+  // 0.476 and 0.515 (the check; B 1.17, 1.12 N s/m). The fit is noisy: its two periods alone read 0.42 / 0.51
   // (R/dx 3) and 0.60 / 0.43 (R/dx 4), and 4 periods in the 20 cm tank 0.39-0.51 each (snapped).
   for (const double dx : {0.01, 0.0075}) {
     const app::AccelCheck c = app::acceleratedBall(scenePath("accel_ball.yaml"), dx);
