@@ -61,6 +61,7 @@ struct DfsphSolveResult {
   double error = 0.0;     ///< average error reached (unit: 1, relative to rho0)
   bool converged = true;  ///< error <= bound when it stopped
   int corrections = 0;    ///< coarse-grid corrections of the two-level solve (unit: 1)
+  bool corrections_stopped = false;  ///< a correction did not lower the error, so the solve made no more
 };
 
 class DfsphSolver {
