@@ -90,18 +90,20 @@ std::string fmt(double v) {
 // The closed walls on the particle lattice. A block holds whole lattice cells only, so where a
 // tank's size is not a multiple of dx a block that fills it stops short of the far wall, and the
 // fluid falls into that gap as the run starts: a 0.2 m tank at dx = 7.5 mm (26 layers) left 5 mm
-// at two walls, and its 0.28 m column dropped ~5 mm in its first 0.15 s and bounced for a second
-// with either solver (docs/dfsph.md "Session 13: gaps at the walls"). So each closed max wall is
-// moved to the nearest whole number of spacings from the min wall (at most dx/2; the boundary
-// lattice is then regular up to the corners), blocks that reached the wall reach it still, and a
-// block that ends on a closed wall but starts inside the tank is laid from that wall (below).
+// at two walls: the hydrostatic tank's column fell 2.4-2.8 mm with either solver, and a 0.28 m
+// DFSPH column ~5 mm in its first 0.15 s, then bounced (docs/dfsph.md "Session 13: gaps at the
+// walls"). So each closed max wall is moved out to the next whole number of spacings from the min
+// wall (less than one spacing; never in, so that whatever the scene put inside stays inside; the
+// boundary lattice is then regular up to the corners), blocks that reached the wall reach it
+// still, and a block that ends on a closed wall but starts inside the tank is laid from that wall
+// (below).
 void snapWallsToLattice(SceneSpec& s, double dx, std::vector<std::string>& notes) {
   static const char* axis_name[3] = {"x", "y", "z"};
   DomainSpec& dom = s.domain;
   for (int a = 0; a < 3; ++a) {
     if (!dom.closed[static_cast<std::size_t>(2 * a + 1)]) continue;
     const double size = dom.max[a] - dom.min[a];
-    const double n = std::max(1.0, std::round(size / dx));
+    const double n = std::max(1.0, std::ceil(size / dx - 1e-3));
     const double snapped = dom.min[a] + n * dx;
     if (std::abs(snapped - dom.max[a]) <= 1e-3 * dx) continue;  // a whole number up to rounding: unchanged
     for (BlockSpec& b : s.fluid.blocks)
@@ -110,7 +112,7 @@ void snapWallsToLattice(SceneSpec& s, double dx, std::vector<std::string>& notes
     w.precision(6);
     w << dom.loc.str() << ": the closed wall at " << axis_name[a] << " = " << dom.max[a] << " m is "
       << size / dx << " particle spacings (" << dx << " m) from the wall at " << dom.min[a]
-      << " m; it is placed at " << snapped << " m (" << n
+      << " m; it is moved out to " << snapped << " m (" << n
       << " spacings), and blocks that reached it fill to it (a tank that is not a whole number of "
          "spacings would leave a gap the fluid falls into at the start)";
     notes.push_back(w.str());
