@@ -572,8 +572,8 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
     if (opt.live_link) {
       auto scene = std::make_shared<LiveScene>();
       scene->title = opt.scene;
-      scene->domain_min = spec.domain.min.cast<float>();
-      scene->domain_max = spec.domain.max.cast<float>();
+      scene->domain_min = model.spec.domain.min.cast<float>();  // the walls on the lattice (core/model.cpp)
+      scene->domain_max = model.spec.domain.max.cast<float>();
       scene->particle_radius = static_cast<float>(0.5 * model.dx);
       scene->frame_rate = spec.simulation.frame_rate;
       for (const rigid::RigidBody& b : model.bodies) {
