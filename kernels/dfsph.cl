@@ -176,10 +176,11 @@ __kernel void dfsph_factor(const SimParams p, __global const float4* pos, __glob
 /* D delta_i / Dt (B&K 2017 eq. 2, number density): the rate at which the neighbours close in; the
  * walls' part from the factor pass's sums gw (v_i . G_b - sum_b psi_b v_b . gradW_ib). */
 inline float dfsph_density_rate(const SimParams* p, const uint i, __global const float4* pos,
-                                __global const float4* vel, const SphList nbr, const uint nf,
+                                __global const float4* vel, __global const uint* lists, const uint nf,
                                 const float4 gw) {
   const float H = p->support;
   const float3 xi = pos[i].xyz, vi = vel[i].xyz;
+  const SphList nbr = sph_list(p, lists, i); /* made here, not passed in by value (as dfsph_force) */
   /* fluid neighbours eight at a time (shared/pair_loops.h: pocl leaves such loops scalar), the
    * lanes summed in a fixed order, then the rest one by one */
   float8 acc = (float8)(0.0f);
@@ -221,7 +222,7 @@ __kernel void dfsph_source(const SimParams p, __global const float4* pos, __glob
   const uint K = p.max_neighbours;
   /* rate_in_source: the factor pass left D delta_i / Dt in source[i] (dfsph_factor, with_rate) */
   const float rate = rate_in_source ? source[i]
-                                    : dfsph_density_rate(&p, i, pos, vel, sph_list(&p, nbr, i), nbr_count[i], gwall[i]);
+                                    : dfsph_density_rate(&p, i, pos, vel, nbr, nbr_count[i], gwall[i]);
   const float delta = density[i] / p.phase_mass[phase[i]];
   float s = kind ? (delta + p.dt * rate) * p.rest_volume - 1.0f : p.dt * rate * p.rest_volume;
   /* divergence solve: fewer than min_neighbours neighbours (free surface, splashes): left alone */
@@ -245,13 +246,16 @@ __kernel void dfsph_source(const SimParams p, __global const float4* pos, __glob
  * xt_j = (x_j, p_j / delta_j^2) (written with the pressures by dfsph_source and dfsph_jacobi), one
  * gather per neighbour instead of five (position, phase, mass, density, pressure). */
 inline float3 dfsph_force(const SimParams* p, const uint i, __global const float4* xt, __global const uint* phase,
-                          __global const float* density, __global const float* pr, const SphList list,
+                          __global const float* density, __global const float* pr, __global const uint* nbr,
                           const uint nf, __global const float4* bpos, __global const uint* blist, const uint nb,
                           const float wall, __global const float* bpr, const int use_bp, const float4 gw) {
   const float H = p->support;
   const float3 xi = xt[i].xyz;
   const float di = density[i] / p->phase_mass[phase[i]];
   const float ti = pr[i] / (di * di); /* p_i / delta_i^2 */
+  /* i's fluid list, narrow or wide (shared/neighbours.h), made here rather than passed in: this
+   * function is not inlined, and a list passed by value cost ~10 % of the pass (performance) */
+  const SphList list = sph_list(p, nbr, i);
   /* fluid neighbours eight at a time (as dfsph_density_rate), then the rest one by one */
   float8 fx = (float8)(0.0f), fy = fx, fz = fx;
   uint k = 0;
@@ -289,7 +293,7 @@ __kernel void dfsph_pressure_accel(const SimParams p, __global const float4* xt,
   const uint i = get_global_id(0);
   if (i >= p.n_fluid) return;
   const uint K = p.max_neighbours;
-  const float3 f = dfsph_force(&p, i, xt, phase, density, pressure, sph_list(&p, nbr, i), nbr_count[i], bpos,
+  const float3 f = dfsph_force(&p, i, xt, phase, density, pressure, nbr, nbr_count[i], bpos,
                                bnbr + (size_t)i * K, bnbr_count[i], wall, bpr, use_bp, gwall[i]);
   accel[i] = (float4)(f / p.phase_mass[phase[i]], 0.0f);
 }
@@ -359,7 +363,7 @@ __kernel void dfsph_apply_pressure(const SimParams p, __global const float4* xt,
   const uint i = get_global_id(0);
   if (i >= p.n_fluid) return;
   const uint K = p.max_neighbours;
-  const float3 f = dfsph_force(&p, i, xt, phase, density, pressure, sph_list(&p, nbr, i), nbr_count[i], bpos,
+  const float3 f = dfsph_force(&p, i, xt, phase, density, pressure, nbr, nbr_count[i], bpos,
                                bnbr + (size_t)i * K, bnbr_count[i], wall, bpr, use_bp, gwall[i]);
   vel[i] += (float4)(p.dt / p.phase_mass[phase[i]] * f, 0.0f);
 }
@@ -392,7 +396,7 @@ __kernel void dfsph_divergence_source(const SimParams p, __global const float4* 
   if (i >= p.n_fluid) return;
   const uint K = p.max_neighbours;
   const uint nf = nbr_count[i], nb = bnbr_count[i];
-  float rate = dfsph_density_rate(&p, i, pos, vel, sph_list(&p, nbr, i), nf, gwall[i]);
+  float rate = dfsph_density_rate(&p, i, pos, vel, nbr, nf, gwall[i]);
   if (nf + nb < min_neighbours) rate = 0.0f;
   const float pi = warm ? dfsph_warm(rate > 0.0f, pprev[i]) : fmax(omega * rate * alpha[i] / p.dt, 0.0f);
   pinc[i] = pi;
@@ -416,7 +420,7 @@ __kernel void dfsph_density_source(const SimParams p, __global const float4* pos
   const uint i = get_global_id(0);
   if (i >= p.n_fluid) return;
   const uint K = p.max_neighbours;
-  const float rate = dfsph_density_rate(&p, i, pos, vel, sph_list(&p, nbr, i), nbr_count[i], gwall[i]);
+  const float rate = dfsph_density_rate(&p, i, pos, vel, nbr, nbr_count[i], gwall[i]);
   const float delta = density[i] / p.phase_mass[phase[i]];
   const float s = (delta + p.dt * rate) * p.rest_volume - 1.0f; /* relative density error */
   const float pi = warm ? dfsph_warm(s > 0.0f, pprev[i]) : fmax(omega * s / p.rest_volume * alpha[i] / (p.dt * p.dt), 0.0f);

@@ -71,12 +71,13 @@ inline SphList sph_list(const SimParams* p, __global const uint* nbr, const uint
   return l;
 }
 
-/* A list of 32-bit indices at `list` (boundary lists). */
-inline SphList sph_list_wide(__global const uint* list) {
+/* Particle i's list in `lists` (K slots per particle), wide or narrow as `wide` says (boundary
+ * lists: always wide). */
+inline SphList sph_list_k(__global const uint* lists, const uint i, const uint K, const int wide) {
   SphList l;
-  l.i = 0;
-  l.w = list;
-  l.s = 0;
+  l.i = (int)i;
+  l.w = wide ? lists + (size_t)i * K : 0;
+  l.s = (__global const short*)lists + (size_t)i * K;
   return l;
 }
 

@@ -78,9 +78,11 @@ inline float sph_hsum8(const float8 a) {
  * no data-dependent branch; a narrow fluid list (shared/neighbours.h) goes to `outs` instead, in the
  * same form. With out = outs = 0 the list is this step's list already (DFSPH's lists
  * built at H, core/simulation.cpp buildGrid): only the sum (and *out_n is not the count). */
-inline float sph_list_density(const float3 xi, const SphList list, const uint n, __global const float4* pts,
+inline float sph_list_density(const float3 xi, __global const uint* lists, const uint i, const uint K,
+                              const int wide, const uint n, __global const float4* pts,
                               const int weighted, const float H, __global uint* out, __global short* outs,
                               uint* out_n) {
+  const SphList list = sph_list_k(lists, i, K, wide); /* made here, not passed in by value */
   const float H2 = H * H;
   float8 acc = (float8)(0.0f);
   uint m = 0;
@@ -181,7 +183,7 @@ typedef struct {
 inline SphPairSums sph_pair_sums(const SimParams* p, const uint i, __global const float4* pos,
                                  __global const float4* vel, __global const uint* phase,
                                  __global const float* density, __global const float* pterm,
-                                 const SphList list, const uint n, const int pressure, const int viscous) {
+                                 __global const uint* nbr, const uint n, const int pressure, const int viscous) {
   const float H = p->support;
   const float3 xi = pos[i].xyz;
   const float pi_term = pressure ? pterm[i] : 0.0f;
@@ -190,6 +192,7 @@ inline SphPairSums sph_pair_sums(const SimParams* p, const uint i, __global cons
   const float mui = rhoi * p->phase_viscosity[phase[i]];
   const float eta2 = 0.01f * p->h * p->h;
   const float visc_k = -p->alpha * p->c0 * p->h; /* Pi = visc_k vx / (...) */
+  const SphList list = sph_list(p, nbr, i); /* narrow or wide (shared/neighbours.h), made here */
 
   float8 fx = (float8)(0.0f), fy = fx, fz = fx, ax = fx, ay = fx, az = fx;
   uint k = 0;
