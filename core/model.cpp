@@ -37,7 +37,7 @@ double skinRatio(const FluidSpec& fl) { return fl.solver == FluidSolver::Dfsph ?
 }  // namespace
 
 static_assert(sizeof(SimParams) % 4 == 0, "SimParams holds 4-byte scalars only");
-static_assert(sizeof(SimParams) == 4 * (4 + 4 + 4 + 4 + 4 + 8 + 1 + 4 + 4 + 3 * SPH_MAX_PHASES),
+static_assert(sizeof(SimParams) == 4 * (4 + 4 + 4 + 4 + 4 + 9 + 1 + 4 + 4 + 3 * SPH_MAX_PHASES),
               "SimParams layout must match kernels/shared/sim_params.h on the device");
 
 void HostParticles::push(const Eigen::Vector3f& x, const Eigen::Vector3f& v, const Eigen::Vector3f& c, uint32_t ph,

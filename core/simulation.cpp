@@ -56,6 +56,7 @@ Simulation::Simulation(const Model& model, const HostParticles& initial, ClConte
   snbr_count_ = makeBuffer(cap * 4);
   sbnbr_count_ = makeBuffer(cap * 4);
   overflow_ = makeBuffer(4);
+  narrow_fail_ = makeBuffer(4);
   // Neighbour-list slots: 1.5x the particles within the list radius in the bulk at rest, plus 8.
   const double ratio = (model_.support + model_.skin) / model_.dx;
   allocateNeighbourLists(static_cast<uint32_t>((1.5 * 4.18879 * ratio * ratio * ratio + 8.0 + 7.0) / 8.0) * 8u);
@@ -159,6 +160,7 @@ Simulation::Simulation(const Model& model, const HostParticles& initial, ClConte
     const uint32_t zero = 0;
     q.enqueueWriteBuffer(crossings_, CL_TRUE, 0, 4, &zero);
     q.enqueueWriteBuffer(overflow_, CL_TRUE, 0, 4, &zero);
+    q.enqueueWriteBuffer(narrow_fail_, CL_TRUE, 0, 4, &zero);
     q.enqueueWriteBuffer(max_speed_, CL_TRUE, 0, 4, &zero);
     n_ = initial.size();
     if (n_ > 0) {
@@ -491,9 +493,28 @@ void Simulation::buildGrid() {
   // rebuilt at the next step that moves anything. A slower flow keeps the Verlet lists.
   step_lists_ = dfsph_ && last_step_travel_ > model_.skin;
   const float radius = step_lists_ ? params_.support : params_.cell_size;  // (unit: m)
-  kernels_.call("build_neighbour_lists", n_, kLocal, params_, pos_[cur_], cell_start_, bpos_, bcell_start_,
-                step_lists_ ? snbr_ : nbr_, step_lists_ ? snbr_count_ : nbr_count_, step_lists_ ? sbnbr_ : bnbr_,
-                step_lists_ ? sbnbr_count_ : bnbr_count_, overflow_, radius);
+  const auto buildLists = [&] {
+    kernels_.call("build_neighbour_lists", n_, kLocal, params_, pos_[cur_], cell_start_, bpos_, bcell_start_,
+                  step_lists_ ? snbr_ : nbr_, step_lists_ ? snbr_count_ : nbr_count_, step_lists_ ? sbnbr_ : bnbr_,
+                  step_lists_ ? sbnbr_count_ : bnbr_count_, overflow_, radius, narrow_fail_);
+  };
+  buildLists();
+  // Narrow fluid lists (16-bit offsets j - i, kernels/shared/neighbours.h; performance: the passes
+  // stream half the bytes) hold while every particle's candidates lie within 32,767 places of it;
+  // with at most 32,768 particles they always do. Otherwise the build says whether some did not
+  // (one read per build): then the lists become wide (32-bit indices) for the rest of the run and
+  // are built again, so this step already reads complete lists.
+  if (!params_.wide_lists && n_ > 32768) {
+    uint32_t fail = 0;
+    clCall("reading the narrow-list check",
+           [&] { return cl_.queue().enqueueReadBuffer(narrow_fail_, CL_TRUE, 0, 4, &fail); });
+    if (fail) {
+      params_.wide_lists = 1;
+      pending_messages_.push_back("a particle's neighbours lie more than 32,767 places from it in cell order: "
+                                  "neighbour lists switched to 32-bit indices");
+      buildLists();
+    }
+  }
   lists_valid_ = true;
   grid_built_ = true;
   travel_since_build_ = 0.0;

@@ -109,6 +109,12 @@ class Simulation {
   /// Removes a stage (from `--disable`); returns false if the stage is essential (grid, density, integrate).
   bool disable(Stage s);
   const StageMask& stages() const { return stages_; }
+  /// Fluid neighbour lists as 32-bit indices (wide) rather than 16-bit offsets j - i (narrow,
+  /// kernels/shared/neighbours.h). The lists switch to wide by themselves when some offset does
+  /// not fit; useWideLists() makes them wide from the next list build on (tests: bitwise the same
+  /// results either way).
+  bool wideLists() const { return params_.wide_lists != 0; }
+  void useWideLists() { params_.wide_lists = 1; lists_valid_ = false; }
 
   /// One time step of length dt (unit: s).
   void step(double dt);
@@ -260,6 +266,9 @@ class Simulation {
   cl::Buffer acc_, density_, pressure_, pterm_, cell_, rank_, sorted_;
   // Neighbour lists (fluid and boundary), written by the density pass, read by the force stages.
   cl::Buffer nbr_, nbr_count_, bnbr_, bnbr_count_, overflow_;
+  // Set by the list build when some fluid list's offsets do not fit in 16 bits (narrow lists,
+  // kernels/shared/neighbours.h): the lists are then built wide from there on (params_.wide_lists).
+  cl::Buffer narrow_fail_;
   // This step's neighbours within H (written by the density pass), read by the force stages.
   cl::Buffer snbr_, snbr_count_, sbnbr_, sbnbr_count_;
   void allocateNeighbourLists(uint32_t slots);

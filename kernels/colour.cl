@@ -13,8 +13,9 @@ __kernel void colour_diffuse(const SimParams p, __global const float4* pos, __gl
   const float eta2 = 0.01f * p.h * p.h;
   float4 lap = (float4)(0.0f);
   const uint nn = nbr_count[i];
+  const SphList list = sph_list(&p, nbr, i); /* narrow or wide (shared/neighbours.h) */
   for (uint k = 0; k < nn; ++k) {
-    const uint j = nbr[(size_t)i * p.max_neighbours + k];
+    const uint j = sph_list1(list, k);
     const float3 d = xi - pos[j].xyz;
     const float r2 = dot(d, d);
     if (r2 < H2) {

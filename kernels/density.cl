@@ -33,8 +33,11 @@ __kernel void compute_density(const SimParams p, __global const float4* pos, __g
    * the neighbours actually within H go to this step's lists, which the force stages read */
   uint sn = 0, sb = 0;
   float nd = sph_w(SPH_KERNEL, 0.0f, H);
-  nd += sph_list_density(xi, nbr + (size_t)i * K, nbr_count[i], pos, 0, H, step_lists ? 0 : snbr + (size_t)i * K, &sn);
-  nd += sph_list_density(xi, bnbr + (size_t)i * K, bnbr_count[i], bpos, 1, H, step_lists ? 0 : sbnbr + (size_t)i * K, &sb);
+  /* fluid lists narrow or wide (shared/neighbours.h), snbr alike; boundary lists wide */
+  __global short* snarrow = (step_lists || p.wide_lists) ? 0 : (__global short*)snbr + (size_t)i * K;
+  __global uint* swide = (step_lists || !p.wide_lists) ? 0 : snbr + (size_t)i * K;
+  nd += sph_list_density(xi, nbr, i, K, p.wide_lists, nbr_count[i], pos, 0, H, swide, snarrow, &sn);
+  nd += sph_list_density(xi, bnbr, i, K, 1, bnbr_count[i], bpos, 1, H, step_lists ? 0 : sbnbr + (size_t)i * K, 0, &sb);
   if (step_lists) { /* the lists given hold only neighbours within H: all of them count */
     sn = nbr_count[i];
     sb = bnbr_count[i];

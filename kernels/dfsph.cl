@@ -120,14 +120,14 @@ __kernel void dfsph_factor(const SimParams p, __global const float4* pos, __glob
   const float3 xi = pos[i].xyz;
   const float3 vi = vel[i].xyz;
   const float mi = p.phase_mass[phase[i]];
-  __global const uint* list = nbr + (size_t)i * K;
+  const SphList list = sph_list(&p, nbr, i); /* narrow or wide (shared/neighbours.h) */
   /* sums of gradients over fluid and boundary, and sum_j |gradW_ij|^2 / m_j; fluid pairs eight at
    * a time (shared/pair_loops.h), lanes summed in a fixed order, then the rest one by one */
   float8 sx = (float8)(0.0f), sy = sx, sz = sx, s8 = sx, r8 = sx;
   const uint nf = nbr_count[i];
   uint k = 0;
   for (; k + 8 <= nf; k += 8) {
-    const uint8 j = vload8(0, list + k);
+    const uint8 j = sph_list8(list, k);
     SPH_LOAD8(x, pos, j);
     const float8 dx = xi.x - SPH_LANES8(x, x), dy = xi.y - SPH_LANES8(x, y), dz = xi.z - SPH_LANES8(x, z);
     const float8 F = sph_grad_factor8(sqrt(dx * dx + dy * dy + dz * dz), H);
@@ -153,7 +153,7 @@ __kernel void dfsph_factor(const SimParams p, __global const float4* pos, __glob
   float s2 = sph_hsum8(s8);
   float rate = sph_hsum8(r8);
   for (; k < nf; ++k) {
-    const uint j = list[k];
+    const uint j = sph_list1(list, k);
     const float3 d = xi - pos[j].xyz;
     const float Fk = sph_grad_factor(SPH_KERNEL, length(d), H);
     const float3 g = Fk * d;
@@ -176,16 +176,17 @@ __kernel void dfsph_factor(const SimParams p, __global const float4* pos, __glob
 /* D delta_i / Dt (B&K 2017 eq. 2, number density): the rate at which the neighbours close in; the
  * walls' part from the factor pass's sums gw (v_i . G_b - sum_b psi_b v_b . gradW_ib). */
 inline float dfsph_density_rate(const SimParams* p, const uint i, __global const float4* pos,
-                                __global const float4* vel, __global const uint* nbr, const uint nf,
+                                __global const float4* vel, __global const uint* lists, const uint nf,
                                 const float4 gw) {
   const float H = p->support;
   const float3 xi = pos[i].xyz, vi = vel[i].xyz;
+  const SphList nbr = sph_list(p, lists, i); /* made here, not passed in by value (as dfsph_force) */
   /* fluid neighbours eight at a time (shared/pair_loops.h: pocl leaves such loops scalar), the
    * lanes summed in a fixed order, then the rest one by one */
   float8 acc = (float8)(0.0f);
   uint k = 0;
   for (; k + 8 <= nf; k += 8) {
-    const uint8 j = vload8(0, nbr + k);
+    const uint8 j = sph_list8(nbr, k);
     SPH_LOAD8(x, pos, j);
     SPH_LOAD8(v, vel, j);
     const float8 dx = xi.x - SPH_LANES8(x, x), dy = xi.y - SPH_LANES8(x, y), dz = xi.z - SPH_LANES8(x, z);
@@ -194,7 +195,7 @@ inline float dfsph_density_rate(const SimParams* p, const uint i, __global const
   }
   float rate = sph_hsum8(acc);
   for (; k < nf; ++k) {
-    const uint j = nbr[k];
+    const uint j = sph_list1(nbr, k);
     const float3 d = xi - pos[j].xyz;
     rate += sph_grad_factor(SPH_KERNEL, length(d), H) * dot(vi - vel[j].xyz, d);
   }
@@ -221,7 +222,7 @@ __kernel void dfsph_source(const SimParams p, __global const float4* pos, __glob
   const uint K = p.max_neighbours;
   /* rate_in_source: the factor pass left D delta_i / Dt in source[i] (dfsph_factor, with_rate) */
   const float rate = rate_in_source ? source[i]
-                                    : dfsph_density_rate(&p, i, pos, vel, nbr + (size_t)i * K, nbr_count[i], gwall[i]);
+                                    : dfsph_density_rate(&p, i, pos, vel, nbr, nbr_count[i], gwall[i]);
   const float delta = density[i] / p.phase_mass[phase[i]];
   float s = kind ? (delta + p.dt * rate) * p.rest_volume - 1.0f : p.dt * rate * p.rest_volume;
   /* divergence solve: fewer than min_neighbours neighbours (free surface, splashes): left alone */
@@ -245,18 +246,21 @@ __kernel void dfsph_source(const SimParams p, __global const float4* pos, __glob
  * xt_j = (x_j, p_j / delta_j^2) (written with the pressures by dfsph_source and dfsph_jacobi), one
  * gather per neighbour instead of five (position, phase, mass, density, pressure). */
 inline float3 dfsph_force(const SimParams* p, const uint i, __global const float4* xt, __global const uint* phase,
-                          __global const float* density, __global const float* pr, __global const uint* list,
+                          __global const float* density, __global const float* pr, __global const uint* nbr,
                           const uint nf, __global const float4* bpos, __global const uint* blist, const uint nb,
                           const float wall, __global const float* bpr, const int use_bp, const float4 gw) {
   const float H = p->support;
   const float3 xi = xt[i].xyz;
   const float di = density[i] / p->phase_mass[phase[i]];
   const float ti = pr[i] / (di * di); /* p_i / delta_i^2 */
+  /* i's fluid list, narrow or wide (shared/neighbours.h), made here rather than passed in: this
+   * function is not inlined, and a list passed by value cost ~10 % of the pass (performance) */
+  const SphList list = sph_list(p, nbr, i);
   /* fluid neighbours eight at a time (as dfsph_density_rate), then the rest one by one */
   float8 fx = (float8)(0.0f), fy = fx, fz = fx;
   uint k = 0;
   for (; k + 8 <= nf; k += 8) {
-    const uint8 j = vload8(0, list + k);
+    const uint8 j = sph_list8(list, k);
     SPH_LOAD8(x, xt, j);
     const float8 dx = xi.x - SPH_LANES8(x, x), dy = xi.y - SPH_LANES8(x, y), dz = xi.z - SPH_LANES8(x, z);
     const float8 F = sph_grad_factor8(sqrt(dx * dx + dy * dy + dz * dz), H);
@@ -267,7 +271,7 @@ inline float3 dfsph_force(const SimParams* p, const uint i, __global const float
   }
   float3 f = (float3)(sph_hsum8(fx), sph_hsum8(fy), sph_hsum8(fz));
   for (; k < nf; ++k) {
-    const float4 xj = xt[list[k]];
+    const float4 xj = xt[sph_list1(list, k)];
     const float3 d = xi - xj.xyz;
     f -= (ti + xj.w) * sph_grad_factor(SPH_KERNEL, length(d), H) * d;
   }
@@ -289,7 +293,7 @@ __kernel void dfsph_pressure_accel(const SimParams p, __global const float4* xt,
   const uint i = get_global_id(0);
   if (i >= p.n_fluid) return;
   const uint K = p.max_neighbours;
-  const float3 f = dfsph_force(&p, i, xt, phase, density, pressure, nbr + (size_t)i * K, nbr_count[i], bpos,
+  const float3 f = dfsph_force(&p, i, xt, phase, density, pressure, nbr, nbr_count[i], bpos,
                                bnbr + (size_t)i * K, bnbr_count[i], wall, bpr, use_bp, gwall[i]);
   accel[i] = (float4)(f / p.phase_mass[phase[i]], 0.0f);
 }
@@ -320,12 +324,12 @@ __kernel void dfsph_jacobi(const SimParams p, __global const float4* pos, __glob
     err[i] = 0.0f;
     return;
   }
-  __global const uint* list = nbr + (size_t)i * K;
+  const SphList list = sph_list(&p, nbr, i); /* narrow or wide (shared/neighbours.h) */
   /* sum_j (a_i - a_j) . gradW_ij: eight at a time, then the rest (as dfsph_density_rate) */
   float8 acc = (float8)(0.0f);
   uint k = 0;
   for (; k + 8 <= nf; k += 8) {
-    const uint8 j = vload8(0, list + k);
+    const uint8 j = sph_list8(list, k);
     SPH_LOAD8(x, pos, j);
     SPH_LOAD8(a, accel, j);
     const float8 dx = xi.x - SPH_LANES8(x, x), dy = xi.y - SPH_LANES8(x, y), dz = xi.z - SPH_LANES8(x, z);
@@ -334,7 +338,7 @@ __kernel void dfsph_jacobi(const SimParams p, __global const float4* pos, __glob
   }
   float Ap = sph_hsum8(acc);
   for (; k < nf; ++k) {
-    const uint j = list[k];
+    const uint j = sph_list1(list, k);
     const float3 d = xi - pos[j].xyz;
     Ap += sph_grad_factor(SPH_KERNEL, length(d), H) * dot(ai - accel[j].xyz, d);
   }
@@ -359,7 +363,7 @@ __kernel void dfsph_apply_pressure(const SimParams p, __global const float4* xt,
   const uint i = get_global_id(0);
   if (i >= p.n_fluid) return;
   const uint K = p.max_neighbours;
-  const float3 f = dfsph_force(&p, i, xt, phase, density, pressure, nbr + (size_t)i * K, nbr_count[i], bpos,
+  const float3 f = dfsph_force(&p, i, xt, phase, density, pressure, nbr, nbr_count[i], bpos,
                                bnbr + (size_t)i * K, bnbr_count[i], wall, bpr, use_bp, gwall[i]);
   vel[i] += (float4)(p.dt / p.phase_mass[phase[i]] * f, 0.0f);
 }
@@ -392,7 +396,7 @@ __kernel void dfsph_divergence_source(const SimParams p, __global const float4* 
   if (i >= p.n_fluid) return;
   const uint K = p.max_neighbours;
   const uint nf = nbr_count[i], nb = bnbr_count[i];
-  float rate = dfsph_density_rate(&p, i, pos, vel, nbr + (size_t)i * K, nf, gwall[i]);
+  float rate = dfsph_density_rate(&p, i, pos, vel, nbr, nf, gwall[i]);
   if (nf + nb < min_neighbours) rate = 0.0f;
   const float pi = warm ? dfsph_warm(rate > 0.0f, pprev[i]) : fmax(omega * rate * alpha[i] / p.dt, 0.0f);
   pinc[i] = pi;
@@ -416,7 +420,7 @@ __kernel void dfsph_density_source(const SimParams p, __global const float4* pos
   const uint i = get_global_id(0);
   if (i >= p.n_fluid) return;
   const uint K = p.max_neighbours;
-  const float rate = dfsph_density_rate(&p, i, pos, vel, nbr + (size_t)i * K, nbr_count[i], gwall[i]);
+  const float rate = dfsph_density_rate(&p, i, pos, vel, nbr, nbr_count[i], gwall[i]);
   const float delta = density[i] / p.phase_mass[phase[i]];
   const float s = (delta + p.dt * rate) * p.rest_volume - 1.0f; /* relative density error */
   const float pi = warm ? dfsph_warm(s > 0.0f, pprev[i]) : fmax(omega * s / p.rest_volume * alpha[i] / (p.dt * p.dt), 0.0f);
@@ -444,12 +448,12 @@ __kernel void dfsph_apply_increments(const SimParams p, __global const float4* x
   const float ti = pinc[i] / (di * di); /* p_i / delta_i^2 */
   float3 f = (float3)(0.0f);           /* pressure force (unit: N) */
   const uint nf = nbr_count[i];
-  __global const uint* list = nbr + (size_t)i * K;
+  const SphList list = sph_list(&p, nbr, i); /* narrow or wide (shared/neighbours.h) */
   /* fluid neighbours eight at a time (as dfsph_density_rate), then the rest one by one */
   float8 fx = (float8)(0.0f), fy = fx, fz = fx;
   uint k = 0;
   for (; k + 8 <= nf; k += 8) {
-    const uint8 j = vload8(0, list + k);
+    const uint8 j = sph_list8(list, k);
     SPH_LOAD8(x, xt, j); /* position and p_j / delta_j^2, packed (dfsph_force) */
     const float8 dx = xi.x - SPH_LANES8(x, x), dy = xi.y - SPH_LANES8(x, y), dz = xi.z - SPH_LANES8(x, z);
     const float8 F = sph_grad_factor8(sqrt(dx * dx + dy * dy + dz * dz), H);
@@ -460,7 +464,7 @@ __kernel void dfsph_apply_increments(const SimParams p, __global const float4* x
   }
   f = (float3)(sph_hsum8(fx), sph_hsum8(fy), sph_hsum8(fz));
   for (; k < nf; ++k) {
-    const float4 xj = xt[list[k]];
+    const float4 xj = xt[sph_list1(list, k)];
     const float3 d = xi - xj.xyz;
     f -= (ti + xj.w) * sph_grad_factor(SPH_KERNEL, length(d), H) * d;
   }
@@ -661,7 +665,7 @@ __kernel void dfsph_wall_lists(const SimParams p, const uint n_boundary, const u
    * a little above H, in the cells' order; then the exact test of boundary_pressure, in place */
   uint n = 0;
   SPH_FOR_NEIGHBOUR_ROWS(&p, cell_start, xb, begin, end) {
-    n = sph_collect_row(xb, pos, begin, end, 1.0001f * H * H, 0xffffffffu, out, slots, n);
+    n = sph_collect_row(xb, pos, begin, end, 1.0001f * H * H, 0xffffffffu, out, 0, 0, slots, n);
   }
   SPH_END_NEIGHBOURS
   if (n > slots) { /* too many: dfsph_wall_list_pressure scans the cells for b */

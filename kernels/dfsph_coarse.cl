@@ -104,10 +104,10 @@ __kernel void dfsph_coarse_residual(const SimParams p, __global const float4* po
   const float H = p.support;
   const float3 xi = pos[i].xyz, ai = accel[i].xyz;
   const uint nf = nbr_count[i];
-  __global const uint* list = nbr + (size_t)i * K;
+  const SphList list = sph_list(&p, nbr, i); /* narrow or wide (shared/neighbours.h) */
   float Ap = 0.0f;
   for (uint k = 0; k < nf; ++k) {
-    const uint j = list[k];
+    const uint j = sph_list1(list, k);
     const float3 d = xi - pos[j].xyz;
     Ap += sph_grad_factor(SPH_KERNEL, length(d), H) * dot(ai - accel[j].xyz, d);
   }
@@ -214,10 +214,10 @@ __kernel void dfsph_coarse_pairs(const SimParams p, const int4 bd, __global cons
   for (int s = 0; s < 27; ++s) F[s] = R[s] = (float3)(0.0f);
   uint fm = 0, rm = 0;
   const uint nf = nbr_count[i];
-  __global const uint* list = nbr + (size_t)i * K;
+  const SphList list = sph_list(&p, nbr, i); /* narrow or wide (shared/neighbours.h) */
   float3 gsum = (float3)(0.0f);
   for (uint k = 0; k < nf; ++k) {
-    const uint j = list[k];
+    const uint j = sph_list1(list, k);
     const float3 d = xi - pos[j].xyz;
     const float3 g = sph_grad_factor(SPH_KERNEL, length(d), H) * d;
     gsum += g;

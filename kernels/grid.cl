@@ -63,28 +63,36 @@ __kernel void grid_reorder(const SimParams p, __global const uint* sorted,
 /* 5. Neighbour lists: every fluid and boundary particle within the list radius `radius` (at most
  * the cell size: H + skin for Verlet lists, H for DFSPH's lists of one step, core/simulation.cpp
  * buildGrid), self excluded, in grid order (deterministic). A list that overflows keeps its first
- * max_neighbours entries and the largest count goes to the host, which grows the lists. */
+ * max_neighbours entries and the largest count goes to the host, which grows the lists.
+ * Fluid lists are narrow (16-bit offsets j - i) unless p.wide_lists (shared/neighbours.h): a
+ * particle whose candidates' offsets do not all fit in 16 bits (its 9 rows span more than
+ * -32768..32767 around i) sets *narrow_fail, and the host builds the lists again, wide. */
 __kernel void build_neighbour_lists(const SimParams p, __global const float4* pos, __global const uint* cell_start,
                                     __global const float4* bpos, __global const uint* bcell_start,
                                     __global uint* nbr, __global uint* nbr_count, __global uint* bnbr,
                                     __global uint* bnbr_count, volatile __global uint* overflow,
-                                    const float radius) {
+                                    const float radius, volatile __global uint* narrow_fail) {
   const uint i = get_global_id(0);
   if (i >= p.n_fluid) return;
   const float3 xi = pos[i].xyz;
   const float R2 = radius * radius; /* (unit: m^2) */
   const uint K = p.max_neighbours;
   __global uint* my_nbr = nbr + (size_t)i * K;
+  __global short* my_snbr = p.wide_lists ? 0 : (__global short*)nbr + (size_t)i * K;
   __global uint* my_bnbr = bnbr + (size_t)i * K;
   /* Row by row, eight candidates at a time (shared/pair_loops.h). */
   uint count = 0;
+  uint lo = i, hi = i + 1; /* the candidates' range */
   SPH_FOR_NEIGHBOUR_ROWS(&p, cell_start, xi, begin, end) {
-    count = sph_collect_row(xi, pos, begin, end, R2, i, my_nbr, K, count);
+    lo = min(lo, begin);
+    hi = max(hi, end);
+    count = sph_collect_row(xi, pos, begin, end, R2, i, my_nbr, my_snbr, (int)i, K, count);
   }
   SPH_END_NEIGHBOURS
+  if (my_snbr && (i - lo > 32768u || hi - 1u - i > 32767u)) atomic_or(narrow_fail, 1u);
   uint bcount = 0;
   SPH_FOR_NEIGHBOUR_ROWS(&p, bcell_start, xi, begin, end) {
-    bcount = sph_collect_row(xi, bpos, begin, end, R2, 0xffffffffu, my_bnbr, K, bcount);
+    bcount = sph_collect_row(xi, bpos, begin, end, R2, 0xffffffffu, my_bnbr, 0, 0, K, bcount);
   }
   SPH_END_NEIGHBOURS
   nbr_count[i] = min(count, K);

@@ -43,7 +43,7 @@ inline float4 sph_forces(const SimParams* p, const uint i, __global const float4
                          __global const uint* bnbr, __global const uint* bnbr_count, const int viscous) {
   const uint K = p->max_neighbours;
   const SphPairSums s =
-      sph_pair_sums(p, i, pos, vel, phase, density, pterm, nbr + (size_t)i * K, nbr_count[i], 1, viscous);
+      sph_pair_sums(p, i, pos, vel, phase, density, pterm, nbr, nbr_count[i], 1, viscous);
 
   const float3 xi = pos[i].xyz;
   const float H = p->support;

@@ -17,7 +17,7 @@ __kernel void viscosity_force(const SimParams p, __global const float4* pos, __g
   const uint i = get_global_id(0);
   if (i >= p.n_fluid) return;
   const uint K = p.max_neighbours;
-  const SphPairSums s = sph_pair_sums(&p, i, pos, vel, phase, density, density, nbr + (size_t)i * K, nbr_count[i], 0, 1);
+  const SphPairSums s = sph_pair_sums(&p, i, pos, vel, phase, density, density, nbr, nbr_count[i], 0, 1);
   const float3 xi = pos[i].xyz, vi = vel[i].xyz;
   const float mi = p.phase_mass[phase[i]], rhoi = density[i], nu = p.phase_viscosity[phase[i]];
   float3 av = (float3)(0.0f);

@@ -390,6 +390,7 @@ struct Device {
   cl::Buffer cell, rank, sorted, cell_count, cell_start, scan_sums, bpos, bcell_start;
   cl::Buffer density, pressure, pterm, nbr, nbr_count, bnbr, bnbr_count, overflow, acc, crossings, max_speed;
   cl::Buffer snbr, snbr_count, sbnbr, sbnbr_count;  // this step's neighbours within H (density pass)
+  cl::Buffer narrow_fail;  // set by the list build when a narrow list's offsets do not fit
   float list_radius = 0;  // build_neighbour_lists' radius (unit: m); 0: the cell size (Verlet lists)
   // Boundary velocities (random, as if every boundary particle were on a moving body), wall
   // pressures and the density pass's marks.
@@ -435,6 +436,7 @@ struct Device {
     snbr_count = zeros<uint32_t>(n);
     sbnbr_count = zeros<uint32_t>(n);
     overflow = zeros<uint32_t>(1);
+    narrow_fail = zeros<uint32_t>(1);
     acc = zeros<F4>(n);
     crossings = zeros<uint32_t>(1);
     max_speed = zeros<uint32_t>(1);
@@ -464,7 +466,21 @@ struct Device {
     cur = nxt;
   }
   void buildLists() {
-    ks.call("build_neighbour_lists", n, kLocal, P, pos[cur], cell_start, bpos, bcell_start, nbr, nbr_count, bnbr, bnbr_count, overflow, list_radius > 0 ? list_radius : P.cell_size);
+    ks.call("build_neighbour_lists", n, kLocal, P, pos[cur], cell_start, bpos, bcell_start, nbr, nbr_count, bnbr, bnbr_count, overflow, list_radius > 0 ? list_radius : P.cell_size, narrow_fail);
+  }
+  /// A fluid list buffer (nbr or snbr) as n x max_neighbours indices: narrow lists
+  /// (P.wide_lists = 0: 16-bit offsets j - i in the buffer's first half, kernels/shared/neighbours.h)
+  /// decoded (only the first count entries of each list mean anything).
+  std::vector<uint32_t> fluidLists(const cl::Buffer& b) const {
+    const std::size_t K = P.max_neighbours;
+    std::vector<uint32_t> raw = fromDevice<uint32_t>(b, n * K);
+    if (P.wide_lists) return raw;
+    std::vector<int16_t> off(n * K);
+    std::memcpy(off.data(), raw.data(), off.size() * 2);
+    std::vector<uint32_t> out(n * K);
+    for (std::size_t i = 0; i < n; ++i)
+      for (std::size_t k = 0; k < K; ++k) out[i * K + k] = static_cast<uint32_t>(static_cast<int64_t>(i) + off[i * K + k]);
+    return out;
   }
   void buildGrid() {
     gridAssign();
@@ -707,7 +723,7 @@ DensityState runDensity(Device& d, float move = 0.0f) {
   st.density = fromDevice<float>(d.density, n);
   st.pressure = fromDevice<float>(d.pressure, n);
   st.pterm = fromDevice<float>(d.pterm, n);
-  st.nbr = fromDevice<uint32_t>(d.nbr, n * K);
+  st.nbr = d.fluidLists(d.nbr);
   st.nbr_count = fromDevice<uint32_t>(d.nbr_count, n);
   st.bnbr = fromDevice<uint32_t>(d.bnbr, n * K);
   st.bnbr_count = fromDevice<uint32_t>(d.bnbr_count, n);
@@ -749,7 +765,7 @@ void checkList(Failures& f, const char* what, std::size_t i, const uint32_t* lis
 std::size_t checkListsBruteForce(Device& d, const Scene& s, float radius) {
   const std::size_t n = d.n, K = s.P.max_neighbours;
   const auto pos = fromDevice<F4>(d.pos[d.cur], n);
-  const auto nbr = fromDevice<uint32_t>(d.nbr, n * K), nbr_count = fromDevice<uint32_t>(d.nbr_count, n);
+  const auto nbr = d.fluidLists(d.nbr), nbr_count = fromDevice<uint32_t>(d.nbr_count, n);
   const auto bnbr = fromDevice<uint32_t>(d.bnbr, n * K), bnbr_count = fromDevice<uint32_t>(d.bnbr_count, n);
   REQUIRE(fromDevice<uint32_t>(d.overflow, 1)[0] == 0u);
   Failures f;
@@ -807,7 +823,7 @@ TEST_CASE("build_neighbour_lists: overflowing lists keep max_neighbours entries 
   d.buildGrid();
   const std::size_t n = s.pos.size(), K = 8;
   const auto pos = fromDevice<F4>(d.pos[d.cur], n);
-  const auto nbr = fromDevice<uint32_t>(d.nbr, n * K), nbr_count = fromDevice<uint32_t>(d.nbr_count, n);
+  const auto nbr = d.fluidLists(d.nbr), nbr_count = fromDevice<uint32_t>(d.nbr_count, n);
   const auto bnbr = fromDevice<uint32_t>(d.bnbr, n * K), bnbr_count = fromDevice<uint32_t>(d.bnbr_count, n);
   const uint32_t overflow = fromDevice<uint32_t>(d.overflow, 1)[0];
   const float R = s.P.cell_size;

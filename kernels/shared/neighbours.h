@@ -45,5 +45,50 @@ inline uint sph_cell_index(const SimParams* p, int3 c) {
 #define SPH_FOR_NEIGHBOURS(P, CELL_START, XI, J) \
   SPH_FOR_NEIGHBOUR_ROWS(P, CELL_START, XI, row_begin_, row_end_) for (uint J = row_begin_; J < row_end_; ++J)
 
+/* Fluid neighbour lists, narrow or wide (performance, issue 14). Every pass of a step streams the
+ * lists (~40 slots per particle, ~12-16 passes per DFSPH step; at 50k the 32-bit lists are ~8 MB,
+ * larger than the L2 cache). Particles are sorted by cell, so a fluid neighbour's index j is close
+ * to the particle's own i: a narrow list (p->wide_lists = 0) stores j - i as a 16-bit signed
+ * offset, half the bytes. Its slots are shorts, max_neighbours per particle, packed in the first
+ * half of the list buffer (which keeps 4 bytes per slot for the wide form). The list build checks
+ * that every candidate's offset fits (build_neighbour_lists, `narrow_fail`); where one does not (a
+ * scene with more than 32,767 particles within one cell layer of the grid), the host switches to
+ * wide lists, 32-bit indices, and builds them again (core/simulation.cpp buildGrid). Either way a
+ * list holds the same neighbours in the same order: results are bitwise the same.
+ * Boundary lists index the boundary particles and stay 32-bit. */
+typedef struct {
+  __global const uint* w;  /* wide: the particle's 32-bit indices, else 0 */
+  __global const short* s; /* narrow: the particle's offsets j - i */
+  int i;
+} SphList;
+
+/* Particle i's fluid list in `nbr` (the fluid list buffer, either form). */
+inline SphList sph_list(const SimParams* p, __global const uint* nbr, const uint i) {
+  SphList l;
+  l.i = (int)i;
+  l.w = p->wide_lists ? nbr + (size_t)i * p->max_neighbours : 0;
+  l.s = (__global const short*)nbr + (size_t)i * p->max_neighbours;
+  return l;
+}
+
+/* Particle i's list in `lists` (K slots per particle), wide or narrow as `wide` says (boundary
+ * lists: always wide). */
+inline SphList sph_list_k(__global const uint* lists, const uint i, const uint K, const int wide) {
+  SphList l;
+  l.i = (int)i;
+  l.w = wide ? lists + (size_t)i * K : 0;
+  l.s = (__global const short*)lists + (size_t)i * K;
+  return l;
+}
+
+/* Entries k..k+7, and entry k, as indices. */
+inline uint8 sph_list8(const SphList l, const uint k) {
+  return l.w ? vload8(0, l.w + k) : as_uint8(convert_int8(vload8(0, l.s + k)) + (int8)(l.i));
+}
+inline uint sph_list1(const SphList l, const uint k) { return l.w ? l.w[k] : (uint)(l.i + (int)l.s[k]); }
+
+/* The narrow offset of candidate j from particle i (valid where it fits: the build checks). */
+#define SPH_NARROW_OFFSET8(J, I) convert_short8(as_int8(J) - (int8)((int)(I)))
+
 #endif
 #endif

@@ -75,16 +75,20 @@ inline float sph_hsum8(const float8 a) {
  * sum_k w_k W(|x - x_k|) over a Verlet list, w_k = pts[k].w when `weighted` (the boundary's
  * V_b / V0) else 1. The candidates within H are appended to `out` in list order and counted in
  * *out_n: every candidate is stored and the count advances only for those inside, so the loop has
- * no data-dependent branch. With out = 0 the list is this step's list already (DFSPH's lists
+ * no data-dependent branch; a narrow fluid list (shared/neighbours.h) goes to `outs` instead, in the
+ * same form. With out = outs = 0 the list is this step's list already (DFSPH's lists
  * built at H, core/simulation.cpp buildGrid): only the sum (and *out_n is not the count). */
-inline float sph_list_density(const float3 xi, __global const uint* list, const uint n, __global const float4* pts,
-                              const int weighted, const float H, __global uint* out, uint* out_n) {
+inline float sph_list_density(const float3 xi, __global const uint* lists, const uint i, const uint K,
+                              const int wide, const uint n, __global const float4* pts,
+                              const int weighted, const float H, __global uint* out, __global short* outs,
+                              uint* out_n) {
+  const SphList list = sph_list_k(lists, i, K, wide); /* made here, not passed in by value */
   const float H2 = H * H;
   float8 acc = (float8)(0.0f);
   uint m = 0;
   uint k = 0;
   for (; k + 8 <= n; k += 8) {
-    const uint8 j = vload8(0, list + k);
+    const uint8 j = sph_list8(list, k);
     SPH_LOAD8(p, pts, j);
     const float8 dx = xi.x - SPH_LANES8(p, x), dy = xi.y - SPH_LANES8(p, y), dz = xi.z - SPH_LANES8(p, z);
     const float8 r2 = dx * dx + dy * dy + dz * dz;
@@ -92,16 +96,22 @@ inline float sph_list_density(const float3 xi, __global const uint* list, const 
     if (weighted) w *= SPH_LANES8(p, w);
     acc += w;
     const int8 in = -(r2 < H2); /* 1 inside, 0 outside */
-    if (out) SPH_APPEND8(out, m, j, in);
+    if (outs) {
+      const short8 o = SPH_NARROW_OFFSET8(j, list.i);
+      SPH_APPEND8(outs, m, o, in);
+    } else if (out) {
+      SPH_APPEND8(out, m, j, in);
+    }
   }
   float sum = sph_hsum8(acc);
   for (; k < n; ++k) {
-    const uint j = list[k];
+    const uint j = sph_list1(list, k);
     const float4 pj = pts[j];
     const float3 d = xi - pj.xyz;
     const float r2 = dot(d, d);
     sum += (weighted ? pj.w : 1.0f) * sph_w(SPH_KERNEL, sqrt(r2), H);
-    if (out) out[m] = j;
+    if (outs) outs[m] = (short)((int)j - list.i);
+    else if (out) out[m] = j;
     m += r2 < H2;
   }
   *out_n = m;
@@ -112,9 +122,12 @@ inline float sph_list_density(const float3 xi, __global const uint* list, const 
  * Appends to out[0..K) every particle k in [begin, end) (a row of sorted particles) with
  * |x - x_k|^2 < R2, except `self`, in order; returns the new count, which goes on past K when the
  * list overflows (the caller reports it; only the first K are kept). The stores are unconditional
- * below K: a slot written for a candidate outside R is overwritten by the next one inside. */
+ * below K: a slot written for a candidate outside R is overwritten by the next one inside.
+ * With `outs` (a narrow fluid list, shared/neighbours.h) the entries go there as offsets k - base
+ * (base = the particle's own index; the caller checks that they fit) instead of to `out`. */
 inline uint sph_collect_row(const float3 xi, __global const float4* pts, const uint begin, const uint end,
-                            const float R2, const uint self, __global uint* out, const uint K, uint count) {
+                            const float R2, const uint self, __global uint* out, __global short* outs,
+                            const int base, const uint K, uint count) {
   uint k = begin;
   for (; k + 8 <= end; k += 8) {
     const uint8 j = (uint8)(k) + (uint8)(0, 1, 2, 3, 4, 5, 6, 7);
@@ -122,12 +135,20 @@ inline uint sph_collect_row(const float3 xi, __global const float4* pts, const u
     const float8 dx = xi.x - SPH_LANES8(p, x), dy = xi.y - SPH_LANES8(p, y), dz = xi.z - SPH_LANES8(p, z);
     const int8 in = -((dx * dx + dy * dy + dz * dz < R2) & (j != (uint8)(self))); /* 1 inside, 0 outside */
     if (count + 8 <= K) { /* room for all eight: no per-lane check */
-      SPH_APPEND8(out, count, j, in);
+      if (outs) {
+        const short8 o = SPH_NARROW_OFFSET8(j, base);
+        SPH_APPEND8(outs, count, o, in);
+      } else {
+        SPH_APPEND8(out, count, j, in);
+      }
     } else {
       const uint jl[8] = {j.s0, j.s1, j.s2, j.s3, j.s4, j.s5, j.s6, j.s7};
       const int il[8] = {in.s0, in.s1, in.s2, in.s3, in.s4, in.s5, in.s6, in.s7};
       for (int l = 0; l < 8; ++l) {
-        if (count < K) out[count] = jl[l];
+        if (count < K) {
+          if (outs) outs[count] = (short)((int)jl[l] - base);
+          else out[count] = jl[l];
+        }
         count += (uint)il[l];
       }
     }
@@ -135,7 +156,10 @@ inline uint sph_collect_row(const float3 xi, __global const float4* pts, const u
   for (; k < end; ++k) {
     const float3 d = xi - pts[k].xyz;
     const uint in = (dot(d, d) < R2) & (k != self);
-    if (count < K) out[count] = k;
+    if (count < K) {
+      if (outs) outs[count] = (short)((int)k - base);
+      else out[count] = k;
+    }
     count += in;
   }
   return count;
@@ -159,7 +183,7 @@ typedef struct {
 inline SphPairSums sph_pair_sums(const SimParams* p, const uint i, __global const float4* pos,
                                  __global const float4* vel, __global const uint* phase,
                                  __global const float* density, __global const float* pterm,
-                                 __global const uint* list, const uint n, const int pressure, const int viscous) {
+                                 __global const uint* nbr, const uint n, const int pressure, const int viscous) {
   const float H = p->support;
   const float3 xi = pos[i].xyz;
   const float pi_term = pressure ? pterm[i] : 0.0f;
@@ -168,11 +192,12 @@ inline SphPairSums sph_pair_sums(const SimParams* p, const uint i, __global cons
   const float mui = rhoi * p->phase_viscosity[phase[i]];
   const float eta2 = 0.01f * p->h * p->h;
   const float visc_k = -p->alpha * p->c0 * p->h; /* Pi = visc_k vx / (...) */
+  const SphList list = sph_list(p, nbr, i); /* narrow or wide (shared/neighbours.h), made here */
 
   float8 fx = (float8)(0.0f), fy = fx, fz = fx, ax = fx, ay = fx, az = fx;
   uint k = 0;
   for (; k + 8 <= n; k += 8) {
-    const uint8 j = vload8(0, list + k);
+    const uint8 j = sph_list8(list, k);
     SPH_LOAD8(x, pos, j);
     const float8 dx = xi.x - SPH_LANES8(x, x), dy = xi.y - SPH_LANES8(x, y), dz = xi.z - SPH_LANES8(x, z);
     const float8 r2 = dx * dx + dy * dy + dz * dz;
@@ -210,7 +235,7 @@ inline SphPairSums sph_pair_sums(const SimParams* p, const uint i, __global cons
   s.f = (float3)(sph_hsum8(fx), sph_hsum8(fy), sph_hsum8(fz));
   s.av = (float3)(sph_hsum8(ax), sph_hsum8(ay), sph_hsum8(az));
   for (; k < n; ++k) {
-    const uint j = list[k];
+    const uint j = sph_list1(list, k);
     const float3 d = xi - pos[j].xyz;
     const float r2 = dot(d, d);
     const float F = sph_grad_factor(SPH_KERNEL, sqrt(r2), H);

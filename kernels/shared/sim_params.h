@@ -34,6 +34,7 @@ typedef struct SimParams {
   sph_uint n_boundary;    /* static boundary particles */
   sph_uint num_cells;     /* grid_dims product */
   sph_uint max_neighbours; /* neighbour-list slots per particle (fluid and boundary lists alike) */
+  sph_uint wide_lists;    /* 1: fluid lists hold 32-bit indices; 0: 16-bit offsets j - i (shared/neighbours.h) */
   /* time integration */
   float dt;               /* (unit: s) */
   float gravity[4];       /* current gravity, ramp applied (unit: m/s^2) */
