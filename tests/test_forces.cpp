@@ -21,6 +21,28 @@
 using namespace sph;
 using testing::scenePath;
 
+namespace {
+
+// The sinking-ball check of the tests below (R = 3 cm, the 20 cm tank): every step from 20 ms
+// after the release inside the envelope of added mass (C_m 0.375 .. 0.725) and drag (C_d 0 ..
+// app::sinkingDragBound at this dx), the hold's ringing as margin, and past 0.4 m/s at 0.2 s.
+app::SinkCheck checkSinkingBall(const std::string& scene, double dx, const std::vector<std::string>& sets) {
+  const double cd_hi = app::sinkingDragBound(0.03, dx, 0.2);
+  const app::SinkCheck c = app::sinkingBall(scenePath(scene), dx, 0.02, 0.2, 0.375, 0.725, 0.0, cd_hi, sets);
+  INFO(c.message);
+  REQUIRE(c.exit_code == 0);
+  INFO(scene << " at dx " << dx << ": v(" << c.window << " s) " << c.v_end << " m/s (closed form " << c.v_lo << " .. "
+             << c.v_hi << ", ringing +-" << c.ringing << "), mean C_d " << c.cd_effective << "; " << c.worst
+             << " m/s outside at " << c.worst_time << " s; above the fast side by " << c.above << " m/s; "
+             << c.wall_seconds << " s");
+  CHECK(c.v_end > 0.4);
+  CHECK(c.worst == 0.0);
+  CHECK(c.above <= 0.0);
+  return c;
+}
+
+}  // namespace
+
 TEST_CASE("Forces: a ball shaken in still water feels the added mass C_m = 1/2", "[forces]") {
   // A kinematic ball, radius 3 cm, at rest 0.3 s, then shaken along x, x = x0 + A (1 - cos w t),
   // A = 1 mm, 10 Hz, two periods (scenes/tests/accel_ball.yaml; inviscid). The force needed is
@@ -320,16 +342,7 @@ TEST_CASE("Forces with DFSPH and extrapolated walls: a free body feels its held 
   INFO("held " << r.held_force << " N, free " << r.free_force << " N, buoyancy " << r.buoyancy << " N");
   CHECK(std::abs(r.free_force - r.held_force) < 0.08 * r.buoyancy);
   CHECK(std::abs(r.held_force - r.buoyancy) < 0.08 * r.buoyancy);
-  const double cd_hi = app::sinkingDragBound(0.03, 0.01, 0.2);
-  const app::SinkCheck c = app::sinkingBall(scenePath("sink_ball.yaml"), 0.01, 0.02, 0.2, 0.375, 0.725, 0.0, cd_hi, dfsph);
-  INFO(c.message);
-  REQUIRE(c.exit_code == 0);
-  INFO("v(" << c.window << " s) " << c.v_end << " m/s (closed form " << c.v_lo << " .. " << c.v_hi << ", ringing +-"
-            << c.ringing << "), mean C_d " << c.cd_effective << "; " << c.worst << " m/s outside at " << c.worst_time
-            << " s; above the fast side by " << c.above << " m/s; " << c.wall_seconds << " s");
-  CHECK(c.v_end > 0.4);
-  CHECK(c.worst == 0.0);
-  CHECK(c.above <= 0.0);
+  checkSinkingBall("sink_ball.yaml", 0.01, dfsph);
 }
 
 TEST_CASE("Forces with DFSPH: a dense ball released into a tank at rest sinks as added mass and a sphere's drag allow (R/dx 4)",
@@ -347,18 +360,7 @@ TEST_CASE("Forces with DFSPH: a dense ball released into a tank at rest sinks as
   // subtracted mean C_d 0.85 (band top 0.91).
   // Cost: 52 s CPU, 30 s wall here. Mutation: the body's fluid force halved (core/simulation.cpp,
   // the reduced sums): 1.116 m/s at 0.2 s, 0.25 m/s above the envelope's fast side: fails.
-  const std::vector<std::string> dfsph = {"fluid.solver=dfsph"};
-  const double dx = 0.0075;
-  const double cd_hi = app::sinkingDragBound(0.03, dx, 0.2);
-  const app::SinkCheck c = app::sinkingBall(scenePath("sink_ball_rest.yaml"), dx, 0.02, 0.2, 0.375, 0.725, 0.0, cd_hi, dfsph);
-  INFO(c.message);
-  REQUIRE(c.exit_code == 0);
-  INFO("v(" << c.window << " s) " << c.v_end << " m/s (closed form " << c.v_lo << " .. " << c.v_hi << ", ringing +-"
-            << c.ringing << "), mean C_d " << c.cd_effective << "; " << c.worst << " m/s outside at " << c.worst_time
-            << " s; above the fast side by " << c.above << " m/s; " << c.wall_seconds << " s");
-  CHECK(c.v_end > 0.4);
-  CHECK(c.worst == 0.0);
-  CHECK(c.above <= 0.0);
+  const app::SinkCheck c = checkSinkingBall("sink_ball_rest.yaml", 0.0075, {"fluid.solver=dfsph"});
   WARN("R/dx 4 at rest: v(0.2 s) " << c.v_end << " m/s in " << c.v_lo << " .. " << c.v_hi << "; " << c.worst
                                    << " outside; " << c.wall_seconds << " s");
 }
