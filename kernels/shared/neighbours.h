@@ -62,15 +62,6 @@ typedef struct {
   int i;
 } SphList;
 
-/* Particle i's fluid list in `nbr` (the fluid list buffer, either form). */
-inline SphList sph_list(const SimParams* p, __global const uint* nbr, const uint i) {
-  SphList l;
-  l.i = (int)i;
-  l.w = p->wide_lists ? nbr + (size_t)i * p->max_neighbours : 0;
-  l.s = (__global const short*)nbr + (size_t)i * p->max_neighbours;
-  return l;
-}
-
 /* Particle i's list in `lists` (K slots per particle), wide or narrow as `wide` says (boundary
  * lists: always wide). */
 inline SphList sph_list_k(__global const uint* lists, const uint i, const uint K, const int wide) {
@@ -79,6 +70,11 @@ inline SphList sph_list_k(__global const uint* lists, const uint i, const uint K
   l.w = wide ? lists + (size_t)i * K : 0;
   l.s = (__global const short*)lists + (size_t)i * K;
   return l;
+}
+
+/* Particle i's fluid list in `nbr` (the fluid list buffer, either form). */
+inline SphList sph_list(const SimParams* p, __global const uint* nbr, const uint i) {
+  return sph_list_k(nbr, i, p->max_neighbours, p->wide_lists ? 1 : 0);
 }
 
 /* Entries k..k+7, and entry k, as indices. */
