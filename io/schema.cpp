@@ -453,7 +453,8 @@ std::vector<KeyDef> buildTable() {
                "the first iteration of the density solve at rest (coarse_rest_travel: calm at the reference's "
                "density bound) and every n iterations after while it is above its bound (coarse_rest_start), and, with coarse_start k0 > 0, every n iterations of a solve still above its bound "
                "from k0 on; a flow that moves takes none (the dam breaks at plain Jacobi's CPU time but for their "
-               "first steps at rest). 0 = off (plain Jacobi)"));
+               "first steps at rest). A solve makes no more corrections once one did not lower its error (the "
+               "run's summary counts such solves; docs/dfsph.md, session 13). 0 = off (plain Jacobi)"));
   add(field<InScene>("fluid.dfsph.coarse_start", [](auto& s) -> auto& { return s.fluid.dfsph.coarse_start; })
           .unit("1").atLeast(0).atMost(10000)
           .doc("two-level solve: a solve (density or divergence) still above its bound after this many Jacobi "
