@@ -132,6 +132,10 @@ struct DfsphSpec {
   int coarse_rest_start = 1;         ///< two-level solve: a density solve at rest (coarse_rest_travel) still above its bound after this many iterations takes another correction then and every coarse_interval after; 0 = never (unit: 1)
   double cfl = 0.4;                  ///< Courant number: dt <= cfl * dx / |v|max (unit: 1)
   double max_time_step = 0.005;      ///< largest step (unit: s)
+  /// adaptive step from the density solve's work: a step whose density solve took more than n
+  /// iterations bounds the next steps by 0.9 of its length, one that took fewer than n / 2 lets the
+  /// bound grow by 1.1 per step (SPlisHSPlasH's "CFL - iterations" rule, n = 10 there); 0 = off (unit: 1)
+  int step_iterations = 0;
   /// dynamic bodies' fictitious mass C rho0 V in their translation (Baek & Karniadakis 2012), against
   /// the added-mass instability of light bodies; its force counts in the body's fluid force and its
   /// reaction goes to the fluid near the body (momentum conserved); 0.5, a sphere's added mass, by

@@ -303,6 +303,7 @@ double Simulation::dfsphStepLimit(StepLimiter* limiter) const {
       model_.artificial_step_factor > 0.0 && model_.spec.fluid.artificial_viscosity > 0.0 && model_.c0 > 0.0)
     bound(model_.artificial_step_factor * model_.h / (model_.spec.fluid.artificial_viscosity * model_.c0),
           StepLimiter::Viscous);
+  if (d.step_iterations > 0) bound(iteration_step_limit_, StepLimiter::Iterations);
   if (limiter) *limiter = by;
   return limit;
 }
@@ -629,6 +630,15 @@ void Simulation::densitySolve() {
   dfsph_frame_.density_iterations += r.iterations;
   dfsph_frame_.density_error = std::max(dfsph_frame_.density_error, r.error);
   if (!r.converged) ++dfsph_frame_.unconverged_steps, ++profile_.unconverged_steps;
+  // fluid.dfsph.step_iterations: a solve that worked hard shortens the next steps, an easy one lets
+  // them grow back (the CFL, viscous and largest-step bounds still apply).
+  const DfsphSpec& d = model_.spec.fluid.dfsph;
+  if (d.step_iterations > 0) {
+    if (r.iterations > d.step_iterations)
+      iteration_step_limit_ = 0.9 * std::min(iteration_step_limit_, static_cast<double>(params_.dt));
+    else if (2 * r.iterations < d.step_iterations && iteration_step_limit_ < d.max_time_step)
+      iteration_step_limit_ = 1.1 * iteration_step_limit_;
+  }
   profile_.density_iterations += static_cast<uint64_t>(r.iterations);
   profile_.density_corrections += static_cast<uint64_t>(r.corrections);
   profile_.corrections_stopped += r.corrections_stopped ? 1u : 0u;

@@ -28,13 +28,14 @@
 namespace sph {
 
 /// What set a DFSPH step (Simulation::dfsphStepLimit): the scene's largest step, the CFL limit of
-/// the largest speed, or a viscous limit (Morris et al. 1997 for the laminar model; the pair
-/// relaxation of the artificial term, Model::artificial_step_factor).
-enum class StepLimiter : int { MaxTimeStep = 0, Cfl = 1, Viscous = 2 };
-inline constexpr int kNumStepLimiters = 3;
-/// "max_time_step", "cfl", "viscous" (run.json, the summary).
+/// the largest speed, a viscous limit (Morris et al. 1997 for the laminar model; the pair
+/// relaxation of the artificial term, Model::artificial_step_factor), or the density solve's
+/// iterations (fluid.dfsph.step_iterations).
+enum class StepLimiter : int { MaxTimeStep = 0, Cfl = 1, Viscous = 2, Iterations = 3 };
+inline constexpr int kNumStepLimiters = 4;
+/// "max_time_step", "cfl", "viscous", "iterations" (run.json, the summary).
 inline const char* stepLimiterName(StepLimiter l) {
-  return l == StepLimiter::Cfl ? "cfl" : l == StepLimiter::Viscous ? "viscous" : "max_time_step";
+  return l == StepLimiter::Cfl ? "cfl" : l == StepLimiter::Viscous ? "viscous" : l == StepLimiter::Iterations ? "iterations" : "max_time_step";
 }
 
 /// Wall time spent in each stage (host-side, each stage waits for its kernels), and counts.
@@ -299,6 +300,7 @@ class Simulation {
   // DFSPH (solver dfsph): the solver, the step's largest speed, this frame's solver statistics.
   std::unique_ptr<DfsphSolver> dfsph_;
   double step_max_speed_ = 0.0;  // fluid and bodies, from the last integrate (unit: m/s)
+  double iteration_step_limit_ = INFINITY;  // DFSPH: the step bound of fluid.dfsph.step_iterations (unit: s)
   FrameReport dfsph_frame_;      // iteration and error fields only
   uint32_t diag_groups_ = 0;
 };

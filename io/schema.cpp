@@ -477,6 +477,12 @@ std::vector<KeyDef> buildTable() {
           .unit("1").greaterThan(0).atMost(1).doc("Courant number of the adaptive step: dt <= cfl * dx / |v|max"));
   add(field<InScene>("fluid.dfsph.max_time_step", [](auto& s) -> auto& { return s.fluid.dfsph.max_time_step; })
           .unit("s").greaterThan(0).doc("largest time step; frames end exactly (the last steps of a frame are evened out)"));
+  add(field<InScene>("fluid.dfsph.step_iterations", [](auto& s) -> auto& { return s.fluid.dfsph.step_iterations; })
+          .unit("1").atLeast(0).atMost(10000)
+          .doc("adaptive step from the density solve's work: after a step whose density solve took more than n "
+               "iterations the steps are at most 0.9 of its length; after one that took fewer than n / 2 that bound "
+               "grows by 1.1 per step (SPlisHSPlasH's \"CFL - iterations\" rule uses n = 10); the CFL, viscous and "
+               "max_time_step bounds still apply; 0 = off"));
   add(field<InScene>("fluid.dfsph.body_added_mass", [](auto& s) -> auto& { return s.fluid.dfsph.body_added_mass; })
           .unit("1").atLeast(0).atMost(10)
           .doc("fictitious mass C rho0 V of each dynamic body in its translation, (m + M) a_n = F_n + M a_{n-1} "
