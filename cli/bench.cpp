@@ -304,8 +304,8 @@ int forceChecks(const BenchOptions& opt) {
       // band). As tests/test_forces.cpp.
       std::vector<std::string> release_sets = sets;
       if (base == "dfsph")
-        for (const char* s : {"fluid.dfsph.body_added_mass=0.5", "fluid.dfsph.coarse_interval=4",
-                              "fluid.dfsph.coarse_start=1", "fluid.dfsph.coarse_rest_travel=0",
+        // (the fictitious mass and coarse_interval 4 are the defaults)
+        for (const char* s : {"fluid.dfsph.coarse_start=1", "fluid.dfsph.coarse_rest_travel=0",
                               "fluid.dfsph.max_time_step=0.002"})
           release_sets.push_back(s);
       for (const bool floor : {false, true}) {
@@ -441,9 +441,8 @@ int forceChecks(const BenchOptions& opt) {
       // water level, within dx/2) with a damped heave whose undamped period lies in the floating
       // hemisphere's band (Hulme 1982), +-17 % for the waterplane radius known to dx/2
       // (tests/test_forces.cpp). R/dx 3 is the test's; 4.05 (a spacing that divides the tank) here.
-      // DFSPH: the same ball as the release rows, so the same fictitious mass (session 11).
-      std::vector<std::string> heave_sets = sets;
-      if (base == "dfsph") heave_sets.push_back("fluid.dfsph.body_added_mass=0.5");
+      // DFSPH: the same ball as the release rows, with the same (default) fictitious mass (session 11).
+      const std::vector<std::string>& heave_sets = sets;
       const HeaveCheck h = floatingBallHeave(release, dx, 1.5, heave_sets, opt.device);
       if (h.exit_code != 0) {
         std::printf("heave at dx %g (%s): %s\n", dx, solver.c_str(), h.message.c_str());

@@ -2,13 +2,11 @@
 """Ball-frame mean velocity field (lab-frame velocity / U) of a towed ball, binned in r/R and theta
 (angle from the direction of motion), axial u_x and radial (away from the line of motion) components,
 against the potential flow of a sphere of radius R at the same particles. usage: field.py RUN_DIR [t0 t1]"""
-import sys, csv, numpy as np, h5py
+import sys, numpy as np, h5py
+from common import ball_track
 d = sys.argv[1]; t0 = float(sys.argv[2]) if len(sys.argv) > 2 else 0.37; t1 = float(sys.argv[3]) if len(sys.argv) > 3 else 0.555
 R = 0.03
-B = {}
-rows = [r for r in open(d + "/bodies.csv") if not r.startswith("#")]
-for r in csv.DictReader(rows):
-    B[round(float(r["time"]), 6)] = (np.array([float(r["com_x"]), float(r["com_y"]), float(r["com_z"])]), float(r["vx"]))
+B = ball_track(d)
 f = h5py.File(d + "/particles.h5part", "r")
 re_ = np.array([1.0, 1.2, 1.4, 1.7, 2.0, 2.5, 3.0, 4.0]); te = np.arange(0, 181, 30)
 S = {k: np.zeros((len(re_) - 1, len(te) - 1)) for k in ("n", "ua", "ur", "pa", "pr", "ua2", "ur2")}

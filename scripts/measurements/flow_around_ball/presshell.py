@@ -4,13 +4,11 @@ p_i = c0 + cz s_z + D cos(theta)/r^2 by least squares over the shell's fluid par
 then D(t) = K (rho R^3 / 2) a(t - tau) + L v(t) over 0.3-0.5 s with the path's exact a, v. Potential flow of a
 sphere of radius R: p' = (rho/2) a R^3 cos(theta) / r^2, so K = 1 at every r (and the force on the ball is
 -K (1/2) rho V a). usage: presshell.py RUN_DIR"""
-import sys, csv, numpy as np, h5py
+import sys, numpy as np, h5py
+from common import ball_track, shaken_path
 d = sys.argv[1]; R = 0.03; rho = 1000.0; A = 1e-3; w = 2 * np.pi * 10
-v_ = lambda t: A * w * np.sin(w * (t - 0.3)) if t >= 0.3 else 0.0
-a_ = lambda t: A * w * w * np.cos(w * (t - 0.3)) if t >= 0.3 else 0.0
-B = {}
-for r in csv.DictReader([r for r in open(d + "/bodies.csv") if not r.startswith("#")]):
-    B[round(float(r["time"]), 6)] = np.array([float(r["com_x"]), float(r["com_y"]), float(r["com_z"])])
+v_, a_ = shaken_path(A, 10.0)
+B = {t: c for t, (c, _) in ball_track(d).items()}
 f = h5py.File(d + "/particles.h5part", "r")
 shells = [(1.0, 1.25), (1.25, 1.5), (1.5, 2.0), (2.0, 2.5)]
 T = []; D = {s: [] for s in shells}

@@ -2,14 +2,12 @@
 """Shaken ball: x-momentum of the fluid within r < 2R and r < 3R of the ball, fitted over 0.3-0.5 s as
 P(t) = c + p_v rho V v(t) + p_a rho V a(t)/w; the same for the potential flow of radius R sampled at the same
 particles (ideal: ~0, the dipole's x-velocity averages to zero over whole shells). usage: shellmom.py RUN_DIR"""
-import sys, csv, json, numpy as np, h5py
+import sys, json, numpy as np, h5py
+from common import ball_track, shaken_path
 d = sys.argv[1]; R = 0.03; rho = 1000.0; V = 4 / 3 * np.pi * R**3; A = 1e-3; w = 2 * np.pi * 10
 dx = json.load(open(d + "/run.json"))["scene"]["fluid"]["particle_spacing"]; m = rho * dx**3
-v_ = lambda t: A * w * np.sin(w * (t - 0.3)) if t >= 0.3 else 0.0
-a_ = lambda t: A * w * w * np.cos(w * (t - 0.3)) if t >= 0.3 else 0.0
-B = {}
-for r in csv.DictReader([r for r in open(d + "/bodies.csv") if not r.startswith("#")]):
-    B[round(float(r["time"]), 6)] = np.array([float(r["com_x"]), float(r["com_y"]), float(r["com_z"])])
+v_, a_ = shaken_path(A, 10.0)
+B = {t: c for t, (c, _) in ball_track(d).items()}
 f = h5py.File(d + "/particles.h5part", "r")
 rows = []
 for k in f:

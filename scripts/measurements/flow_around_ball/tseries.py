@@ -3,13 +3,11 @@
 potential flow over R < r < 2R; mean u_x/U in front (r < 2R, theta < 45), at the side (r < 1.4R, 60-120 deg),
 behind (r < 2R, theta > 135), each with the potential flow's value at the same particles in [].
 usage: tseries.py RUN_DIR [--fake-U U]"""
-import sys, csv, numpy as np, h5py
+import sys, numpy as np, h5py
+from common import ball_track
 d = sys.argv[1]; fakeU = float(sys.argv[3]) if len(sys.argv) > 3 else 0
 R = 0.03
-B = {}
-rows = [r for r in open(d + "/bodies.csv") if not r.startswith("#")]
-for r in csv.DictReader(rows):
-    B[round(float(r["time"]), 6)] = (np.array([float(r["com_x"]), float(r["com_y"]), float(r["com_z"])]), float(r["vx"]))
+B = ball_track(d)
 f = h5py.File(d + "/particles.h5part", "r")
 ks = sorted([k for k in f if k.startswith("Step#")], key=lambda k: int(k[5:]))
 print(f"{d}\n   t     U      k(r<2R)   front u_x/U      side u_x/U       behind u_x/U")
