@@ -482,7 +482,8 @@ std::vector<KeyDef> buildTable() {
           .doc("adaptive step from the density solve's work: after a step whose density solve took more than n "
                "iterations the steps are at most 0.9 of its length; after one that took fewer than n / 2 that bound "
                "grows by 1.1 per step (SPlisHSPlasH's \"CFL - iterations\" rule uses n = 10); the CFL, viscous and "
-               "max_time_step bounds still apply; 0 = off"));
+               "max_time_step bounds still apply; for deep or finely resolved columns at rest (it can unsettle a shallow "
+               "tank: docs/dfsph.md, session 14); 0 = off"));
   add(field<InScene>("fluid.dfsph.body_added_mass", [](auto& s) -> auto& { return s.fluid.dfsph.body_added_mass; })
           .unit("1").atLeast(0).atMost(10)
           .doc("fictitious mass C rho0 V of each dynamic body in its translation, (m + M) a_n = F_n + M a_{n-1} "
