@@ -373,7 +373,8 @@ DfsphSolveResult DfsphSolver::densitySolve(const SimParams& p, const DfsphFields
 }
 
 void DfsphSolver::finish(const SimParams& p, const DfsphFields& f) {
-  kernels_.call("dfsph_finish", p.n_fluid, kLocal, p, *f.phase, *f.density, pdiv_, pdens_, *f.pressure, *f.pterm);
+  kernels_.call("dfsph_finish", p.n_fluid, kLocal, p, *f.phase, *f.density, pdiv_, pdens_, *f.pressure, *f.pterm,
+                *f.max_pressure);
   // Extrapolated walls: the rigid coupling's wall pressure is that of both solves (the divergence
   // solve's is zero when it is off: its buffer is cleared then).
   if (extrapolated() && f.n_boundary > 0) {

@@ -52,6 +52,7 @@ struct DfsphFields {
   const cl::Buffer* bmark = nullptr;      ///< (n_boundary) the step each was last seen by fluid
   const cl::Buffer* cell_start = nullptr; ///< the fluid grid's cells
   cl::Buffer* bpressure = nullptr;        ///< (n_boundary) written by finish: both solves' wall pressure (unit: Pa)
+  cl::Buffer* max_pressure = nullptr;     ///< (1 uint) finish raises it to the step's largest p_i / rho_i, float bits (unit: m^2/s^2)
   double max_speed = 0.0;                 ///< the last step's largest particle speed, fluid and bodies (unit: m/s)
 };
 

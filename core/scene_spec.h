@@ -136,6 +136,12 @@ struct DfsphSpec {
   /// iterations bounds the next steps by 0.9 of its length, one that took fewer than n / 2 lets the
   /// bound grow by 1.1 per step (SPlisHSPlasH's "CFL - iterations" rule, n = 10 there); 0 = off (unit: 1)
   int step_iterations = 0;
+  /// step bound from the largest pressure: dt <= pressure_cfl * dx / sqrt(max_i p_i / rho_i). The
+  /// pressure acts on the particle-scale (non-compressive) modes of the lattice, which the density
+  /// solve does not hold and the step integrates explicitly: a resting column of depth H bounces once
+  /// dt sqrt(g H) / dx passes ~0.9 (measured, docs/dfsph.md session 15); 0.7 holds deep columns at
+  /// rest; 0 = off, the default for now (docs/dfsph.md says why) (unit: 1)
+  double pressure_cfl = 0.0;
   /// dynamic bodies' fictitious mass C rho0 V in their translation (Baek & Karniadakis 2012), against
   /// the added-mass instability of light bodies; its force counts in the body's fluid force and its
   /// reaction goes to the fluid near the body (momentum conserved); 0.5, a sphere's added mass, by

@@ -110,6 +110,7 @@ Simulation::Simulation(const Model& model, const HostParticles& initial, ClConte
   bcell_start_ = makeBuffer((cells + 1) * 4);
   crossings_ = makeBuffer(4);
   max_speed_ = makeBuffer(4);
+  max_pressure_ = makeBuffer(4);
   diag_groups_ = 64;
   diag_ = makeBuffer(diag_groups_ * 32);
 
@@ -162,6 +163,7 @@ Simulation::Simulation(const Model& model, const HostParticles& initial, ClConte
     q.enqueueWriteBuffer(overflow_, CL_TRUE, 0, 4, &zero);
     q.enqueueWriteBuffer(narrow_fail_, CL_TRUE, 0, 4, &zero);
     q.enqueueWriteBuffer(max_speed_, CL_TRUE, 0, 4, &zero);
+    q.enqueueWriteBuffer(max_pressure_, CL_TRUE, 0, 4, &zero);
     n_ = initial.size();
     if (n_ > 0) {
       q.enqueueWriteBuffer(pos_[0], CL_TRUE, 0, n_ * 16, initial.pos.data());
@@ -304,6 +306,13 @@ double Simulation::dfsphStepLimit(StepLimiter* limiter) const {
     bound(model_.artificial_step_factor * model_.h / (model_.spec.fluid.artificial_viscosity * model_.c0),
           StepLimiter::Viscous);
   if (d.step_iterations > 0) bound(iteration_step_limit_, StepLimiter::Iterations);
+  // The pressure's own step bound (fluid.dfsph.pressure_cfl; docs/dfsph.md, session 15): a pressure p
+  // pushes particle pairs apart with a stiffness that grows with p / rho (the pressure term of SPH's
+  // particle-scale dispersion: Swegle, Hicks & Attaway 1995), and the density solve holds only the
+  // compressive modes, so the others are integrated explicitly: a resting column of depth H bounced
+  // from dt sqrt(g H) / dx ~ 0.9 (H, dx and g varied, measured) and rested below ~0.8.
+  if (d.pressure_cfl > 0.0 && step_max_pressure_ > 0.0)
+    bound(d.pressure_cfl * model_.dx / std::sqrt(step_max_pressure_), StepLimiter::Pressure);
   if (limiter) *limiter = by;
   return limit;
 }
@@ -605,6 +614,7 @@ DfsphFields Simulation::dfsphFields() {
   f.cell_start = &cell_start_;
   f.bpressure = &bpressure_;
   f.max_speed = step_max_speed_;
+  f.max_pressure = &max_pressure_;
   return f;
 }
 
@@ -672,15 +682,22 @@ void Simulation::integrate() {
   kernels_.call("integrate", n_, kLocal, params_, pos_[cur_], vel_[cur_], acc_, crossings_, max_speed_);
   // The step's largest speed bounds every displacement: the lists stay valid while the sum of
   // max speed * dt since they were built is below skin / 2.
-  uint32_t bits = 0;
+  uint32_t bits = 0, pbits = 0;
   const uint32_t zero = 0;
   clCall("reading the step's largest speed", [&] {
     cl_.queue().enqueueReadBuffer(max_speed_, CL_TRUE, 0, 4, &bits);
     cl_.queue().enqueueWriteBuffer(max_speed_, CL_TRUE, 0, 4, &zero);
+    // DFSPH: the step's largest p_i / rho_i (dfsph_finish), for the pressure step bound
+    if (dfsph_ && on(Stage::DensitySolve)) {
+      cl_.queue().enqueueReadBuffer(max_pressure_, CL_TRUE, 0, 4, &pbits);
+      cl_.queue().enqueueWriteBuffer(max_pressure_, CL_TRUE, 0, 4, &zero);
+    }
     return 0;
   });
-  float vmax;
+  float vmax, pmax;
   std::memcpy(&vmax, &bits, 4);
+  std::memcpy(&pmax, &pbits, 4);
+  step_max_pressure_ = std::isfinite(pmax) ? pmax : 0.0;
   // Moving boundary particles count too: fluid-body pairs close in at most twice the larger speed.
   const double fastest = std::max(static_cast<double>(vmax), body_speed_);
   step_max_speed_ = std::isfinite(fastest) ? fastest : 0.0;

@@ -30,12 +30,16 @@ namespace sph {
 /// What set a DFSPH step (Simulation::dfsphStepLimit): the scene's largest step, the CFL limit of
 /// the largest speed, a viscous limit (Morris et al. 1997 for the laminar model; the pair
 /// relaxation of the artificial term, Model::artificial_step_factor), or the density solve's
-/// iterations (fluid.dfsph.step_iterations).
-enum class StepLimiter : int { MaxTimeStep = 0, Cfl = 1, Viscous = 2, Iterations = 3 };
-inline constexpr int kNumStepLimiters = 4;
-/// "max_time_step", "cfl", "viscous", "iterations" (run.json, the summary).
+/// iterations (fluid.dfsph.step_iterations), or the largest pressure (fluid.dfsph.pressure_cfl).
+enum class StepLimiter : int { MaxTimeStep = 0, Cfl = 1, Viscous = 2, Iterations = 3, Pressure = 4 };
+inline constexpr int kNumStepLimiters = 5;
+/// "max_time_step", "cfl", "viscous", "iterations", "pressure" (run.json, the summary).
 inline const char* stepLimiterName(StepLimiter l) {
-  return l == StepLimiter::Cfl ? "cfl" : l == StepLimiter::Viscous ? "viscous" : l == StepLimiter::Iterations ? "iterations" : "max_time_step";
+  return l == StepLimiter::Cfl          ? "cfl"
+         : l == StepLimiter::Viscous    ? "viscous"
+         : l == StepLimiter::Iterations ? "iterations"
+         : l == StepLimiter::Pressure   ? "pressure"
+                                        : "max_time_step";
 }
 
 /// Wall time spent in each stage (host-side, each stage waits for its kernels), and counts.
@@ -275,6 +279,7 @@ class Simulation {
   void allocateNeighbourLists(uint32_t slots);
   // Grid tables and scratch.
   cl::Buffer cell_count_, cell_start_, bpos_, bcell_start_, crossings_, diag_, max_speed_;
+  cl::Buffer max_pressure_;  // DFSPH: the step's largest p_i / rho_i, float bits (dfsph_finish; unit: m^2/s^2)
   // Boundary particles' velocities, wall pressures (Adami 2012) and last-seen stamps, in bpos order.
   cl::Buffer bvel_, bpressure_, bmark_;
   cl::Buffer bghost_;  ///< no-slip ghost velocities (n_bnd x 4; kernels/viscosity.cl), with ghost_velocity_mode
@@ -300,6 +305,7 @@ class Simulation {
   // DFSPH (solver dfsph): the solver, the step's largest speed, this frame's solver statistics.
   std::unique_ptr<DfsphSolver> dfsph_;
   double step_max_speed_ = 0.0;  // fluid and bodies, from the last integrate (unit: m/s)
+  double step_max_pressure_ = 0.0;  // DFSPH: the last step's largest p_i / rho_i (unit: m^2/s^2)
   double iteration_step_limit_ = INFINITY;  // DFSPH: the step bound of fluid.dfsph.step_iterations (unit: s)
   FrameReport dfsph_frame_;      // iteration and error fields only
   uint32_t diag_groups_ = 0;

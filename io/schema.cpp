@@ -484,6 +484,12 @@ std::vector<KeyDef> buildTable() {
                "grows by 1.1 per step (SPlisHSPlasH's \"CFL - iterations\" rule uses n = 10); the CFL, viscous and "
                "max_time_step bounds still apply; for deep or finely resolved columns at rest (it can unsettle a shallow "
                "tank: docs/dfsph.md, session 14); 0 = off"));
+  add(field<InScene>("fluid.dfsph.pressure_cfl", [](auto& s) -> auto& { return s.fluid.dfsph.pressure_cfl; })
+          .unit("1").atLeast(0).atMost(10)
+          .doc("step bound from the largest pressure: dt <= pressure_cfl * dx / sqrt(max p_i / rho_i) (the last "
+               "step's pressures): the pressure drives the particle lattice's own modes, which the density solve "
+               "does not hold, so a deep column at rest bounces at long steps (from dt sqrt(g H) / dx ~ 0.9, "
+               "measured: docs/dfsph.md, session 15); 0.7 holds deep columns at rest; 0 = off (the default for now)"));
   add(field<InScene>("fluid.dfsph.body_added_mass", [](auto& s) -> auto& { return s.fluid.dfsph.body_added_mass; })
           .unit("1").atLeast(0).atMost(10)
           .doc("fictitious mass C rho0 V of each dynamic body in its translation, (m + M) a_n = F_n + M a_{n-1} "

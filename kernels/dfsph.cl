@@ -589,12 +589,16 @@ __kernel void dfsph_wall_impulse(const SimParams p, __global const float4* pos, 
  * bodies balances what the fluid received: Newton's third law. */
 __kernel void dfsph_finish(const SimParams p, __global const uint* phase, __global const float* density,
                            __global const float* pdiv, __global const float* pdens, __global float* pressure,
-                           __global float* pterm) {
+                           __global float* pterm, volatile __global uint* max_pressure_bits) {
   const uint i = get_global_id(0);
   if (i >= p.n_fluid) return;
   const float d = density[i] / p.phase_mass[phase[i]];
   pressure[i] = pdiv[i] + pdens[i];
   pterm[i] = (pdiv[i] + pdens[i]) / (d * d);
+  /* the step's largest p_i / rho_i (unit: m^2/s^2), for the pressure step bound (fluid.dfsph.pressure_cfl,
+   * Simulation::dfsphStepLimit); an integer atomic max of a non-negative float's bits: exact, any order */
+  const uint qb = as_uint(fmax((pdiv[i] + pdens[i]) / density[i], 0.0f));
+  if (qb > *max_pressure_bits) atomic_max(max_pressure_bits, qb); /* read first: few atomics */
 }
 
 /* The accumulated pressures follow their particles when the grid stage reorders them (grid.cl,
