@@ -177,6 +177,12 @@ std::string profileLine(const Profile& p) {
     for (int l = 0; l < kNumStepLimiters; ++l)
       s << (l ? ", " : " ") << stepLimiterName(static_cast<StepLimiter>(l)) << " "
         << p.dfsph_step_limiters[static_cast<std::size_t>(l)];
+    // The steps against the pressure's own scale (docs/dfsph.md, session 15)
+    std::snprintf(buf, sizeof buf, "; largest dt sqrt(max p / rho) / dx %.2f", p.max_pressure_step_ratio);
+    s << buf;
+    if (p.steps_over_pressure_scale > 0)
+      s << " (" << p.steps_over_pressure_scale << " step(s) over 1, where a column at rest can bounce: "
+        << "fluid.dfsph.pressure_cfl bounds them)";
   }
   return s.str();
 }

@@ -340,6 +340,12 @@ FrameReport Simulation::advanceFrame() {
         throw NumericalError(s.str());
       }
       step(dt);
+      // The step against its own pressure scale (fluid.dfsph.pressure_cfl; reported, whether bounded or not)
+      if (step_max_pressure_ > 0.0) {
+        const double ratio = dt * std::sqrt(step_max_pressure_) / model_.dx;
+        profile_.max_pressure_step_ratio = std::max(profile_.max_pressure_step_ratio, ratio);
+        if (ratio > 1.0) ++profile_.steps_over_pressure_scale;
+      }
       // The frame's last step may be a remainder shorter than the limit: still counted by it.
       ++profile_.dfsph_step_limiters[static_cast<std::size_t>(limiter)];
       smallest = std::min(smallest, dt);

@@ -65,6 +65,11 @@ struct Profile {
   double max_divergence_error = 0;     ///< largest average divergence error at the end of a step (unit: 1)
   /// DFSPH steps by what set their length (index: StepLimiter) (unit: 1).
   std::array<uint64_t, kNumStepLimiters> dfsph_step_limiters{};
+  /// DFSPH: the largest dt sqrt(max p / rho) / dx of a step with its own pressures, and the steps where
+  /// it passed 1, the pressure scale past which a resting column bounced (docs/dfsph.md, session 15;
+  /// fluid.dfsph.pressure_cfl bounds it) (unit: 1).
+  double max_pressure_step_ratio = 0;
+  uint64_t steps_over_pressure_scale = 0;
   double total() const;
 };
 

@@ -117,7 +117,9 @@ void writeRunJson(const std::string& path, const RunInfo& info) {
   for (int l = 0; l < kNumStepLimiters; ++l)
     j << (l ? ", " : "") << jsonString(stepLimiterName(static_cast<StepLimiter>(l))) << ": "
       << info.profile.dfsph_step_limiters[static_cast<std::size_t>(l)];
-  j << "}},\n";
+  // The steps against the pressure's own scale: dt sqrt(max p / rho) / dx (fluid.dfsph.pressure_cfl)
+  j << "}, \"max_pressure_step_ratio\": " << info.profile.max_pressure_step_ratio
+    << ", \"steps_over_pressure_scale\": " << info.profile.steps_over_pressure_scale << "},\n";
   j << "  \"scene\": " << (info.scene_json.empty() ? "null" : info.scene_json) << "\n";
   j << "}\n";
 

@@ -1007,7 +1007,12 @@ TEST_CASE("DFSPH: a deep column at rest does not blow up when the two-level solv
   INFO(r.message);
   CHECK(r.exit_code == 0);
   CHECK(r.profile.corrections_stopped >= 1);
-  WARN(r.profile.corrections_stopped << " solve(s) stopped correcting; " << r.profile.steps << " steps");
+  // The run reports its steps as longer than the pressure's scale (session 15: dt sqrt(max p / rho) /
+  // dx over 1 in 7 steps, largest 1.53), the diagnostic that points a user to pressure_cfl.
+  CHECK(r.profile.steps_over_pressure_scale > 0);
+  WARN(r.profile.corrections_stopped << " solve(s) stopped correcting; " << r.profile.steps << " steps; "
+                                     << r.profile.steps_over_pressure_scale << " over the pressure scale, largest ratio "
+                                     << r.profile.max_pressure_step_ratio);
 }
 
 TEST_CASE("DFSPH: the iteration step control (step_iterations) keeps a deep column at rest where 5 ms steps let it bounce", "[dfsph]") {
@@ -1081,6 +1086,8 @@ TEST_CASE("DFSPH: the pressure step bound (pressure_cfl 0.7) keeps a deep column
   CHECK(std::abs(mean - 1.0) < 0.10);
   CHECK(sd < 0.25);
   CHECK(by_pressure > 0);
+  // Each step against its own pressures (the bound uses the last step's): none over the scale.
+  CHECK(r.profile.steps_over_pressure_scale == 0);
   WARN("deep column with pressure_cfl 0.7: probe mean " << mean << ", deviation " << sd << ", "
        << r.profile.steps << " steps, " << by_pressure << " set by the pressure bound");
 }
