@@ -1015,6 +1015,34 @@ TEST_CASE("DFSPH: a deep column at rest does not blow up when the two-level solv
                                      << r.profile.max_pressure_step_ratio);
 }
 
+namespace {
+// scenes/tests/dfsph_deep_column.yaml to 0.6 s with `sets`: the probe 0.23 m deep from 0.4 s (the
+// gravity ramp's end) every 10 ms, in units of the closed form at rest p = rho0 g d (the next tests).
+struct DeepColumn {
+  app::RunResult run;
+  double mean = 0, sd = 0;
+  std::size_t samples = 0;
+};
+DeepColumn deepColumnAtRest(const std::vector<std::string>& sets) {
+  std::vector<std::string> all = {"simulation.duration=0.6"};
+  all.insert(all.end(), sets.begin(), sets.end());
+  const double p_ref = 1000.0 * 9.81 * 0.23;
+  std::vector<double> p;
+  DeepColumn d;
+  d.run = app::runScene(testing::quietRun("dfsph_deep_column.yaml", all), [&](Simulation& sim, const FrameReport&) {
+    if (sim.time() < 0.4 - 1e-9) return;
+    if (const ProbeSample* ps = sim.latestProbeSample()) p.push_back(ps->points[0].pressure / p_ref);
+  });
+  d.samples = p.size();
+  for (double v : p) d.mean += v;
+  d.mean /= double(std::max<std::size_t>(p.size(), 1));
+  double var = 0;
+  for (double v : p) var += (v - d.mean) * (v - d.mean);
+  d.sd = std::sqrt(var / double(std::max<std::size_t>(p.size(), 1)));
+  return d;
+}
+}  // namespace
+
 TEST_CASE("DFSPH: the iteration step control (step_iterations) keeps a deep column at rest where 5 ms steps let it bounce", "[dfsph]") {
   // scenes/tests/dfsph_deep_column.yaml (37 layers of laminar water, gravity ramped in over 0.4 s)
   // with fluid.dfsph.step_iterations: 10 (SPlisHSPlasH's "CFL - iterations" rule: a step whose
@@ -1028,29 +1056,18 @@ TEST_CASE("DFSPH: the iteration step control (step_iterations) keeps a deep colu
   // the control off (step_iterations 0, the default): mean 1.08, deviation 0.71, 142 steps: fails.
   // The pressure step bound (pressure_cfl, session 15; off by default) is set off here explicitly:
   // it rests this column by itself (the next test), and this test is of the iteration control.
-  app::RunOptions o = testing::quietRun("dfsph_deep_column.yaml", {"simulation.duration=0.6", "fluid.dfsph.step_iterations=10",
-                                                                   "fluid.dfsph.pressure_cfl=0"});
-  const double p_ref = 1000.0 * 9.81 * 0.23;
-  std::vector<double> p;
-  const app::RunResult r = app::runScene(o, [&](Simulation& sim, const FrameReport&) {
-    if (sim.time() < 0.4 - 1e-9) return;
-    if (const ProbeSample* ps = sim.latestProbeSample()) p.push_back(ps->points[0].pressure / p_ref);
-  });
-  INFO(r.message);
-  REQUIRE(r.exit_code == 0);
-  REQUIRE(p.size() >= 15);
-  double mean = 0, var = 0;
-  for (double v : p) mean += v;
-  mean /= double(p.size());
-  for (double v : p) var += (v - mean) * (v - mean);
-  const double sd = std::sqrt(var / double(p.size()));
-  const auto by_iterations = r.profile.dfsph_step_limiters[static_cast<std::size_t>(StepLimiter::Iterations)];
-  INFO("probe 0.23 m deep from 0.4 s: mean " << mean << " rho0 g d, standard deviation " << sd << ", " << p.size()
-       << " samples; " << r.profile.steps << " steps, " << by_iterations << " set by the iteration control");
-  CHECK(std::abs(mean - 1.0) < 0.10);
-  CHECK(sd < 0.25);
+  const DeepColumn d = deepColumnAtRest({"fluid.dfsph.step_iterations=10", "fluid.dfsph.pressure_cfl=0"});
+  INFO(d.run.message);
+  REQUIRE(d.run.exit_code == 0);
+  REQUIRE(d.samples >= 15);
+  const auto by_iterations = d.run.profile.dfsph_step_limiters[static_cast<std::size_t>(StepLimiter::Iterations)];
+  INFO("probe 0.23 m deep from 0.4 s: mean " << d.mean << " rho0 g d, standard deviation " << d.sd << ", " << d.samples
+       << " samples; " << d.run.profile.steps << " steps, " << by_iterations << " set by the iteration control");
+  CHECK(std::abs(d.mean - 1.0) < 0.10);
+  CHECK(d.sd < 0.25);
   CHECK(by_iterations > 0);
-  WARN("deep column with step_iterations 10: probe mean " << mean << ", deviation " << sd << ", " << r.profile.steps << " steps");
+  WARN("deep column with step_iterations 10: probe mean " << d.mean << ", deviation " << d.sd << ", " << d.run.profile.steps
+                                                          << " steps");
 }
 
 TEST_CASE("DFSPH: the pressure step bound (pressure_cfl 0.7) keeps a deep column at rest", "[dfsph]") {
@@ -1065,29 +1082,18 @@ TEST_CASE("DFSPH: the pressure step bound (pressure_cfl 0.7) keeps a deep column
   // above: the mean within 10 %, the standard deviation under 0.25 (the lattice still rearranges
   // slowly). Mutation: pressure_cfl 0 (the bound off, the default): mean 1.08, deviation 0.71:
   // fails.
-  app::RunOptions o = testing::quietRun("dfsph_deep_column.yaml", {"simulation.duration=0.6", "fluid.dfsph.pressure_cfl=0.7"});
-  const double p_ref = 1000.0 * 9.81 * 0.23;
-  std::vector<double> p;
-  const app::RunResult r = app::runScene(o, [&](Simulation& sim, const FrameReport&) {
-    if (sim.time() < 0.4 - 1e-9) return;
-    if (const ProbeSample* ps = sim.latestProbeSample()) p.push_back(ps->points[0].pressure / p_ref);
-  });
-  INFO(r.message);
-  REQUIRE(r.exit_code == 0);
-  REQUIRE(p.size() >= 15);
-  double mean = 0, var = 0;
-  for (double v : p) mean += v;
-  mean /= double(p.size());
-  for (double v : p) var += (v - mean) * (v - mean);
-  const double sd = std::sqrt(var / double(p.size()));
-  const auto by_pressure = r.profile.dfsph_step_limiters[static_cast<std::size_t>(StepLimiter::Pressure)];
-  INFO("probe 0.23 m deep from 0.4 s: mean " << mean << " rho0 g d, standard deviation " << sd << ", " << p.size()
-       << " samples; " << r.profile.steps << " steps, " << by_pressure << " set by the pressure bound");
-  CHECK(std::abs(mean - 1.0) < 0.10);
-  CHECK(sd < 0.25);
+  const DeepColumn d = deepColumnAtRest({"fluid.dfsph.pressure_cfl=0.7"});
+  INFO(d.run.message);
+  REQUIRE(d.run.exit_code == 0);
+  REQUIRE(d.samples >= 15);
+  const auto by_pressure = d.run.profile.dfsph_step_limiters[static_cast<std::size_t>(StepLimiter::Pressure)];
+  INFO("probe 0.23 m deep from 0.4 s: mean " << d.mean << " rho0 g d, standard deviation " << d.sd << ", " << d.samples
+       << " samples; " << d.run.profile.steps << " steps, " << by_pressure << " set by the pressure bound");
+  CHECK(std::abs(d.mean - 1.0) < 0.10);
+  CHECK(d.sd < 0.25);
   CHECK(by_pressure > 0);
   // Each step against its own pressures (the bound uses the last step's): none over the scale.
-  CHECK(r.profile.steps_over_pressure_scale == 0);
-  WARN("deep column with pressure_cfl 0.7: probe mean " << mean << ", deviation " << sd << ", "
-       << r.profile.steps << " steps, " << by_pressure << " set by the pressure bound");
+  CHECK(d.run.profile.steps_over_pressure_scale == 0);
+  WARN("deep column with pressure_cfl 0.7: probe mean " << d.mean << ", deviation " << d.sd << ", " << d.run.profile.steps
+                                                        << " steps, " << by_pressure << " set by the pressure bound");
 }
