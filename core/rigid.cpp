@@ -292,7 +292,9 @@ void integrateVelocity(const RigidBody& body, BodyState& s, const Eigen::Vector3
   const Eigen::Vector3d force = body.mass * g + s.fluid_force + s.external_force;
   // Baek & Karniadakis 2012, eq. 9: (m + M) a_n = F_n + M a_{n-1} (M = 0: v += dt F / m).
   s.v += dt * (force + fictitious_mass * s.accel) / (body.mass + fictitious_mass);
-  s.L += dt * (s.fluid_torque + s.external_torque);
+  // The rotational twin, with J = (M / m) I: dL = dt (m T_n + M tau_{n-1}) / (m + M) (fictitiousTorque).
+  const Eigen::Vector3d torque = s.fluid_torque + s.external_torque;
+  s.L += dt * (body.mass * torque + fictitious_mass * s.torque_rate) / (body.mass + fictitious_mass);
   s.w = worldInverseInertia(body, s.q) * s.L;
 }
 
@@ -302,6 +304,12 @@ Eigen::Vector3d fictitiousForce(const RigidBody& body, const BodyState& s, const
   // The same forces as integrateVelocity; M (a_{n-1} - a_n) with its a_n (Baek & Karniadakis 2012, eq. 9).
   const Eigen::Vector3d force = body.mass * g + s.fluid_force + s.external_force;
   return fictitious_mass * (body.mass * s.accel - force) / (body.mass + fictitious_mass);
+}
+
+Eigen::Vector3d fictitiousTorque(const RigidBody& body, const BodyState& s, double fictitious_mass) {
+  if (body.kind != BodyKind::Dynamic || fictitious_mass == 0.0) return Eigen::Vector3d::Zero();
+  const Eigen::Vector3d torque = s.fluid_torque + s.external_torque;
+  return fictitious_mass * (s.torque_rate - torque) / (body.mass + fictitious_mass);
 }
 
 void integratePosition(const RigidBody& body, BodyState& s, double dt, const DomainSpec* walls) {

@@ -112,6 +112,14 @@ struct BodyState {
   /// fluid_force once the body has moved (Simulation::integrateBodies): the added-mass reaction
   /// the lagged solve has not answered yet; its opposite went to the fluid (unit: N)
   Eigen::Vector3d added_mass_force = Eigen::Vector3d::Zero();
+  /// the rate of the angular momentum over the last step from the torques, (L after - L before) / dt
+  /// before the contact impulses, I alpha: the rotational twin of `accel` for the fictitious inertia
+  /// (integrateVelocity); zero while held (unit: N m)
+  Eigen::Vector3d torque_rate = Eigen::Vector3d::Zero();
+  /// DFSPH's fictitious-inertia torque (M / (m + M)) (torque_rate - T_n) of this step (fictitiousTorque),
+  /// part of fluid_torque once the body has moved; unlike the force, no reaction goes to the fluid (its
+  /// sum over any run telescopes to one step's worth: docs/forces.md, session 16) (unit: N m)
+  Eigen::Vector3d added_mass_torque = Eigen::Vector3d::Zero();
   /// A body-frame point in the world.
   Eigen::Vector3d toWorld(const Eigen::Vector3d& p) const { return x + q * p; }
 };
@@ -151,6 +159,13 @@ void integrateVelocity(const RigidBody& body, BodyState& s, const Eigen::Vector3
 /// -F_M dt for the total momentum to be conserved (Simulation::addedMassReaction) (unit: N).
 Eigen::Vector3d fictitiousForce(const RigidBody& body, const BodyState& s, const Eigen::Vector3d& g,
                                 double fictitious_mass);
+/// The rotational twin (session 16): a fictitious inertia J = (M / m) I, the body's own inertia
+/// tensor scaled as M scales m (the inertia the body would have at the density C rho0), so that
+///     (I + J) alpha_n = T_n + J alpha_{n-1}  <=>  dL = dt (m T_n + M tau_{n-1}) / (m + M),
+/// tau_{n-1} = s.torque_rate = I alpha_{n-1}, T_n = fluid_torque + external_torque. Without it a
+/// light body turning in the fluid (a wooden spoon held by its end) swings with period 2 and grows,
+/// as the translation did. Its torque T_J = M (tau_{n-1} - T_n) / (m + M) (unit: N m).
+Eigen::Vector3d fictitiousTorque(const RigidBody& body, const BodyState& s, double fictitious_mass);
 /// integratePosition: the pose from the velocities. With `walls` (the domain; null = none), a
 /// dynamic body left inside a closed wall (by rounding or unresolved contacts) is moved out along
 /// the wall's normal, velocities untouched.

@@ -866,15 +866,24 @@ void Simulation::integrateBodies(double dt) {
   // force once the body has moved. The acceleration kept for the next step is the forces' own,
   // before the contact impulses: at rest on a floor it tends to F / m, and F_M to 0 (with the
   // contacts in, a_{n-1} = 0 there, and F_M = -M F / (m + M) would push the fluid every step).
+  // The same for the rotation (the fictitious inertia (M / m) I): torque_rate, and the torque
+  // T_J = M (tau_{n-1} - T_n) / (m + M) in the body's fluid torque, which the fluid does not take back.
   std::vector<Eigen::Vector3d> v_before(bodies_.size());
   for (std::size_t b = 0; b < bodies_.size(); ++b) {
     rigid::BodyState& s = bodies_[b];
     v_before[b] = s.v;
+    const Eigen::Vector3d L_before = s.L;
     const double M = b < added_mass_.size() ? added_mass_[b] : 0.0;
+    s.added_mass_torque = rigid::fictitiousTorque(model_.bodies[b], s, M);
     if (!heldBody(b)) rigid::integrateVelocity(model_.bodies[b], s, g, dt, M);
     s.accel = heldBody(b) ? Eigen::Vector3d::Zero() : Eigen::Vector3d((s.v - v_before[b]) / dt);
-    if (M > 0.0) s.fluid_force += s.added_mass_force;
-    else s.added_mass_force.setZero();
+    s.torque_rate = heldBody(b) ? Eigen::Vector3d::Zero() : Eigen::Vector3d((s.L - L_before) / dt);
+    if (M > 0.0) {
+      s.fluid_force += s.added_mass_force;
+      s.fluid_torque += s.added_mass_torque;
+    } else {
+      s.added_mass_force.setZero();
+    }
   }
   added_mass_.clear();
   contacts_->solve(model_.bodies, bodies_, walls, g, dt);

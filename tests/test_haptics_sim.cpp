@@ -1,6 +1,7 @@
 // Haptics in the simulation (batch mode, virtual time): grab, drag and hold a body in water and
 // read what the hand feels from haptics.csv; scenes without `haptics` run no haptic stage; scene
-// errors of the section. Scenes: scenes/tests/haptic_drag.yaml, scenes/tests/haptic_hold.yaml.
+// errors of the section. Scenes: scenes/tests/haptic_drag.yaml, scenes/tests/haptic_hold.yaml,
+// scenes/haptic_stir.yaml (DFSPH stability).
 #include "cli/runner.h"
 #include "tests/haptics_csv.h"
 #include "tests/run_binary.h"
@@ -305,4 +306,39 @@ TEST_CASE("Haptics: a recorded live session replays with identical state hashes"
   // The per-step body hash names the step after the moved reading (the first whose start differs).
   INFO(bad.message);
   CHECK(bad.message.find("at step " + std::to_string(tampered.steps.size() / 2 + 2)) != std::string::npos);
+}
+
+TEST_CASE("Haptics with DFSPH: a light spoon held in a pour does not swing up (the fictitious inertia in rotation)",
+          "[haptics][dfsph][rigid][stability]") {
+  // scenes/haptic_stir.yaml with DFSPH: the hand holds a wooden spoon (700 kg/m^3, 8 mm radius, held
+  // at its top) still while the tap fills the bowl around its tip (0-1.2 s). At 300 frames/s (one
+  // 3.3 ms step per frame) the solve answers the spoon's turn one step late; the water's added
+  // inertia about the spoon's centre (a cylinder in cross flow: rho_w / rho_b of its own inertia) is
+  // larger than the spoon's, and without the fictitious inertia J = (M / m) I in its rotation
+  // (core/rigid.h, fictitiousTorque) the spoon swung with period 2, growing ~1.7x a step (0.35 to
+  // 29 rad/s in 10 steps), until a particle it struck moved more than h in one step (exit 4 at
+  // t = 0.67 s; session 16). The bound: the water cannot turn the spoon faster than the stream that
+  // strikes it moves its tip, |w| <= v / L, v = sqrt(0.4^2 + 2 g 0.038) = 0.95 m/s (the tap's 0.4 m/s
+  // after falling 3.8 cm to the tip), L = 0.116 m from the hand to the tip: 8.2 rad/s. Measured:
+  // the largest |w| at a frame's end 0.94 rad/s (the stream's first impact, ~0.15 s). Mutation (the
+  // rotation without J, dL = dt T): exit 4 at t = 0.67 s, fails.
+  TempDir tmp;
+  app::RunOptions o;
+  o.scene = (kSourceDir / "scenes" / "haptic_stir.yaml").string();
+  o.out = tmp.path.string();
+  o.quiet = true;
+  o.write_output = false;
+  o.sets = {"fluid.solver=dfsph", "fluid.dfsph.pressure_cfl=0.7", "simulation.frame_rate=300"};
+  o.duration = 1.0;
+  double w_max = 0.0;
+  int frames = 0;
+  const app::RunResult r = app::runScene(o, [&](Simulation& sim, const FrameReport&) {
+    w_max = std::max(w_max, sim.bodies()[1].w.norm());
+    ++frames;
+  });
+  INFO(r.message << "; " << frames << " frames, largest |w| of the spoon " << w_max << " rad/s");
+  REQUIRE(r.exit_code == 0);
+  CHECK(frames == 300);
+  const double v_tip = std::sqrt(0.4 * 0.4 + 2 * 9.81 * 0.038), lever = 0.116;
+  CHECK(w_max < v_tip / lever);
 }
