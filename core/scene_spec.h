@@ -142,10 +142,11 @@ struct DfsphSpec {
   /// dt sqrt(g H) / dx passes ~0.9 (measured, docs/dfsph.md session 15); 0.7 holds deep columns at
   /// rest; 0 = off, the default for now (docs/dfsph.md says why) (unit: 1)
   double pressure_cfl = 0.0;
-  /// dynamic bodies' fictitious mass C rho0 V in their translation (Baek & Karniadakis 2012), against
-  /// the added-mass instability of light bodies; its force counts in the body's fluid force and its
-  /// reaction goes to the fluid near the body (momentum conserved); 0.5, a sphere's added mass, by
-  /// default; 0 = off (unit: 1)
+  /// dynamic bodies' fictitious mass C rho0 V in their translation (Baek & Karniadakis 2012), and the
+  /// inertia (M / m) I in their rotation (session 16), against the added-mass instability of light
+  /// bodies; its force and torque count in the body's fluid force and torque, the force's reaction goes
+  /// to the fluid near the body (momentum conserved; the torque's does not, its sum over a run is one
+  /// step's worth); 0.5, a sphere's added mass, by default; 0 = off (unit: 1)
   double body_added_mass = 0.5;
   SourceLoc loc;
 };

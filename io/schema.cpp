@@ -497,7 +497,9 @@ std::vector<KeyDef> buildTable() {
                "lighter than its added mass (e.g. 500 kg/m^3 in water) swings with period 2 steps and grows; 1/2, a "
                "sphere's added mass, makes it stable (docs/forces.md). The fictitious force M (a_{n-1} - a_n) counts "
                "in the body's fluid force, and the fluid within H of the body takes its reaction, so momentum is "
-               "conserved; a body with no fluid within H has none; 0 = off (the plain update)"));
+               "conserved; a body with no fluid within H has none. The rotation takes the inertia (M / m) I the same "
+               "way (a light spoon turning in water swung up otherwise; its torque's reaction is not given back, its "
+               "sum over a run is one step's worth); 0 = off (the plain update)"));
   add(field<InScene>("fluid.particle_spacing", [](auto& s) -> auto& { return s.fluid.particle_spacing; })
           .unit("m").greaterThan(0).doc("lattice spacing dx of the fluid particles"));
   add(field<InScene>("fluid.equation_of_state", [](auto& s) -> auto& { return s.fluid.equation_of_state; })
