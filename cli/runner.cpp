@@ -374,6 +374,7 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
     ClContext cl(opt.device);
     log("OpenCL " + cl.info().str());
     Simulation sim(model, compiled.initial, cl);
+    sim.setInterrupt(&g_stop_signal);  // a signal stops the run within a step, not at a frame's end
     sim.profileKernels(opt.profile_kernels);
     for (const std::string& name : opt.disable) {
       auto st = stageFromName(name);
@@ -754,7 +755,12 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
         if (live->controls().quitRequested() || g_stop_signal) break;
         live->check();  // a device that stopped answering: exit 3
       }
-      const FrameReport rep = sim.advanceFrame();
+      FrameReport rep;
+      try {
+        rep = sim.advanceFrame();
+      } catch (const Interrupted&) {
+        break;  // a signal in the middle of a frame: reported below as interrupted, as between frames
+      }
       if (live && !opt.record.empty()) {  // --record: the ticks this frame's steps used, and its hash
         const auto used = live->takeStepTicks();
         recording.step_ticks.insert(recording.step_ticks.end(), used.begin(), used.end());

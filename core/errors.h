@@ -45,6 +45,13 @@ class NumericalError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+/// A stop was asked for (Simulation::setInterrupt's flag) in the middle of a frame: the frame is left
+/// unfinished, so the caller ends the run as interrupted and does not use the state as a frame.
+class Interrupted : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
 [[noreturn]] void assertFailed(const char* cond, const char* file, int line, const std::string& msg);
 
 }  // namespace sph

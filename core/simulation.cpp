@@ -349,6 +349,7 @@ FrameReport Simulation::advanceFrame() {
           << " m/s (stage: time-step control; step " << dt << " s); the flow has blown up";
         throw NumericalError(s.str());
       }
+      checkInterrupt();
       step(dt);
       // The step against its own pressure scale (fluid.dfsph.pressure_cfl; reported, whether bounded or not)
       if (step_max_pressure_ > 0.0) {
@@ -415,7 +416,10 @@ FrameReport Simulation::advanceFrame() {
       ++profile_.cfl_warned_frames;
     }
   }
-  for (int k = 0; k < steps; ++k) step(dt);
+  for (int k = 0; k < steps; ++k) {
+    checkInterrupt();
+    step(dt);
+  }
   time_ = (frame_ + 1) * model_.frame_dt;  // no drift from summing steps
 
   FrameReport rep;

@@ -9,6 +9,7 @@
 #include "core/contact.h"
 #include "core/external_force.h"
 #include "core/dfsph.h"
+#include "core/errors.h"
 #include "core/isosurface.h"
 #include "core/model.h"
 #include "core/particle_frame.h"
@@ -17,6 +18,7 @@
 #include "core/stages.h"
 
 #include <array>
+#include <atomic>
 #include <chrono>
 #include <cstdint>
 #include <memory>
@@ -131,6 +133,10 @@ class Simulation {
   /// Steps through one output frame and runs the diagnostics. Under policy 'abort' a problem
   /// throws NumericalError naming frame, time, stage and particle.
   FrameReport advanceFrame();
+  /// A flag the frame's step loops read before every step (null: none): when it is nonzero,
+  /// advanceFrame throws Interrupted, leaving the frame unfinished (a stop asked for by a signal
+  /// takes effect within a step, not at the end of a frame that may take minutes).
+  void setInterrupt(const std::atomic<int>* flag) { interrupt_ = flag; }
 
   double time() const { return time_; }
   int frame() const { return frame_; }
@@ -268,6 +274,10 @@ class Simulation {
   // and on the device s_k per moving particle, S per moving body (unit: kg/m^3), -J / S per
   // moving body (unit: m^4/s).
   std::vector<double> added_mass_;
+  const std::atomic<int>* interrupt_ = nullptr;  // setInterrupt: a stop asked for; checked before every step
+  void checkInterrupt() const {
+    if (interrupt_ && interrupt_->load()) throw Interrupted("interrupted at t = " + std::to_string(time_) + " s");
+  }
   cl::Buffer bweight_, bweight_sum_, bshare_;
 
   // Per-particle fields, double-buffered for the reorder (cur_ is the live half).

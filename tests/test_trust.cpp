@@ -264,6 +264,26 @@ TEST_CASE("trust: SIGTERM and SIGHUP end a run like Ctrl-C: exit 128 + signal, r
   }
 }
 
+TEST_CASE("trust: a signal stops a run in the middle of a long frame, not at its end", "[trust][signal]") {
+  // tiny_tank.yaml at 0.1 frames/s: a frame is 10 simulated seconds, ~27,000 WCSPH steps, ~15 s of
+  // wall time here. The step loops read the stop flag before every step (Simulation::setInterrupt,
+  // session 16; before, only the frame loop did, and a DFSPH frame whose steps had collapsed ran on for
+  // 48 min after SIGTERM). So the run ends interrupted with no frame but Step#0 on disk: had it waited
+  // for the frame's end, frame 1 would be written too.
+  TempDir tmp;
+  const fs::path out = tmp.path / "out";
+  const pid_t pid = startSphaptics(tmp.path, {"run", kTinyScene.string(), "--out", "out", "--quiet", "--set",
+                                              "simulation.frame_rate=0.1", "--set", "simulation.duration=20"});
+  REQUIRE(waitFor([&] { return fs::exists(out / "particles.h5part.partial") && fs::exists(out / "run.json"); }));
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  kill(pid, SIGTERM);
+  const int code = waitExit(pid);
+  INFO("exit " << code << ", stderr:\n" << readFile(tmp.path / ".bg_err"));
+  CHECK(code == 128 + SIGTERM);
+  CHECK(contains(readFile(out / "run.json"), "\"status\": \"interrupted\""));
+  CHECK(h5partSteps(out / "particles.h5part.partial") == 1);  // Step#0 only: no frame finished
+}
+
 TEST_CASE("trust: a closed output pipe does not kill the run", "[trust][signal]") {
   // stderr into a pipe whose reader (head) leaves after one byte: the run's later writes fail
   // with EPIPE, and SIGPIPE (default action: die) must not end it.
