@@ -292,9 +292,9 @@ void integrateVelocity(const RigidBody& body, BodyState& s, const Eigen::Vector3
   const Eigen::Vector3d force = body.mass * g + s.fluid_force + s.external_force;
   // Baek & Karniadakis 2012, eq. 9: (m + M) a_n = F_n + M a_{n-1} (M = 0: v += dt F / m).
   s.v += dt * (force + fictitious_mass * s.accel) / (body.mass + fictitious_mass);
-  // The rotational twin, with J = (M / m) I: dL = dt (m T_n + M tau_{n-1}) / (m + M) (fictitiousTorque).
-  const Eigen::Vector3d torque = s.fluid_torque + s.external_torque;
-  s.L += dt * (body.mass * torque + fictitious_mass * s.torque_rate) / (body.mass + fictitious_mass);
+  // The rotational twin, with J = (M / m) I: dL = dt (T_n + T_J) = dt (m T_n + M tau_{n-1}) / (m + M)
+  // (fictitiousTorque; T_J = 0 without a fictitious mass, so then exactly dL = dt T_n).
+  s.L += dt * (s.fluid_torque + s.external_torque + fictitiousTorque(body, s, fictitious_mass));
   s.w = worldInverseInertia(body, s.q) * s.L;
 }
 
