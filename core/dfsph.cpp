@@ -129,9 +129,23 @@ void DfsphSolver::factors(const SimParams& p, const DfsphFields& f, bool diverge
   // Before a divergence solve (walls single or extrapolated: dfsph_source), the factor pass also
   // sums its density rate from the same pairs, into source_ (one neighbour pass fewer per step).
   rate_in_source_ = divergence_next && !mirrored();
+  // Cloth nodes move inside the solves (kernels/dfsph.cl, dfsph_node_accel; not with mirrored walls,
+  // whose iteration has no residual pass): each slot's 1 / m_b, 0 for the rest of the boundary.
+  nodes_ = f.n_nodes > 0 && !mirrored();
+  if (nodes_) {
+    if (!binv_()) {
+      binv_ = makeBuffer(std::size_t(f.n_boundary) * 4);
+      bacc_ = makeBuffer(std::size_t(f.n_boundary) * 16);
+    }
+    clCall("clearing the node slots", [&] {
+      cl_.queue().enqueueFillBuffer(binv_, 0.0f, 0, std::size_t(f.n_boundary) * 4);
+      return cl_.queue().enqueueFillBuffer(bacc_, cl_float4{}, 0, std::size_t(f.n_boundary) * 16);
+    });
+    kernels_.call("dfsph_node_slots", f.n_nodes, kLocal, f.n_nodes, f.node_offset, *f.nodes, *f.bslot, binv_, bacc_);
+  }
   kernels_.call("dfsph_factor", p.n_fluid, kLocal, p, *f.pos, *f.phase, *f.density, *f.snbr, *f.snbr_count, *f.bpos,
                 *f.sbnbr, *f.sbnbr_count, wallFactor(), alpha_, *f.bvel, gwall_, rate_in_source_ ? 1 : 0, *f.vel,
-                source_, one_mass_ ? 1 : 0);
+                source_, one_mass_ ? 1 : 0, nodes_ ? 1 : 0, nodes_ ? binv_ : alpha_);
   // Extrapolated walls: the fluid near each wall particle, listed once per step for the wall
   // pressure of every iteration (positions do not change during the solves).
   // Only the wall particles with fluid near them (the active ones) take a pressure in the
@@ -184,10 +198,14 @@ void DfsphSolver::iterate(Kind kind, const SimParams& p, const DfsphFields& f, c
   if (use_bp) boundaryPressure(kind, p, f, pressure);
   kernels_.call("dfsph_pressure_accel", p.n_fluid, kLocal, p, xt_, *f.phase, *f.density, pressure, *f.snbr,
                 *f.snbr_count, *f.bpos, *f.sbnbr, *f.sbnbr_count, wallFactor(), wallPressure(kind), use_bp, accel_, gwall_);
+  // Cloth nodes: their accelerations under the same pressures (the residual counts them).
+  if (nodes_)
+    kernels_.call("dfsph_node_accel", f.n_nodes, kLocal, p, f.n_nodes, f.node_offset, *f.nodes, *f.bslot, *f.bpos, xt_,
+                  *f.phase, *f.density, *f.cell_start, wallFactor(), wallPressure(kind), use_bp, bacc_);
   const uint32_t min_nbr = kind == Kind::Divergence ? min_neighbours_ : 0u;
   kernels_.call("dfsph_jacobi", p.n_fluid, kLocal, p, *f.pos, accel_, alpha_, source_, *f.snbr, *f.snbr_count,
                 *f.bpos, *f.sbnbr, *f.sbnbr_count, min_nbr, static_cast<float>(spec_.relaxation), extrapolated() ? 1 : 0, pressure, err_,
-                *f.phase, *f.density, xt_, gwall_);
+                *f.phase, *f.density, xt_, gwall_, nodes_ ? 1 : 0, nodes_ ? bacc_ : accel_);
 }
 
 void DfsphSolver::apply(Kind kind, const SimParams& p, const DfsphFields& f, const cl::Buffer& pressure) {
@@ -195,6 +213,16 @@ void DfsphSolver::apply(Kind kind, const SimParams& p, const DfsphFields& f, con
   if (use_bp) boundaryPressure(kind, p, f, pressure);
   kernels_.call("dfsph_apply_pressure", p.n_fluid, kLocal, p, xt_, *f.vel, *f.phase, *f.density, pressure, *f.snbr,
                 *f.snbr_count, *f.bpos, *f.sbnbr, *f.sbnbr_count, wallFactor(), wallPressure(kind), use_bp, gwall_);
+  // Cloth nodes after the divergence solve: the density solve must see them moving as its pressure
+  // moves them (v_b + dt a_b), as it sees the fluid: its density rate takes the walls' part from
+  // gwall.w (factors()), which gains dt sum_b psi_b a_b . gradW_ib. Without it the two solves disagree
+  // on the nodes' motion every step, and a sheet sealed between two layers never came to rest
+  // (cloth kinetic energy ~1e-3 J at 1 s, against 1e-10 J with no divergence solve; session 17).
+  if (nodes_ && kind == Kind::Divergence) {
+    kernels_.call("dfsph_node_accel", f.n_nodes, kLocal, p, f.n_nodes, f.node_offset, *f.nodes, *f.bslot, *f.bpos, xt_,
+                  *f.phase, *f.density, *f.cell_start, wallFactor(), wallPressure(kind), use_bp, bacc_);
+    kernels_.call("dfsph_node_rate", p.n_fluid, kLocal, p, *f.pos, *f.bpos, *f.sbnbr, *f.sbnbr_count, bacc_, gwall_);
+  }
 }
 
 // --- Mirrored walls: the first version's iteration (kernels/dfsph.cl) ----------------------

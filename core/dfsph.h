@@ -54,6 +54,11 @@ struct DfsphFields {
   cl::Buffer* bpressure = nullptr;        ///< (n_boundary) written by finish: both solves' wall pressure (unit: Pa)
   cl::Buffer* max_pressure = nullptr;     ///< (1 uint) finish raises it to the step's largest p_i / rho_i, float bits (unit: m^2/s^2)
   double max_speed = 0.0;                 ///< the last step's largest particle speed, fluid and bodies (unit: m/s)
+  // Cloth nodes that move inside the solves (kernels/dfsph.cl, dfsph_node_accel; none: n_nodes = 0).
+  uint32_t n_nodes = 0;                   ///< cloth and soft-body nodes
+  uint32_t node_offset = 0;               ///< boundary index of the first node
+  const cl::Buffer* nodes = nullptr;      ///< (n_nodes x float4) positions, w = 1 / m (0 anchored) (unit: m, 1/kg)
+  const cl::Buffer* bslot = nullptr;      ///< (n_boundary) each boundary particle's slot in bpos
 };
 
 /// How one solve ended.
@@ -146,6 +151,10 @@ class DfsphSolver {
   // Per particle, from the factor pass: the wall sums (G_b = sum_b psi_b gradW_ib (unit: 1/m^4),
   // sum_b psi_b v_b . gradW_ib (unit: 1/(m^3 s))) the solves use instead of wall loops (n x float4).
   cl::Buffer gwall_;
+  // Cloth nodes inside the solves (factors(): nodes_ this step), per boundary slot: 1 / m_b (0 for
+  // walls, bodies, anchored nodes) and the node's pressure acceleration of the current pressures.
+  cl::Buffer binv_, bacc_;
+  bool nodes_ = false;
   cl::Buffer pdiv_, pdens_;                // the solves' pressures (unit: Pa), kept for the warm start
   bool divergence_ran_ = false;            // the divergence solve runs (its wall pressure counts)
   bool rate_in_source_ = false;            // source_ holds the divergence solve's density rate (factors())

@@ -53,6 +53,11 @@ enum class FluidSolver { Wcsph, Dfsph };
 /// extrapolated (p_b from the fluid around the wall particle, Adami et al. 2012 eq. 27, in each
 /// projected Jacobi iteration, as WCSPH's walls; Band et al. 2018 for IISPH).
 enum class DfsphWalls { Mirrored, Single, Extrapolated };
+/// How DFSPH couples cloth and soft-body nodes (boundary particles that move): strong, the free
+/// nodes move under the pressure inside the solves' iterations (kernels/dfsph.cl, dfsph_node_accel);
+/// staggered, they answer the solves' pressure in the cloth's step after (a light sheet between
+/// two water layers blows up: the added-mass instability).
+enum class DfsphClothCoupling { Strong, Staggered };
 
 struct SimulationSpec {
   double duration = 2.0;                        ///< simulated time to run (unit: s)
@@ -148,6 +153,7 @@ struct DfsphSpec {
   /// to the fluid near the body (momentum conserved; the torque's does not, its sum over a run is one
   /// step's worth); 0.5, a sphere's added mass, by default; 0 = off (unit: 1)
   double body_added_mass = 0.5;
+  DfsphClothCoupling cloth_coupling = DfsphClothCoupling::Strong;  ///< see DfsphClothCoupling
   SourceLoc loc;
 };
 

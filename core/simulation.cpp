@@ -635,6 +635,13 @@ DfsphFields Simulation::dfsphFields() {
   f.bpressure = &bpressure_;
   f.max_speed = step_max_speed_;
   f.max_pressure = &max_pressure_;
+  // The cloth's free nodes move inside the solves (strong coupling, kernels/dfsph.cl).
+  if (on(Stage::ClothCoupling) && on(Stage::Cloth) && n_cloth_ > 0 && model_.spec.fluid.dfsph.cloth_coupling == DfsphClothCoupling::Strong) {
+    f.n_nodes = n_cloth_;
+    f.node_offset = n_static_ + n_moving_;
+    f.nodes = &cloth_->positions();
+    f.bslot = &bslot_;
+  }
   return f;
 }
 

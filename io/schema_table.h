@@ -71,6 +71,11 @@ struct EnumNames<DfsphWalls> {
                                                                     {DfsphWalls::Extrapolated, "extrapolated"}};
 };
 template <>
+struct EnumNames<DfsphClothCoupling> {
+  static constexpr std::pair<DfsphClothCoupling, const char*> values[] = {{DfsphClothCoupling::Strong, "strong"},
+                                                                            {DfsphClothCoupling::Staggered, "staggered"}};
+};
+template <>
 struct EnumNames<TimeStepControl> {
   static constexpr std::pair<TimeStepControl, const char*> values[] = {{TimeStepControl::Subdivide, "subdivide"},
                                                                          {TimeStepControl::Warn, "warn"}};

@@ -112,7 +112,8 @@ __kernel void dfsph_factor(const SimParams p, __global const float4* pos, __glob
                            __global const float4* bpos, __global const uint* bnbr,
                            __global const uint* bnbr_count, const float wall, __global float* alpha,
                            __global const float4* bvel, __global float4* gwall, const int with_rate,
-                           __global const float4* vel, __global float* rate_out, const int one_mass) {
+                           __global const float4* vel, __global float* rate_out, const int one_mass,
+                           const int nodes, __global const float* binv) {
   const uint i = get_global_id(0);
   if (i >= p.n_fluid) return;
   const uint K = p.max_neighbours;
@@ -167,7 +168,25 @@ __kernel void dfsph_factor(const SimParams p, __global const float4* pos, __glob
    * so bitwise its value), for dfsph_source to read instead of its own neighbour loop */
   if (with_rate) rate_out[i] = rate + (dot(vi, gw.xyz) - gw.w);
   const float3 gb = gw.xyz;
-  const float D = dot(gf + wall * gb, gf + gb) / mi + s2;
+  /* nodes (cloth nodes move inside the solves, dfsph_node_accel): p_i moves each node b near i by
+   * wall t_i psi_b gradW_ib / m_b, which the residual sees as -psi_b a_b . gradW_ib: the diagonal
+   * gains wall sum_b psi_b^2 |gradW_ib|^2 / m_b (binv: 1 / m_b per boundary slot, 0 for walls,
+   * bodies and anchored nodes) */
+  float sn = 0.0f;
+  if (nodes) {
+    __global const uint* bl = bnbr + (size_t)i * K;
+    const uint nbb = bnbr_count[i];
+    for (uint q = 0; q < nbb; ++q) {
+      const uint b = bl[q];
+      const float iv = binv[b];
+      if (iv == 0.0f) continue;
+      const float4 bb = bpos[b];
+      const float3 d = xi - bb.xyz;
+      const float3 g = (bb.w * sph_grad_factor(SPH_KERNEL, length(d), H)) * d;
+      sn += dot(g, g) * iv;
+    }
+  }
+  const float D = dot(gf + wall * gb, gf + gb) / mi + s2 + wall * sn;
   const float delta = density[i] / mi;
   /* a particle without neighbours takes no pressure */
   alpha[i] = D > 0.0f ? delta * delta / D : 0.0f;
@@ -311,7 +330,7 @@ __kernel void dfsph_jacobi(const SimParams p, __global const float4* pos, __glob
                            __global const uint* bnbr_count, const uint min_neighbours, const float omega,
                            const int two_sided, __global float* pressure, __global float* err,
                            __global const uint* phase, __global const float* density, __global float4* xt,
-                           __global const float4* gwall) {
+                           __global const float4* gwall, const int nodes, __global const float4* bacc) {
   const uint i = get_global_id(0);
   if (i >= p.n_fluid) return;
   const uint K = p.max_neighbours;
@@ -343,6 +362,19 @@ __kernel void dfsph_jacobi(const SimParams p, __global const float4* pos, __glob
     Ap += sph_grad_factor(SPH_KERNEL, length(d), H) * dot(ai - accel[j].xyz, d);
   }
   Ap += dot(ai, gwall[i].xyz); /* sum_b psi_b a_i . gradW_ib = a_i . G_b */
+  /* nodes: the cloth nodes' pressure accelerations (dfsph_node_accel; 0 for the other boundary
+   * particles), - sum_b psi_b a_b . gradW_ib */
+  if (nodes) {
+    __global const uint* bl = bnbr + (size_t)i * K;
+    for (uint q = 0; q < nb; ++q) {
+      const uint b = bl[q];
+      const float4 ab = bacc[b];
+      if (ab.w == 0.0f) continue;
+      const float4 bb = bpos[b];
+      const float3 d = xi - bb.xyz;
+      Ap -= bb.w * sph_grad_factor(SPH_KERNEL, length(d), H) * dot(ab.xyz, d);
+    }
+  }
   const float r = source[i] + p.dt * p.dt * p.rest_volume * Ap;
   const float inc = omega * r * alpha[i] / (p.dt * p.dt * p.rest_volume);
   const float p0 = pressure[i];
@@ -729,4 +761,85 @@ __kernel void dfsph_wall_list_pressure(const SimParams p, const uint n_active, _
     sph_wall_sums_from_cells(&p, cell_start, bpos[b].xyz, pos, density, pressure, &sw, &spw, &srw);
   }
   bpressure[b] = sph_wall_pressure(&p, sw, spw, srw);
+}
+
+/* --- Cloth nodes inside the solves (strong coupling, session 17) ----------------------------
+ * A cloth node is a boundary particle for the fluid, but unlike a wall it moves under the pressure
+ * the solve is finding. Staggered (the node answering the pressure only after the step), a light
+ * node between incompressible water swings with period 2 steps and grows (the added-mass
+ * instability: scenes/balls_on_cloth.yaml blew up at t = 0.043 s). So each iteration moves the free
+ * nodes by the pressure force of the current pressures, a_b = F_b / m_b (dfsph_node_accel), and
+ * the residual of every fluid particle near them counts -sum_b psi_b a_b . gradW_ib (dfsph_jacobi),
+ * as it counts its fluid neighbours' accelerations: fluid and nodes satisfy the constraint
+ * together, as Gissler et al. 2019 ("Interlinked SPH pressure solvers for strong fluid-rigid
+ * coupling") do for rigid bodies. The nodes' springs and gravity stay with the cloth's own step. */
+
+/* Per step: each node's slot gets 1 / m_b (0 anchored) and a zero acceleration; the other slots
+ * were zeroed by the host (walls and bodies do not move in the solves). */
+__kernel void dfsph_node_slots(const uint n, const uint offset, __global const float4* nodes,
+                               __global const uint* slot, __global float* binv, __global float4* bacc) {
+  const uint k = get_global_id(0);
+  if (k >= n) return;
+  const uint s = slot[offset + k];
+  binv[s] = nodes[k].w;
+  bacc[s] = (float4)(0.0f);
+}
+
+/* Per iteration: node k's pressure acceleration a_b = F_b / m_b, F_b the reaction to the pressure
+ * force its fluid neighbours feel from it (dfsph_force's wall terms): F_b = sum_i (wall t_i +
+ * use_bp p_b / delta_i^2) psi_b gradW_ib, t_i = p_i / delta_i^2 (xt.w), gradW_ib = F (x_i - x_b).
+ * w = 1 marks a free node (dfsph_jacobi skips the others). */
+__kernel void dfsph_node_accel(const SimParams p, const uint n, const uint offset, __global const float4* nodes,
+                               __global const uint* slot, __global const float4* bpos, __global const float4* xt,
+                               __global const uint* phase, __global const float* density,
+                               __global const uint* cell_start, const float wall, __global const float* bpr,
+                               const int use_bp, __global float4* bacc) {
+  const uint k = get_global_id(0);
+  if (k >= n) return;
+  const float iv = nodes[k].w;
+  const uint s = slot[offset + k];
+  if (iv == 0.0f) return; /* anchored: stays (0, 0, 0, 0) from dfsph_node_slots */
+  const float4 bb = bpos[s];
+  const float3 xb = bb.xyz;
+  const float H = p.support;
+  const float pb = use_bp ? bpr[s] : 0.0f;
+  float3 F = (float3)(0.0f);
+  SPH_FOR_NEIGHBOURS(&p, cell_start, xb, i) {
+    const float4 x4 = xt[i];
+    const float3 d = x4.xyz - xb;
+    const float r2 = dot(d, d);
+    if (r2 < H * H) {
+      const float di = density[i] / p.phase_mass[phase[i]];
+      F += ((wall * x4.w + pb / (di * di)) * bb.w * sph_grad_factor(SPH_KERNEL, sqrt(r2), H)) * d;
+    }
+  }
+  SPH_END_NEIGHBOURS
+  bacc[s] = (float4)(F * iv, 1.0f);
+}
+
+/* After the divergence solve: the nodes move on by dt a_b in the density solve's eyes (the cloth's
+ * step applies both solves' forces): gwall_i.w = sum_b psi_b v_b . gradW_ib gains dt sum_b psi_b
+ * a_b . gradW_ib (a_b of the solve's final pressures, dfsph_node_accel). */
+__kernel void dfsph_node_rate(const SimParams p, __global const float4* pos, __global const float4* bpos,
+                              __global const uint* bnbr, __global const uint* bnbr_count,
+                              __global const float4* bacc, __global float4* gwall) {
+  const uint i = get_global_id(0);
+  if (i >= p.n_fluid) return;
+  const uint K = p.max_neighbours;
+  const float H = p.support;
+  const float3 xi = pos[i].xyz;
+  __global const uint* bl = bnbr + (size_t)i * K;
+  const uint nb = bnbr_count[i];
+  float add = 0.0f;
+  bool any = false;
+  for (uint q = 0; q < nb; ++q) {
+    const uint b = bl[q];
+    const float4 ab = bacc[b];
+    if (ab.w == 0.0f) continue;
+    const float4 bb = bpos[b];
+    const float3 d = xi - bb.xyz;
+    add += bb.w * sph_grad_factor(SPH_KERNEL, length(d), H) * dot(ab.xyz, d);
+    any = true;
+  }
+  if (any) gwall[i].w += p.dt * add;
 }
