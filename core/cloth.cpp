@@ -792,6 +792,10 @@ std::vector<Eigen::Vector3d> ClothSim::collideSpheres(const std::vector<SphereCo
   return out;
 }
 
+void ClothSim::nodeResponse(double dt, cl::Buffer& out) {
+  k_.call("cloth_node_response", n_, 64, n_, float(dt), x_[cur_], mass_, drag_, row_start_, spring_, other_, prm_, broken_, out);
+}
+
 void ClothSim::setCutters(const std::vector<const TriMesh*>& meshes) {
   // All cutters' triangles in one buffer, each cutter a range of it.
   std::vector<Eigen::Vector4f> tri;

@@ -218,7 +218,17 @@ class ClothSim {
   std::vector<uint32_t> readBroken();
   /// Energies, strain and anchor force of cloth `c` now.
   ClothReport report(std::size_t c, const Eigen::Vector3d& g);
+  /// DFSPH's strong coupling: each node's response to a force within a step of dt (unit: s), its
+  /// springs implicit (kernels/cloth.cl, cloth_node_response): the rows of M^-1, 3 float4 per node
+  /// into `out` (unit: 1/kg; zero for anchored nodes).
+  void nodeResponse(double dt, cl::Buffer& out);
   const cl::Buffer& positions() const { return x_[cur_]; }
+  /// The spring table (ClothModel's row_start, spring, other, prm) and the broken flags.
+  const cl::Buffer& rowStart() const { return row_start_; }
+  const cl::Buffer& springs() const { return spring_; }
+  const cl::Buffer& others() const { return other_; }
+  const cl::Buffer& springParams() const { return prm_; }
+  const cl::Buffer& brokenSprings() const { return broken_; }
   const cl::Buffer& velocities() const { return v_[cur_]; }
   std::size_t bytes() const { return bytes_; }
 

@@ -133,19 +133,25 @@ void DfsphSolver::factors(const SimParams& p, const DfsphFields& f, bool diverge
   // whose iteration has no residual pass): each slot's 1 / m_b, 0 for the rest of the boundary.
   nodes_ = f.n_nodes > 0 && !mirrored();
   if (nodes_) {
-    if (!binv_()) {
-      binv_ = makeBuffer(std::size_t(f.n_boundary) * 4);
+    if (!bminv_()) {
+      bminv_ = makeBuffer(std::size_t(f.n_boundary) * 48);
       bacc_ = makeBuffer(std::size_t(f.n_boundary) * 16);
+      for (cl::Buffer* b : {&nacc_div_, &nacc_dens_, &nacc_tmp_}) {
+        *b = makeBuffer(std::size_t(f.n_nodes) * 16);
+        clCall("clearing the node accelerations",
+               [&] { return cl_.queue().enqueueFillBuffer(*b, cl_float4{}, 0, std::size_t(f.n_nodes) * 16); });
+      }
     }
     clCall("clearing the node slots", [&] {
-      cl_.queue().enqueueFillBuffer(binv_, 0.0f, 0, std::size_t(f.n_boundary) * 4);
+      cl_.queue().enqueueFillBuffer(bminv_, cl_float4{}, 0, std::size_t(f.n_boundary) * 48);
       return cl_.queue().enqueueFillBuffer(bacc_, cl_float4{}, 0, std::size_t(f.n_boundary) * 16);
     });
-    kernels_.call("dfsph_node_slots", f.n_nodes, kLocal, f.n_nodes, f.node_offset, *f.nodes, *f.bslot, binv_, bacc_);
+    kernels_.call("dfsph_node_slots", f.n_nodes, kLocal, p, f.n_nodes, f.node_offset, *f.nodes, *f.response, *f.bslot, *f.pos,
+                  *f.phase, *f.cell_start, *f.row_start, *f.other, bminv_, bacc_);
   }
   kernels_.call("dfsph_factor", p.n_fluid, kLocal, p, *f.pos, *f.phase, *f.density, *f.snbr, *f.snbr_count, *f.bpos,
                 *f.sbnbr, *f.sbnbr_count, wallFactor(), alpha_, *f.bvel, gwall_, rate_in_source_ ? 1 : 0, *f.vel,
-                source_, one_mass_ ? 1 : 0, nodes_ ? 1 : 0, nodes_ ? binv_ : alpha_);
+                source_, one_mass_ ? 1 : 0, nodes_ ? 1 : 0, nodes_ ? bminv_ : gwall_);
   // Extrapolated walls: the fluid near each wall particle, listed once per step for the wall
   // pressure of every iteration (positions do not change during the solves).
   // Only the wall particles with fluid near them (the active ones) take a pressure in the
@@ -199,13 +205,21 @@ void DfsphSolver::iterate(Kind kind, const SimParams& p, const DfsphFields& f, c
   kernels_.call("dfsph_pressure_accel", p.n_fluid, kLocal, p, xt_, *f.phase, *f.density, pressure, *f.snbr,
                 *f.snbr_count, *f.bpos, *f.sbnbr, *f.sbnbr_count, wallFactor(), wallPressure(kind), use_bp, accel_, gwall_);
   // Cloth nodes: their accelerations under the same pressures (the residual counts them).
-  if (nodes_)
-    kernels_.call("dfsph_node_accel", f.n_nodes, kLocal, p, f.n_nodes, f.node_offset, *f.nodes, *f.bslot, *f.bpos, xt_,
-                  *f.phase, *f.density, *f.cell_start, wallFactor(), wallPressure(kind), use_bp, bacc_);
+  if (nodes_) nodeAccel(kind, p, f);
   const uint32_t min_nbr = kind == Kind::Divergence ? min_neighbours_ : 0u;
   kernels_.call("dfsph_jacobi", p.n_fluid, kLocal, p, *f.pos, accel_, alpha_, source_, *f.snbr, *f.snbr_count,
                 *f.bpos, *f.sbnbr, *f.sbnbr_count, min_nbr, static_cast<float>(spec_.relaxation), extrapolated() ? 1 : 0, pressure, err_,
                 *f.phase, *f.density, xt_, gwall_, nodes_ ? 1 : 0, nodes_ ? bacc_ : accel_);
+}
+
+void DfsphSolver::nodeAccel(Kind kind, const SimParams& p, const DfsphFields& f) {
+  // One block-Jacobi sweep of the nodes' accelerations under the current pressures (kernels/dfsph.cl,
+  // dfsph_node_accel), from the solve's last sweep into the scratch half, then swapped.
+  cl::Buffer& cur = kind == Kind::Divergence ? nacc_div_ : nacc_dens_;
+  kernels_.call("dfsph_node_accel", f.n_nodes, kLocal, p, f.n_nodes, f.node_offset, *f.nodes, bminv_, *f.bslot, *f.bpos, xt_,
+                *f.phase, *f.density, *f.cell_start, wallFactor(), wallPressure(kind), extrapolated() ? 1 : 0,
+                *f.row_start, *f.spring, *f.other, *f.prm, *f.broken, cur, nacc_tmp_, bacc_);
+  std::swap(cur, nacc_tmp_);
 }
 
 void DfsphSolver::apply(Kind kind, const SimParams& p, const DfsphFields& f, const cl::Buffer& pressure) {
@@ -219,8 +233,7 @@ void DfsphSolver::apply(Kind kind, const SimParams& p, const DfsphFields& f, con
   // on the nodes' motion every step, and a sheet sealed between two layers never came to rest
   // (cloth kinetic energy ~1e-3 J at 1 s, against 1e-10 J with no divergence solve; session 17).
   if (nodes_ && kind == Kind::Divergence) {
-    kernels_.call("dfsph_node_accel", f.n_nodes, kLocal, p, f.n_nodes, f.node_offset, *f.nodes, *f.bslot, *f.bpos, xt_,
-                  *f.phase, *f.density, *f.cell_start, wallFactor(), wallPressure(kind), use_bp, bacc_);
+    nodeAccel(kind, p, f);
     kernels_.call("dfsph_node_rate", p.n_fluid, kLocal, p, *f.pos, *f.bpos, *f.sbnbr, *f.sbnbr_count, bacc_, gwall_);
   }
 }

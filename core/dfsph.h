@@ -58,7 +58,10 @@ struct DfsphFields {
   uint32_t n_nodes = 0;                   ///< cloth and soft-body nodes
   uint32_t node_offset = 0;               ///< boundary index of the first node
   const cl::Buffer* nodes = nullptr;      ///< (n_nodes x float4) positions, w = 1 / m (0 anchored) (unit: m, 1/kg)
+  const cl::Buffer* response = nullptr;   ///< (n_nodes x 3 float4) each node's M^-1 this step (cloth.cl, cloth_node_response) (unit: 1/kg)
   const cl::Buffer* bslot = nullptr;      ///< (n_boundary) each boundary particle's slot in bpos
+  /// the cloth's spring table (core/cloth.h, ClothModel: row_start, spring, other, prm, broken)
+  const cl::Buffer *row_start = nullptr, *spring = nullptr, *other = nullptr, *prm = nullptr, *broken = nullptr;
 };
 
 /// How one solve ended.
@@ -151,10 +154,14 @@ class DfsphSolver {
   // Per particle, from the factor pass: the wall sums (G_b = sum_b psi_b gradW_ib (unit: 1/m^4),
   // sum_b psi_b v_b . gradW_ib (unit: 1/(m^3 s))) the solves use instead of wall loops (n x float4).
   cl::Buffer gwall_;
-  // Cloth nodes inside the solves (factors(): nodes_ this step), per boundary slot: 1 / m_b (0 for
-  // walls, bodies, anchored nodes) and the node's pressure acceleration of the current pressures.
-  cl::Buffer binv_, bacc_;
+  // Cloth nodes inside the solves (factors(): nodes_ this step), per boundary slot: M_b^-1 (3 float4;
+  // 0 for walls, bodies, anchored nodes) and the node's pressure acceleration of the current pressures.
+  cl::Buffer bminv_, bacc_;
   bool nodes_ = false;
+  // ... and per node, each solve's last sweep of the nodes' accelerations (kept from step to step:
+  // the warm start of the nodes' block-Jacobi sweeps) and a scratch half (unit: m/s^2).
+  cl::Buffer nacc_div_, nacc_dens_, nacc_tmp_;
+  void nodeAccel(Kind kind, const SimParams& p, const DfsphFields& f);
   cl::Buffer pdiv_, pdens_;                // the solves' pressures (unit: Pa), kept for the warm start
   bool divergence_ran_ = false;            // the divergence solve runs (its wall pressure counts)
   bool rate_in_source_ = false;            // source_ holds the divergence solve's density rate (factors())

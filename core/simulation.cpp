@@ -260,6 +260,7 @@ void Simulation::step(double dt) {
     }
     computeDensity();                                  // number density, rho, p (S&P 2008, Akinci 2012)
     if (on(Stage::Probes) && probes_->due(time_)) sampleProbes();  // gauges read the state at the step's start
+    if (strongCloth()) clothResponse(dt);              // DFSPH: how each cloth node answers a force this step
     if (on(Stage::DivergenceSolve)) divergenceSolve(); // DFSPH: factors, divergence-free velocities (B&K 2017 Alg. 2)
     if (on(Stage::Viscosity) && model_.ghost_velocity_mode)
       ghostVelocities();                               // no-slip wall velocities 2 v_w - v~ (Adami 2012 eq. 22-23)
@@ -636,11 +637,17 @@ DfsphFields Simulation::dfsphFields() {
   f.max_speed = step_max_speed_;
   f.max_pressure = &max_pressure_;
   // The cloth's free nodes move inside the solves (strong coupling, kernels/dfsph.cl).
-  if (on(Stage::ClothCoupling) && on(Stage::Cloth) && n_cloth_ > 0 && model_.spec.fluid.dfsph.cloth_coupling == DfsphClothCoupling::Strong) {
+  if (strongCloth()) {
     f.n_nodes = n_cloth_;
     f.node_offset = n_static_ + n_moving_;
     f.nodes = &cloth_->positions();
+    f.response = &node_response_;
     f.bslot = &bslot_;
+    f.row_start = &cloth_->rowStart();
+    f.spring = &cloth_->springs();
+    f.other = &cloth_->others();
+    f.prm = &cloth_->springParams();
+    f.broken = &cloth_->brokenSprings();
   }
   return f;
 }
@@ -1011,6 +1018,23 @@ void Simulation::placeClothParticles() {
   // Node positions and velocities into the boundary buffers; their speed joins the step's largest
   // (the Verlet-list skin, integrate()).
   kernels_.call("cloth_to_boundary", n_cloth_, kLocal, n_cloth_, n_static_ + n_moving_, cloth_->positions(), cloth_->velocities(), cloth_volume_, bslot_, bsrc_, bpos_, bvel_, max_speed_);
+}
+
+bool Simulation::strongCloth() const {
+  // DFSPH's strong cloth coupling (fluid.dfsph.cloth_coupling: strong): the free nodes move under the
+  // pressure inside the solves' iterations (kernels/dfsph.cl, dfsph_node_accel). Not with mirrored
+  // walls (core/dfsph.cpp, factors()).
+  return dfsph_ && n_cloth_ > 0 && on(Stage::ClothCoupling) && on(Stage::Cloth) &&
+         model_.spec.fluid.dfsph.cloth_coupling == DfsphClothCoupling::Strong;
+}
+
+void Simulation::clothResponse(double dt) {
+  // Each node's M^-1 for this step (kernels/cloth.cl, cloth_node_response): its mass with its springs
+  // implicit, so that the solves move a node of a taut or sagging sheet as little as its springs let
+  // it move, and a flat sheet's node across itself as freely as its mass does.
+  StageTimer timer(*this, Stage::ClothCoupling);
+  if (!node_response_()) node_response_ = makeBuffer(std::size_t(n_cloth_) * 48);
+  cloth_->nodeResponse(dt, node_response_);
 }
 
 void Simulation::gatherClothForces() {

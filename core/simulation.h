@@ -225,6 +225,8 @@ class Simulation {
   void stepCloth(double dt);
   void placeClothParticles();
   void gatherClothForces();
+  bool strongCloth() const;
+  void clothResponse(double dt);
   FrameReport runDiagnostics();
   void prepareInitialState();
   void abortOnNumericalFailure(const FrameReport& rep, const char* nonfinite_stage) const;
@@ -264,6 +266,7 @@ class Simulation {
   // Cloth nodes coupled with the fluid: boundary particles after the moving bodies' (kernels/cloth.cl).
   uint32_t n_cloth_ = 0;
   cl::Buffer cloth_volume_, cloth_force_;  // per node: V_b / V0 (Akinci 2012), fluid force (unit: N)
+  cl::Buffer node_response_;  // DFSPH strong coupling: per node M^-1 of this step (3 float4, unit: 1/kg)
   double body_speed_ = 0.0;               // fastest moving body particle this step (unit: m/s)
   ExternalForceSource* external_ = nullptr; // haptics: the grabbed body's coupling (not owned)
   std::vector<BodyWrench> wrenches_;      // its output, one per body

@@ -434,3 +434,49 @@ __kernel void cloth_cut(const uint ns, const uint n_cutters, __global const floa
     }
   }
 }
+
+/* DFSPH's strong coupling (dfsph.cl, dfsph_node_accel): how a node answers a force within one step,
+ * its springs implicit with the other ends held: M_i = m_i (1 + dt c_air) I + sum over its unbroken
+ * springs of (dt c + dt^2 k) u u^T + dt^2 max(T, 0) / L (I - u u^T), T = k (L - L0) the tension (the
+ * stiffness of a stretched spring across itself), so a = M_i^-1 F. A flat sheet's springs do not
+ * resist its own normal motion (only the tension does), a sagging one's do. Out: the rows of M_i^-1
+ * (3 float4 per node, unit: 1/kg); zero for anchored nodes. */
+__kernel void cloth_node_response(const uint n, const float dt, __global const float4* x, __global const float* mass,
+                                  __global const float* drag, __global const uint* row_start,
+                                  __global const uint* spring, __global const uint* other,
+                                  __global const float4* prm, __global const uint* broken, __global float4* minv) {
+  const uint i = get_global_id(0);
+  if (i >= n) return;
+  const float4 xi = x[i];
+  if (xi.w == 0.0f) {
+    minv[3 * i] = minv[3 * i + 1] = minv[3 * i + 2] = (float4)(0.0f);
+    return;
+  }
+  const float m0 = mass[i] * (1.0f + dt * drag[i]);
+  float a00 = m0, a11 = m0, a22 = m0, a01 = 0.0f, a02 = 0.0f, a12 = 0.0f;
+  for (uint e = row_start[i]; e < row_start[i + 1]; ++e) {
+    const uint sp = spring[e];
+    if (broken[sp]) continue;
+    const float3 d = x[other[e]].xyz - xi.xyz;
+    const float L = length(d);
+    if (L <= 0.0f) continue;
+    const float3 u = d / L;
+    const float4 q = prm[sp];
+    const float ax = dt * q.z + dt * dt * q.y;               /* along the spring */
+    const float tr = dt * dt * fmax(q.y * (L - q.x), 0.0f) / L; /* across it */
+    const float c = ax - tr;
+    a00 += tr + c * u.x * u.x;
+    a11 += tr + c * u.y * u.y;
+    a22 += tr + c * u.z * u.z;
+    a01 += c * u.x * u.y;
+    a02 += c * u.x * u.z;
+    a12 += c * u.y * u.z;
+  }
+  /* the inverse of the symmetric positive definite 3 x 3 by its adjugate */
+  const float c00 = a11 * a22 - a12 * a12, c01 = a02 * a12 - a01 * a22, c02 = a01 * a12 - a02 * a11;
+  const float c11 = a00 * a22 - a02 * a02, c12 = a01 * a02 - a00 * a12, c22 = a00 * a11 - a01 * a01;
+  const float inv = 1.0f / (a00 * c00 + a01 * c01 + a02 * c02);
+  minv[3 * i] = (float4)(c00, c01, c02, 0.0f) * inv;
+  minv[3 * i + 1] = (float4)(c01, c11, c12, 0.0f) * inv;
+  minv[3 * i + 2] = (float4)(c02, c12, c22, 0.0f) * inv;
+}

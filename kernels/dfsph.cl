@@ -103,6 +103,11 @@ inline float4 dfsph_wall_sums(const float3 xi, __global const uint* list, const 
   return r;
 }
 
+/* M v for a symmetric 3 x 3 stored as rows m[3s], m[3s+1], m[3s+2] (the cloth nodes' M^-1 below) */
+inline float3 dfsph_mul3(__global const float4* m, const uint s, const float3 v) {
+  return (float3)(dot(m[3 * s].xyz, v), dot(m[3 * s + 1].xyz, v), dot(m[3 * s + 2].xyz, v));
+}
+
 /* Factor alpha_i = delta_i^2 / D_i (B&K 2017 eq. 9, for the pressure force above), and the wall
  * sums gwall_i (above). With `with_rate` also the divergence solve's density rate D delta_i / Dt
  * (B&K 2017 eq. 2) of the velocities `vel` into rate_out, from the same pairs: one neighbour pass
@@ -113,7 +118,7 @@ __kernel void dfsph_factor(const SimParams p, __global const float4* pos, __glob
                            __global const uint* bnbr_count, const float wall, __global float* alpha,
                            __global const float4* bvel, __global float4* gwall, const int with_rate,
                            __global const float4* vel, __global float* rate_out, const int one_mass,
-                           const int nodes, __global const float* binv) {
+                           const int nodes, __global const float4* bminv) {
   const uint i = get_global_id(0);
   if (i >= p.n_fluid) return;
   const uint K = p.max_neighbours;
@@ -169,16 +174,16 @@ __kernel void dfsph_factor(const SimParams p, __global const float4* pos, __glob
   if (with_rate) rate_out[i] = rate + (dot(vi, gw.xyz) - gw.w);
   const float3 gb = gw.xyz;
   /* nodes (cloth nodes move inside the solves, dfsph_node_accel): p_i moves each node b near i by
-   * wall t_i psi_b gradW_ib / m_b, which the residual sees as -psi_b a_b . gradW_ib: the diagonal
-   * gains wall sum_b psi_b^2 |gradW_ib|^2 / m_b (binv: 1 / m_b per boundary slot, 0 for walls,
-   * bodies and anchored nodes) */
+   * M_b^-1 wall t_i psi_b gradW_ib, which the residual sees as -psi_b a_b . gradW_ib: the diagonal
+   * gains wall sum_b psi_b^2 gradW_ib^T M_b^-1 gradW_ib (bminv: M_b^-1 per boundary slot, 0 for
+   * walls, bodies and anchored nodes) */
   float sn = 0.0f;
   if (nodes) {
     __global const uint* bl = bnbr + (size_t)i * K;
     const uint nbb = bnbr_count[i];
     for (uint q = 0; q < nbb; ++q) {
       const uint b = bl[q];
-      const float iv = binv[b];
+      const float iv = bminv[3 * b].w;
       if (iv == 0.0f) continue;
       const float4 bb = bpos[b];
       const float3 d = xi - bb.xyz;
@@ -774,31 +779,94 @@ __kernel void dfsph_wall_list_pressure(const SimParams p, const uint n_active, _
  * together, as Gissler et al. 2019 ("Interlinked SPH pressure solvers for strong fluid-rigid
  * coupling") do for rigid bodies. The nodes' springs and gravity stay with the cloth's own step. */
 
-/* Per step: each node's slot gets 1 / m_b (0 anchored) and a zero acceleration; the other slots
- * were zeroed by the host (walls and bodies do not move in the solves). */
-__kernel void dfsph_node_slots(const uint n, const uint offset, __global const float4* nodes,
-                               __global const uint* slot, __global float* binv, __global float4* bacc) {
+/* Per step: each node's slot gets its response M_b^-1 (cloth.cl, cloth_node_response: the node's
+ * mass with its springs implicit; 0 anchored) and a zero acceleration; the other slots were zeroed
+ * by the host (walls and bodies do not move in the solves). */
+__kernel void dfsph_node_slots(const SimParams p, const uint n, const uint offset, __global const float4* nodes,
+                               __global const float4* response, __global const uint* slot, __global const float4* pos,
+                               __global const uint* phase, __global const uint* cell_start,
+                               __global const uint* row_start, __global const uint* other,
+                               __global float4* bminv, __global float4* bacc) {
   const uint k = get_global_id(0);
   if (k >= n) return;
   const uint s = slot[offset + k];
-  binv[s] = nodes[k].w;
   bacc[s] = (float4)(0.0f);
+  const float4 xk = nodes[k];
+  /* water on both sides of the sheet: its normal from two of the node's springs (the first pair
+   * more than 30 degrees apart), the fluid within H weighed by W on either side of it */
+  float3 nrm = (float3)(0.0f);
+  {
+    float3 u0 = (float3)(0.0f);
+    for (uint e = row_start[k]; e < row_start[k + 1]; ++e) {
+      const float3 d = nodes[other[e]].xyz - xk.xyz;
+      const float L = length(d);
+      if (L <= 0.0f) continue;
+      const float3 u = d / L;
+      if (dot(u0, u0) == 0.0f) {
+        u0 = u;
+        continue;
+      }
+      const float3 c = cross(u0, u);
+      if (length(c) > 0.5f) {
+        nrm = normalize(c);
+        break;
+      }
+    }
+  }
+  const float H = p.support;
+  float above = 0.0f, below = 0.0f;
+  SPH_FOR_NEIGHBOURS(&p, cell_start, xk.xyz, i) {
+    const float3 d = pos[i].xyz - xk.xyz;
+    const float r2 = dot(d, d);
+    if (r2 < H * H) {
+      const float w = sph_w(SPH_KERNEL, sqrt(r2), H);
+      if (dot(d, nrm) >= 0.0f) above += w; else below += w;
+    }
+  }
+  SPH_END_NEIGHBOURS
+  if (xk.w != 0.0f && dot(nrm, nrm) > 0.0f && fmin(above, below) > 0.25f * fmax(above, below)) {
+    /* water on both sides: the water's inertia, not the springs, answers the node's motion across
+     * the sheet; the node moves as its mass (w of the second row: 1, no spring sweep) */
+    bminv[3 * s] = (float4)(xk.w, 0.0f, 0.0f, xk.w);
+    bminv[3 * s + 1] = (float4)(0.0f, xk.w, 0.0f, 1.0f);
+    bminv[3 * s + 2] = (float4)(0.0f, 0.0f, xk.w, 0.0f);
+    return;
+  }
+  bminv[3 * s] = (float4)(response[3 * k].xyz, xk.w); /* w: 1 / m, the diagonal's (dfsph_factor) */
+  bminv[3 * s + 1] = (float4)(response[3 * k + 1].xyz, 0.0f);
+  bminv[3 * s + 2] = response[3 * k + 2];
 }
 
-/* Per iteration: node k's pressure acceleration a_b = F_b / m_b, F_b the reaction to the pressure
- * force its fluid neighbours feel from it (dfsph_force's wall terms): F_b = sum_i (wall t_i +
- * use_bp p_b / delta_i^2) psi_b gradW_ib, t_i = p_i / delta_i^2 (xt.w), gradW_ib = F (x_i - x_b).
+
+/* Per iteration: node k's acceleration a_k in the step under the pressure force of the current
+ * pressures, F_k = sum_i (wall t_i + use_bp p_b / delta_i^2) psi_b gradW_ib (the reaction to
+ * dfsph_force's wall terms; t_i = p_i / delta_i^2 = xt.w, gradW_ib = F (x_i - x_b)), with the
+ * cloth's springs implicit: (M_k + dt^2 K) a = F over the whole sheet (M_k the node's mass,
+ * K the springs' stiffness, dt c + dt^2 k along a spring and dt^2 T / L across it, as
+ * cloth.cl's cloth_node_response). One block-Jacobi sweep of that system per iteration of the
+ * pressure solve, from the last sweep's accelerations (nacc_in, kept from step to step):
+ *     a_k = A_k^-1 (F_k + sum_e K_e a_j),  A_k = M_k + sum_e K_e (bminv: A_k^-1),
+ * so a sheet whose springs carry the load (a hammock) moves as little as they let it, and a
+ * sheet pressed flat between two layers moves as freely as its mass lets it, once the sweeps
+ * have spread the load (the coupled iteration converges, as A is block diagonally dominant).
  * w = 1 marks a free node (dfsph_jacobi skips the others). */
 __kernel void dfsph_node_accel(const SimParams p, const uint n, const uint offset, __global const float4* nodes,
+                               __global const float4* bminv,
                                __global const uint* slot, __global const float4* bpos, __global const float4* xt,
                                __global const uint* phase, __global const float* density,
                                __global const uint* cell_start, const float wall, __global const float* bpr,
-                               const int use_bp, __global float4* bacc) {
+                               const int use_bp, __global const uint* row_start, __global const uint* spring,
+                               __global const uint* other, __global const float4* prm,
+                               __global const uint* broken, __global const float4* nacc_in,
+                               __global float4* nacc_out, __global float4* bacc) {
   const uint k = get_global_id(0);
   if (k >= n) return;
-  const float iv = nodes[k].w;
+  const float4 xk = nodes[k];
   const uint s = slot[offset + k];
-  if (iv == 0.0f) return; /* anchored: stays (0, 0, 0, 0) from dfsph_node_slots */
+  if (xk.w == 0.0f) { /* anchored: stays (0, 0, 0, 0) from dfsph_node_slots */
+    nacc_out[k] = (float4)(0.0f);
+    return;
+  }
   const float4 bb = bpos[s];
   const float3 xb = bb.xyz;
   const float H = p.support;
@@ -814,7 +882,27 @@ __kernel void dfsph_node_accel(const SimParams p, const uint n, const uint offse
     }
   }
   SPH_END_NEIGHBOURS
-  bacc[s] = (float4)(F * iv, 1.0f);
+  /* the springs: sum_e K_e a_j, K_e = ax u u^T + tr (I - u u^T) (none for a node moving as its mass) */
+  const float dt = p.dt;
+  const bool free_node = bminv[3 * s + 1].w != 0.0f;
+  const uint end = free_node ? row_start[k] : row_start[k + 1];
+  for (uint e = row_start[k]; e < end; ++e) {
+    const uint sp = spring[e];
+    if (broken[sp]) continue;
+    const uint j = other[e];
+    const float3 d = nodes[j].xyz - xk.xyz;
+    const float L = length(d);
+    if (L <= 0.0f) continue;
+    const float3 u = d / L;
+    const float4 q = prm[sp];
+    const float ax = dt * q.z + dt * dt * q.y;
+    const float tr = dt * dt * fmax(q.y * (L - q.x), 0.0f) / L;
+    const float3 aj = nacc_in[j].xyz;
+    F += tr * aj + (ax - tr) * dot(u, aj) * u;
+  }
+  const float3 a = free_node ? xk.w * F : 0.5f * (nacc_in[k].xyz + dfsph_mul3(bminv, s, F));
+  nacc_out[k] = (float4)(a, 0.0f);
+  bacc[s] = (float4)(a, 1.0f);
 }
 
 /* After the divergence solve: the nodes move on by dt a_b in the density solve's eyes (the cloth's
