@@ -502,11 +502,13 @@ std::vector<KeyDef> buildTable() {
                "sum over a run is one step's worth); 0 = off (the plain update)"));
   add(field<InScene>("fluid.dfsph.cloth_coupling", [](auto& s) -> auto& { return s.fluid.dfsph.cloth_coupling; })
           .doc("strong (the default): the free cloth and soft-body nodes move under the pressure inside each "
-               "iteration of both solves, a_b = F_b / m_b, and every fluid particle's residual counts them "
-               "(as Gissler et al. 2019 couple rigid bodies), so fluid and nodes meet the density constraint "
-               "together; staggered: the nodes answer the solves' pressure only in the cloth's step after, and a "
-               "light sheet between two water layers swings with period 2 steps and blows up (docs/dfsph.md, "
-               "session 17). Not with walls: mirrored (always staggered)"));
+               "iteration of both solves and every fluid particle's residual counts their motion (as Gissler et "
+               "al. 2019 couple rigid bodies), so fluid and nodes meet the density constraint together; a node "
+               "with water on both sides moves as its mass, one with water on one side with its springs implicit "
+               "(kernels/dfsph.cl). staggered: the nodes answer the solves' pressure only in the cloth's step "
+               "after; a light sheet between two water layers then swings with period 2 steps and blows up "
+               "(scenes/balls_on_cloth.yaml at 0.043 s; docs/dfsph.md, session 17). Walls: mirrored is always "
+               "staggered"));
   add(field<InScene>("fluid.particle_spacing", [](auto& s) -> auto& { return s.fluid.particle_spacing; })
           .unit("m").greaterThan(0).doc("lattice spacing dx of the fluid particles"));
   add(field<InScene>("fluid.equation_of_state", [](auto& s) -> auto& { return s.fluid.equation_of_state; })

@@ -108,6 +108,22 @@ inline float3 dfsph_mul3(__global const float4* m, const uint s, const float3 v)
   return (float3)(dot(m[3 * s].xyz, v), dot(m[3 * s + 1].xyz, v), dot(m[3 * s + 2].xyz, v));
 }
 
+/* sum_b psi_b a_b . gradW_ib over a boundary list, a_b the cloth nodes' accelerations in the solves
+ * (dfsph_node_accel; w = 0 for the rest of the boundary, skipped) */
+inline float dfsph_node_sum(const float3 xi, __global const uint* list, const uint nb, __global const float4* bpos,
+                            __global const float4* bacc, const float H) {
+  float sum = 0.0f;
+  for (uint q = 0; q < nb; ++q) {
+    const uint b = list[q];
+    const float4 ab = bacc[b];
+    if (ab.w == 0.0f) continue;
+    const float4 bb = bpos[b];
+    const float3 d = xi - bb.xyz;
+    sum += bb.w * sph_grad_factor(SPH_KERNEL, length(d), H) * dot(ab.xyz, d);
+  }
+  return sum;
+}
+
 /* Factor alpha_i = delta_i^2 / D_i (B&K 2017 eq. 9, for the pressure force above), and the wall
  * sums gwall_i (above). With `with_rate` also the divergence solve's density rate D delta_i / Dt
  * (B&K 2017 eq. 2) of the velocities `vel` into rate_out, from the same pairs: one neighbour pass
@@ -174,9 +190,11 @@ __kernel void dfsph_factor(const SimParams p, __global const float4* pos, __glob
   if (with_rate) rate_out[i] = rate + (dot(vi, gw.xyz) - gw.w);
   const float3 gb = gw.xyz;
   /* nodes (cloth nodes move inside the solves, dfsph_node_accel): p_i moves each node b near i by
-   * M_b^-1 wall t_i psi_b gradW_ib, which the residual sees as -psi_b a_b . gradW_ib: the diagonal
-   * gains wall sum_b psi_b^2 gradW_ib^T M_b^-1 gradW_ib (bminv: M_b^-1 per boundary slot, 0 for
-   * walls, bodies and anchored nodes) */
+   * at most wall t_i psi_b gradW_ib / m_b, which the residual sees as -psi_b a_b . gradW_ib: the
+   * diagonal gains wall sum_b psi_b^2 |gradW_ib|^2 / m_b (bminv[3b].w: 1 / m_b per boundary slot, 0
+   * for walls, bodies and anchored nodes). A node held by its springs moves less: the bound keeps
+   * the relaxed iteration from overshooting (with M^-1 of the springs here, the sandwich test's
+   * sheet swung up: its sweeps spread the load, and the response grew past the diagonal's). */
   float sn = 0.0f;
   if (nodes) {
     __global const uint* bl = bnbr + (size_t)i * K;
@@ -369,17 +387,7 @@ __kernel void dfsph_jacobi(const SimParams p, __global const float4* pos, __glob
   Ap += dot(ai, gwall[i].xyz); /* sum_b psi_b a_i . gradW_ib = a_i . G_b */
   /* nodes: the cloth nodes' pressure accelerations (dfsph_node_accel; 0 for the other boundary
    * particles), - sum_b psi_b a_b . gradW_ib */
-  if (nodes) {
-    __global const uint* bl = bnbr + (size_t)i * K;
-    for (uint q = 0; q < nb; ++q) {
-      const uint b = bl[q];
-      const float4 ab = bacc[b];
-      if (ab.w == 0.0f) continue;
-      const float4 bb = bpos[b];
-      const float3 d = xi - bb.xyz;
-      Ap -= bb.w * sph_grad_factor(SPH_KERNEL, length(d), H) * dot(ab.xyz, d);
-    }
-  }
+  if (nodes) Ap -= dfsph_node_sum(xi, bnbr + (size_t)i * K, nb, bpos, bacc, H);
   const float r = source[i] + p.dt * p.dt * p.rest_volume * Ap;
   const float inc = omega * r * alpha[i] / (p.dt * p.dt * p.rest_volume);
   const float p0 = pressure[i];
@@ -772,16 +780,25 @@ __kernel void dfsph_wall_list_pressure(const SimParams p, const uint n_active, _
  * A cloth node is a boundary particle for the fluid, but unlike a wall it moves under the pressure
  * the solve is finding. Staggered (the node answering the pressure only after the step), a light
  * node between incompressible water swings with period 2 steps and grows (the added-mass
- * instability: scenes/balls_on_cloth.yaml blew up at t = 0.043 s). So each iteration moves the free
- * nodes by the pressure force of the current pressures, a_b = F_b / m_b (dfsph_node_accel), and
- * the residual of every fluid particle near them counts -sum_b psi_b a_b . gradW_ib (dfsph_jacobi),
- * as it counts its fluid neighbours' accelerations: fluid and nodes satisfy the constraint
- * together, as Gissler et al. 2019 ("Interlinked SPH pressure solvers for strong fluid-rigid
- * coupling") do for rigid bodies. The nodes' springs and gravity stay with the cloth's own step. */
+ * instability: scenes/balls_on_cloth.yaml blew up at t = 0.043 s, and at 0.79 s even at 1 ms
+ * steps). So each iteration moves the free nodes under the pressure force of the current pressures
+ * (dfsph_node_accel), and the residual of every fluid particle near them counts -sum_b psi_b a_b .
+ * gradW_ib (dfsph_jacobi), as it counts its fluid neighbours' accelerations: fluid and nodes meet
+ * the density constraint together, as Gissler et al. 2019 ("Interlinked SPH pressure solvers for
+ * strong fluid-rigid coupling") do for rigid bodies. How a node answers (dfsph_node_slots):
+ *  - water on both sides of the sheet (the sandwich): the water's inertia holds the node's motion
+ *    across the sheet, not its springs, so it moves as its mass, a_b = F_b / m_b;
+ *  - water on one side (a hammock, a slab under a pool): the springs carry the load, so the node
+ *    moves with its springs implicit, one relaxed block-Jacobi sweep of (M + dt^2 K) a = F per
+ *    iteration (a = F / m let the pool through the hammock: 11 crossings in 2 s).
+ * The Jacobi diagonal takes 1 / m_b either way (an upper bound of the response: dfsph_factor).
+ * The nodes' springs, gravity and contacts stay with the cloth's own step, which takes the fluid's
+ * force of the final pressures (Simulation::gatherClothForces). */
 
-/* Per step: each node's slot gets its response M_b^-1 (cloth.cl, cloth_node_response: the node's
- * mass with its springs implicit; 0 anchored) and a zero acceleration; the other slots were zeroed
- * by the host (walls and bodies do not move in the solves). */
+/* Per step: each node's slot gets its response (rows of M_b^-1; w of the first row 1 / m_b for the
+ * diagonal, w of the second 1 for a node that moves as its mass) and a zero acceleration; the other
+ * slots were zeroed by the host (walls and bodies do not move in the solves). response: cloth.cl's
+ * cloth_node_response, the node's mass with its springs implicit (0 anchored). */
 __kernel void dfsph_node_slots(const SimParams p, const uint n, const uint offset, __global const float4* nodes,
                                __global const float4* response, __global const uint* slot, __global const float4* pos,
                                __global const uint* phase, __global const uint* cell_start,
@@ -840,15 +857,12 @@ __kernel void dfsph_node_slots(const SimParams p, const uint n, const uint offse
 
 /* Per iteration: node k's acceleration a_k in the step under the pressure force of the current
  * pressures, F_k = sum_i (wall t_i + use_bp p_b / delta_i^2) psi_b gradW_ib (the reaction to
- * dfsph_force's wall terms; t_i = p_i / delta_i^2 = xt.w, gradW_ib = F (x_i - x_b)), with the
- * cloth's springs implicit: (M_k + dt^2 K) a = F over the whole sheet (M_k the node's mass,
- * K the springs' stiffness, dt c + dt^2 k along a spring and dt^2 T / L across it, as
- * cloth.cl's cloth_node_response). One block-Jacobi sweep of that system per iteration of the
- * pressure solve, from the last sweep's accelerations (nacc_in, kept from step to step):
- *     a_k = A_k^-1 (F_k + sum_e K_e a_j),  A_k = M_k + sum_e K_e (bminv: A_k^-1),
- * so a sheet whose springs carry the load (a hammock) moves as little as they let it, and a
- * sheet pressed flat between two layers moves as freely as its mass lets it, once the sweeps
- * have spread the load (the coupled iteration converges, as A is block diagonally dominant).
+ * dfsph_force's wall terms; t_i = p_i / delta_i^2 = xt.w, gradW_ib = F (x_i - x_b)). A node that
+ * moves as its mass: a_k = F_k / m_k. Else its springs implicit, (M + dt^2 K) a = F over the sheet
+ * (M the nodes' masses, K the springs' stiffness: dt c + dt^2 k along a spring, dt^2 T / L across
+ * it, as cloth.cl's cloth_node_response), one block-Jacobi sweep per iteration of the pressure
+ * solve from the last sweep (nacc_in, kept from step to step), relaxed by 1/2:
+ *     a_k = (a_k' + A_k^-1 (F_k + sum_e K_e a_j)) / 2,  A_k = M_k + sum_e K_e (bminv: A_k^-1).
  * w = 1 marks a free node (dfsph_jacobi skips the others). */
 __kernel void dfsph_node_accel(const SimParams p, const uint n, const uint offset, __global const float4* nodes,
                                __global const float4* bminv,
@@ -914,20 +928,6 @@ __kernel void dfsph_node_rate(const SimParams p, __global const float4* pos, __g
   const uint i = get_global_id(0);
   if (i >= p.n_fluid) return;
   const uint K = p.max_neighbours;
-  const float H = p.support;
-  const float3 xi = pos[i].xyz;
-  __global const uint* bl = bnbr + (size_t)i * K;
-  const uint nb = bnbr_count[i];
-  float add = 0.0f;
-  bool any = false;
-  for (uint q = 0; q < nb; ++q) {
-    const uint b = bl[q];
-    const float4 ab = bacc[b];
-    if (ab.w == 0.0f) continue;
-    const float4 bb = bpos[b];
-    const float3 d = xi - bb.xyz;
-    add += bb.w * sph_grad_factor(SPH_KERNEL, length(d), H) * dot(ab.xyz, d);
-    any = true;
-  }
-  if (any) gwall[i].w += p.dt * add;
+  const float add = dfsph_node_sum(pos[i].xyz, bnbr + (size_t)i * K, bnbr_count[i], bpos, bacc, p.support);
+  if (add != 0.0f) gwall[i].w += p.dt * add;
 }
