@@ -326,7 +326,7 @@ class Simulation {
   // DFSPH's blown-up-flow guard (advanceFrame): consecutive steps faster than 2 c0, and how many stop the
   // run (or one faster than 10 c0).
   int fast_steps_ = 0;
-  static constexpr int kFastSteps = 20;
+  static constexpr int kFastSteps = 3;
   double step_max_pressure_ = 0.0;  // DFSPH: the last step's largest p_i / rho_i (unit: m^2/s^2)
   double iteration_step_limit_ = INFINITY;  // DFSPH: the step bound of fluid.dfsph.step_iterations (unit: s)
   FrameReport dfsph_frame_;      // iteration and error fields only
