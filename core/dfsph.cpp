@@ -130,7 +130,8 @@ void DfsphSolver::factors(const SimParams& p, const DfsphFields& f, bool diverge
   // sums its density rate from the same pairs, into source_ (one neighbour pass fewer per step).
   rate_in_source_ = divergence_next && !mirrored();
   // Cloth nodes move inside the solves (kernels/dfsph.cl, dfsph_node_accel; not with mirrored walls,
-  // whose iteration has no residual pass): each slot's 1 / m_b, 0 for the rest of the boundary.
+  // whose iteration has no residual pass): each node's slot gets its response (M_b^-1, 1 / m_b), the
+  // rest of the boundary zeros.
   nodes_ = f.n_nodes > 0 && !mirrored();
   if (nodes_) {
     if (!bminv_()) {

@@ -437,10 +437,10 @@ __kernel void cloth_cut(const uint ns, const uint n_cutters, __global const floa
 
 /* DFSPH's strong coupling (dfsph.cl, dfsph_node_accel): how a node answers a force within one step,
  * its springs implicit with the other ends held: M_i = m_i (1 + dt c_air) I + sum over its unbroken
- * springs of (dt c + dt^2 k) u u^T + dt^2 max(T, 0) / L (I - u u^T), T = k (L - L0) the tension (the
- * stiffness of a stretched spring across itself), so a = M_i^-1 F. A flat sheet's springs do not
- * resist its own normal motion (only the tension does), a sagging one's do. Out: the rows of M_i^-1
- * (3 float4 per node, unit: 1/kg); zero for anchored nodes. */
+ * springs of K_e (shared/cloth_springs.h: dt c + dt^2 k along the spring, dt^2 max(T, 0) / L across
+ * it), so a = M_i^-1 F. A flat sheet's springs do not resist its own normal motion (only the tension
+ * does), a sagging one's do. Out: the rows of M_i^-1 (3 float4 per node, unit: 1/kg); zero for
+ * anchored nodes. */
 __kernel void cloth_node_response(const uint n, const float dt, __global const float4* x, __global const float* mass,
                                   __global const float* drag, __global const uint* row_start,
                                   __global const uint* spring, __global const uint* other,
@@ -462,8 +462,8 @@ __kernel void cloth_node_response(const uint n, const float dt, __global const f
     if (L <= 0.0f) continue;
     const float3 u = d / L;
     const float4 q = prm[sp];
-    const float ax = dt * q.z + dt * dt * q.y;               /* along the spring */
-    const float tr = dt * dt * fmax(q.y * (L - q.x), 0.0f) / L; /* across it */
+    const float2 K = cloth_spring_step_stiffness(q, L, dt); /* along, across (shared/cloth_springs.h) */
+    const float ax = K.x, tr = K.y;
     const float c = ax - tr;
     a00 += tr + c * u.x * u.x;
     a11 += tr + c * u.y * u.y;

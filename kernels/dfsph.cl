@@ -909,8 +909,8 @@ __kernel void dfsph_node_accel(const SimParams p, const uint n, const uint offse
     if (L <= 0.0f) continue;
     const float3 u = d / L;
     const float4 q = prm[sp];
-    const float ax = dt * q.z + dt * dt * q.y;
-    const float tr = dt * dt * fmax(q.y * (L - q.x), 0.0f) / L;
+    const float2 K = cloth_spring_step_stiffness(q, L, dt); /* along, across (shared/cloth_springs.h) */
+    const float ax = K.x, tr = K.y;
     const float3 aj = nacc_in[j].xyz;
     F += tr * aj + (ax - tr) * dot(u, aj) * u;
   }
