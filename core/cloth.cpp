@@ -288,6 +288,7 @@ ClothModel compileCloths(const std::vector<ClothSpec>& specs, std::vector<InputI
   };
   std::vector<std::array<uint32_t, 2>> ends;
   m.explicit_dt_limit = std::numeric_limits<double>::infinity();
+  m.xpbd_dt_limit = std::numeric_limits<double>::infinity();
 
   for (std::size_t c = 0; c < specs.size(); ++c) {
     const ClothSpec& s = specs[c];
@@ -317,6 +318,7 @@ ClothModel compileCloths(const std::vector<ClothSpec>& specs, std::vector<InputI
     m.first_spring.push_back(static_cast<uint32_t>(ends.size()));
     m.xpbd.push_back(s.solver == ClothSolver::Xpbd ? 1 : 0);
     m.iterations.push_back(static_cast<uint32_t>(std::max(1, s.iterations)));
+    if (s.solver == ClothSolver::Xpbd) m.xpbd_dt_limit = std::min(m.xpbd_dt_limit, s.max_time_step);
 
     // Nodes: equal masses (areal density x area / nodes); anchored nodes get inverse mass 0. A mesh
     // cloth: each vertex a third of the area of its triangles (lumped mass), so the masses sum to
@@ -448,6 +450,7 @@ ClothModel compileCloths(const std::vector<ClothSpec>& specs, std::vector<InputI
     m.first_spring.push_back(static_cast<uint32_t>(ends.size()));
     m.xpbd.push_back(s.solver == ClothSolver::Xpbd ? 1 : 0);
     m.iterations.push_back(static_cast<uint32_t>(std::max(1, s.iterations)));
+    if (s.solver == ClothSolver::Xpbd) m.xpbd_dt_limit = std::min(m.xpbd_dt_limit, s.max_time_step);
 
     // Lumped masses: each cell's mass, density x volume, an eighth to each corner.
     const double cell_mass = s.density * L.spacing.prod();
@@ -690,28 +693,38 @@ std::vector<Eigen::Vector3d> ClothSim::step(double t, double dt, const Eigen::Ve
     const double h = dt / last_substeps_;
     for (int k = 0; k < last_substeps_; ++k) explicitSubstep(t + k * h, float(h), g4, fext);
   }
-  // XPBD cloths: one step of dt, `iterations` coloured Gauss-Seidel sweeps.
+  // XPBD cloths: equal substeps of at most xpbd_dt_limit (cloth[].max_time_step), each `iterations`
+  // coloured Gauss-Seidel sweeps, the step's external force (the fluid's) and gravity in each. A
+  // fixed number of sweeps holds stiff springs less the longer the step, and a heavy ball pushes
+  // through light nodes: substeps rather than more sweeps (Macklin et al. 2019, "Small steps in
+  // physics simulation"). Balls: each substep's projections add to their impulses.
+  last_xpbd_substeps_ = 0;
   if (any_xpbd_) {
-    uploadTracks(t + dt);
-    xpbdStep(t, float(dt), g4, fext, ns);
+    const int k = std::max(1, static_cast<int>(std::ceil(dt / m_.xpbd_dt_limit * (1.0 - 1e-12))));
+    const double h = dt / k;
+    last_xpbd_substeps_ = k;
+    last_dt_ = h;
+    for (int j = 0; j < k; ++j) {
+      uploadTracks(t + (j + 1) * h);
+      xpbdStep(t + j * h, float(h), g4, fext, ns);
+      if (ns > 0 && !dry_) {
+        k_.call("cloth_sphere_shift_reduce", ns, 0, n_, ns, float(h), mass_, drag_, shift_, impulse_sum_);
+        std::vector<Eigen::Vector4f> sums(ns);
+        clCall("reading the sphere impulses", [&] { return cl_.queue().enqueueReadBuffer(impulse_sum_, CL_TRUE, 0, ns * 16, sums.data()); });
+        for (uint32_t q = 0; q < ns; ++q) J[q] += sums[q].head<3>().cast<double>();
+      }
+    }
   }
-  last_dt_ = dt;
   // The domain's closed walls (the fluid's boundary particles do not push the nodes).
   if (m_.closed_mask != 0) {
     const cl_float4 lo{{m_.walls_min.x(), m_.walls_min.y(), m_.walls_min.z(), 0.0f}};
     const cl_float4 hi{{m_.walls_max.x(), m_.walls_max.y(), m_.walls_max.z(), 0.0f}};
     k_.call("cloth_domain_walls", n_, 64, n_, lo, hi, m_.closed_mask, m_.wall_margin, x_[cur_], v_[cur_], xlo_[lo_cur_]);
   }
-  if (m_.any_tear) tear();
-  if (ns == 0) return J;
+  if (m_.any_tear && !dry_) tear();
+  if (ns == 0 || dry_) return J;
   // Balls: the XPBD nodes' projections (J = -sum m dx / dt, in node order), then the explicit
   // nodes' velocity contact.
-  if (any_xpbd_) {
-    k_.call("cloth_sphere_shift_reduce", ns, 0, n_, ns, float(dt), mass_, drag_, shift_, impulse_sum_);
-    std::vector<Eigen::Vector4f> sums(ns);
-    clCall("reading the sphere impulses", [&] { return cl_.queue().enqueueReadBuffer(impulse_sum_, CL_TRUE, 0, ns * 16, sums.data()); });
-    for (uint32_t k = 0; k < ns; ++k) J[k] += sums[k].head<3>().cast<double>();
-  }
   if (any_explicit_) {
     const std::vector<Eigen::Vector3d> Je = collideSpheres(spheres);
     for (uint32_t k = 0; k < ns; ++k) J[k] += Je[k];
@@ -794,6 +807,29 @@ std::vector<Eigen::Vector3d> ClothSim::collideSpheres(const std::vector<SphereCo
 
 void ClothSim::nodeResponse(double dt, cl::Buffer& out) {
   k_.call("cloth_node_response", n_, 64, n_, float(dt), x_[cur_], mass_, drag_, row_start_, spring_, other_, prm_, broken_, out);
+}
+
+void ClothSim::dryVelocityChange(double t, double dt, const Eigen::Vector3d& g,
+                                 const std::vector<SphereCollider>& spheres, cl::Buffer& out) {
+  if (n_ == 0) return;
+  const std::size_t bytes = std::size_t(n_) * 16;
+  if (!dry_x_()) dry_x_ = make(bytes), dry_v_ = make(bytes), dry_lo_ = make(bytes);
+  const int cur = cur_, lo_cur = lo_cur_, substeps = last_substeps_, xpbd_substeps = last_xpbd_substeps_;
+  const double last_dt = last_dt_;
+  auto copy = [&](const cl::Buffer& from, cl::Buffer& to) {
+    clCall("keeping the cloth over a dry step", [&] { return cl_.queue().enqueueCopyBuffer(from, to, 0, 0, bytes); });
+  };
+  copy(x_[cur], dry_x_);
+  copy(v_[cur], dry_v_);
+  copy(xlo_[lo_cur], dry_lo_);
+  dry_ = true;
+  step(t, dt, g, nullptr, spheres);
+  dry_ = false;
+  k_.call("cloth_velocity_change", n_, 64, n_, v_[cur_], dry_v_, out);
+  cur_ = cur, lo_cur_ = lo_cur, last_substeps_ = substeps, last_xpbd_substeps_ = xpbd_substeps, last_dt_ = last_dt;
+  copy(dry_x_, x_[cur]);
+  copy(dry_v_, v_[cur]);
+  copy(dry_lo_, xlo_[lo_cur]);
 }
 
 void ClothSim::setCutters(const std::vector<const TriMesh*>& meshes) {

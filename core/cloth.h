@@ -128,6 +128,8 @@ struct ClothModel {
   bool any_tear = false;                 ///< some spring can break
   /// Explicit solver: the largest stable step over the explicit cloths (unit: s); inf when none.
   double explicit_dt_limit = 0.0;
+  /// XPBD: the longest substep over the XPBD cloths and soft bodies (their max_time_step) (unit: s); inf when none.
+  double xpbd_dt_limit = 0.0;
   /// The domain's closed walls, which hold the nodes as they hold the fluid (integrate.cl): a free
   /// node past one is put back just inside and loses its velocity into it.
   Eigen::Vector4f walls_min = Eigen::Vector4f::Zero();  ///< (unit: m)
@@ -211,6 +213,8 @@ class ClothSim {
   void cut(const std::vector<CutterPose>& poses);
   /// Substeps the explicit solver took in the last step().
   int lastSubsteps() const { return last_substeps_; }
+  /// Substeps the XPBD solver took in the last step() (ClothModel::xpbd_dt_limit).
+  int lastXpbdSubsteps() const { return last_xpbd_substeps_; }
   /// Positions (w = inverse mass) and velocities of all nodes.
   void read(std::vector<Eigen::Vector4f>& x, std::vector<Eigen::Vector4f>& v);
   /// Overwrites positions and velocities of all nodes (the host-side contact with bodies).
@@ -222,6 +226,11 @@ class ClothSim {
   /// springs implicit (kernels/cloth.cl, cloth_node_response): the rows of M^-1, 3 float4 per node
   /// into `out` (unit: 1/kg; zero for anchored nodes).
   void nodeResponse(double dt, cl::Buffer& out);
+  /// DFSPH's strong coupling: what this step would do to each node's velocity without the fluid
+  /// (gravity, springs, anchors, damping, balls, the domain's walls: step() with no external force
+  /// and no tearing), v' - v per node into `out` (float4, unit: m/s). The cloth is left as it was.
+  void dryVelocityChange(double t, double dt, const Eigen::Vector3d& g, const std::vector<SphereCollider>& spheres,
+                         cl::Buffer& out);
   const cl::Buffer& positions() const { return x_[cur_]; }
   /// The spring table (ClothModel's row_start, spring, other, prm) and the broken flags.
   const cl::Buffer& rowStart() const { return row_start_; }
@@ -248,9 +257,11 @@ class ClothSim {
   std::size_t bytes_ = 0;
   uint32_t n_ = 0, ns_ = 0, max_iterations_ = 0;
   int cur_ = 0;
-  int last_substeps_ = 0;
-  double last_dt_ = 0.0;  // the last step's length (unit: s)
+  int last_substeps_ = 0, last_xpbd_substeps_ = 0;
+  double last_dt_ = 0.0;  // the last XPBD (sub)step's length, for its constraint forces (unit: s)
   bool any_explicit_ = false, any_xpbd_ = false;
+  bool dry_ = false;              // inside dryVelocityChange: no tearing, no impulses read
+  cl::Buffer dry_x_, dry_v_, dry_lo_;  // the state kept over a dry step
   cl::Buffer x_rest_, track_;  // placed positions; tracks at the step's end (offset, velocity) per track
   // Explicit solver: the low parts of the positions (x = x_[cur_] + xlo_[lo_cur_], an unevaluated
   // float sum, kernels/cloth.cl), ping-ponged by its substeps only (unit: m); zero elsewhere.

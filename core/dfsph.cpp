@@ -228,15 +228,9 @@ void DfsphSolver::apply(Kind kind, const SimParams& p, const DfsphFields& f, con
   if (use_bp) boundaryPressure(kind, p, f, pressure);
   kernels_.call("dfsph_apply_pressure", p.n_fluid, kLocal, p, xt_, *f.vel, *f.phase, *f.density, pressure, *f.snbr,
                 *f.snbr_count, *f.bpos, *f.sbnbr, *f.sbnbr_count, wallFactor(), wallPressure(kind), use_bp, gwall_);
-  // Cloth nodes after the divergence solve: the density solve must see them moving as its pressure
-  // moves them (v_b + dt a_b), as it sees the fluid: its density rate takes the walls' part from
-  // gwall.w (factors()), which gains dt sum_b psi_b a_b . gradW_ib. Without it the two solves disagree
-  // on the nodes' motion every step, and a sheet sealed between two layers never came to rest
-  // (cloth kinetic energy ~1e-3 J at 1 s, against 1e-10 J with no divergence solve; session 17).
-  if (nodes_ && kind == Kind::Divergence) {
-    nodeAccel(kind, p, f);
-    kernels_.call("dfsph_node_rate", p.n_fluid, kLocal, p, *f.pos, *f.bpos, *f.sbnbr, *f.sbnbr_count, bacc_, gwall_);
-  }
+  // Cloth nodes after the divergence solve: their acceleration under its final pressures, for the
+  // density solve (densitySolve(), dfsph_node_rate).
+  if (nodes_ && kind == Kind::Divergence) nodeAccel(kind, p, f);
 }
 
 // --- Mirrored walls: the first version's iteration (kernels/dfsph.cl) ----------------------
@@ -406,6 +400,20 @@ DfsphSolveResult DfsphSolver::densitySolve(const SimParams& p, const DfsphFields
   const int contact = extrapolated() && f.n_boundary > 0 ? 1 : 0;
   kernels_.call("dfsph_predict", p.n_fluid, kLocal, p, *f.vel, *f.acc, contact, *f.pos, *f.bpos, *f.bvel, *f.sbnbr,
                 *f.sbnbr_count, kWallContactStiffness, kWallContactRange);
+  // Cloth nodes: the density solve must see them move as the step will move them, as it sees the
+  // fluid at v* (kernels/dfsph.cl, dfsph_node_rate): its density rate takes the walls' part from
+  // gwall.w (factors()), which gains dt sum_b psi_b a_b . gradW_ib, a_b the divergence solve's
+  // pressure acceleration (without it the two solves disagreed on the nodes' motion every step and a
+  // sheet sealed between two layers never came to rest, session 17) plus what the cloth's own forces
+  // do in the step (gravity, springs, balls; f.node_dv / dt), as the fluid's v* takes gravity (without
+  // it a ball resting on a sheet over sealed water pushed the sheet down unseen every step and sank
+  // 3.5 cm deeper than with WCSPH; session 18).
+  if (nodes_) {
+    if (f.node_dv)
+      kernels_.call("dfsph_node_dry", f.n_nodes, kLocal, f.n_nodes, f.node_offset, 1.0f / p.dt, *f.nodes, *f.bslot,
+                    *f.node_dv, bacc_);
+    kernels_.call("dfsph_node_rate", p.n_fluid, kLocal, p, *f.pos, *f.bpos, *f.sbnbr, *f.sbnbr_count, bacc_, gwall_);
+  }
   const DfsphSolveResult r = solve(Kind::Density, p, f);
   // Extrapolated walls: the velocities after the solve move no particle closer than the gap to a
   // closed wall's plane (kernels/dfsph.cl, dfsph_wall_impulse: an inelastic contact).

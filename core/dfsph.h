@@ -60,6 +60,9 @@ struct DfsphFields {
   const cl::Buffer* nodes = nullptr;      ///< (n_nodes x float4) positions, w = 1 / m (0 anchored) (unit: m, 1/kg)
   const cl::Buffer* response = nullptr;   ///< (n_nodes x 3 float4) each node's M^-1 this step (cloth.cl, cloth_node_response) (unit: 1/kg)
   const cl::Buffer* bslot = nullptr;      ///< (n_boundary) each boundary particle's slot in bpos
+  /// (n_nodes x float4) each node's velocity change over this step without the fluid (gravity,
+  /// springs, balls: ClothSim::dryVelocityChange) (unit: m/s); null: none counted
+  const cl::Buffer* node_dv = nullptr;
   /// the cloth's spring table (core/cloth.h, ClothModel: row_start, spring, other, prm, broken)
   const cl::Buffer *row_start = nullptr, *spring = nullptr, *other = nullptr, *prm = nullptr, *broken = nullptr;
 };

@@ -654,6 +654,7 @@ DfsphFields Simulation::dfsphFields() {
     f.other = &cloth_->others();
     f.prm = &cloth_->springParams();
     f.broken = &cloth_->brokenSprings();
+    f.node_dv = &node_dv_;
   }
   return f;
 }
@@ -941,14 +942,8 @@ void Simulation::stepCloth(double dt) {
   StageTimer timer(*this, Stage::Cloth);
   // With fluid, the nodes carry the fluid's force of this step (gatherClothForces).
   // Balls (rigid spheres) are obstacles for the nodes; the nodes' impulses change the balls' momenta.
-  std::vector<cloth::SphereCollider> spheres;
   std::vector<std::size_t> which;
-  for (std::size_t b = 0; b < bodies_.size(); ++b) {
-    const rigid::RigidBody& body = model_.bodies[b];
-    if (body.spec.shape != BodyShape::Sphere) continue;
-    spheres.push_back({bodies_[b].x, body.spec.radius * body.spec.scale, bodies_[b].v, body.spec.friction});
-    which.push_back(b);
-  }
+  const std::vector<cloth::SphereCollider> spheres = clothSpheres(&which);
   const std::vector<Eigen::Vector3d> J =
       cloth_->step(time_, dt, gravityAt(model_.spec.simulation, time_), n_cloth_ > 0 ? &cloth_force_ : nullptr, spheres);
   for (std::size_t k = 0; k < which.size(); ++k)
@@ -961,6 +956,17 @@ void Simulation::stepCloth(double dt) {
     for (std::size_t b : cutters_) poses.push_back({bodies_[b].x, bodies_[b].q});
     cloth_->cut(poses);
   }
+}
+
+std::vector<cloth::SphereCollider> Simulation::clothSpheres(std::vector<std::size_t>* which) const {
+  std::vector<cloth::SphereCollider> spheres;
+  for (std::size_t b = 0; b < bodies_.size(); ++b) {
+    const rigid::RigidBody& body = model_.bodies[b];
+    if (body.spec.shape != BodyShape::Sphere) continue;
+    spheres.push_back({bodies_[b].x, body.spec.radius * body.spec.scale, bodies_[b].v, body.spec.friction});
+    if (which) which->push_back(b);
+  }
+  return spheres;
 }
 
 void Simulation::collideClothWithBodies() {
@@ -1041,6 +1047,12 @@ void Simulation::clothResponse(double dt) {
   StageTimer timer(*this, Stage::ClothCoupling);
   if (!node_response_()) node_response_ = makeBuffer(std::size_t(n_cloth_) * 48);
   cloth_->nodeResponse(dt, node_response_);
+  // What the cloth's own forces (gravity, springs, anchors, damping, balls) do to the nodes in this
+  // step, for the density solve to see them move as the fluid sees itself at v* (core/dfsph.cpp,
+  // densitySolve): a dry run of the cloth's step, its state kept. (Boxes, meshes and cutters, which
+  // act on the nodes from the host after the step, are not in it.)
+  if (!node_dv_()) node_dv_ = makeBuffer(std::size_t(n_cloth_) * 16);
+  cloth_->dryVelocityChange(time_, dt, gravityAt(model_.spec.simulation, time_), clothSpheres(nullptr), node_dv_);
 }
 
 void Simulation::gatherClothForces() {

@@ -227,6 +227,8 @@ class Simulation {
   void gatherClothForces();
   bool strongCloth() const;
   void clothResponse(double dt);
+  /// The balls the cloth meets (rigid spheres, at their pose and velocity now) and their body indices.
+  std::vector<cloth::SphereCollider> clothSpheres(std::vector<std::size_t>* which) const;
   FrameReport runDiagnostics();
   void prepareInitialState();
   void abortOnNumericalFailure(const FrameReport& rep, const char* nonfinite_stage) const;
@@ -267,6 +269,7 @@ class Simulation {
   uint32_t n_cloth_ = 0;
   cl::Buffer cloth_volume_, cloth_force_;  // per node: V_b / V0 (Akinci 2012), fluid force (unit: N)
   cl::Buffer node_response_;  // DFSPH strong coupling: per node M^-1 of this step (3 float4, unit: 1/kg)
+  cl::Buffer node_dv_;        // DFSPH strong coupling: per node the step's velocity change without the fluid (unit: m/s)
   double body_speed_ = 0.0;               // fastest moving body particle this step (unit: m/s)
   ExternalForceSource* external_ = nullptr; // haptics: the grabbed body's coupling (not owned)
   std::vector<BodyWrench> wrenches_;      // its output, one per body

@@ -683,6 +683,10 @@ std::vector<KeyDef> buildTable() {
                "explicit: mass-spring, symplectic Euler, steps subdivided below the 2 sqrt(m/k) limit"));
   add(field<InCloths>("cloth[].iterations", [](auto& c) -> auto& { return c.iterations; })
           .unit("1").atLeast(1).atMost(1000).doc("xpbd: Gauss-Seidel sweeps over all springs per time step"));
+  add(field<InCloths>("cloth[].max_time_step", [](auto& c) -> auto& { return c.max_time_step; })
+          .unit("s").greaterThan(0).allowInfinity()
+          .doc("xpbd: a longer step is taken in equal substeps no longer than this (a fixed number of sweeps holds "
+               "the springs less the longer the step; Macklin et al. 2019, small steps); .inf = one step"));
   add(field<InCloths>("cloth[].tear_strain", [](auto& c) -> auto& { return c.tear_strain; })
           .unit("1").greaterThan(0).allowInfinity().doc("a spring breaks for good when its strain (L - L0) / L0 exceeds this; .inf = never"));
   add(field<InCloths>("cloth[].prestrain", [](auto& c) -> auto& { return c.prestrain; })
@@ -740,6 +744,10 @@ std::vector<KeyDef> buildTable() {
           .doc("xpbd (default) or explicit, as for cloth"));
   add(field<InSoftBodies>("soft_bodies[].iterations", [](auto& b) -> auto& { return b.iterations; })
           .unit("1").atLeast(1).atMost(1000).doc("xpbd: Gauss-Seidel sweeps over all springs per time step"));
+  add(field<InSoftBodies>("soft_bodies[].max_time_step", [](auto& b) -> auto& { return b.max_time_step; })
+          .unit("s").greaterThan(0).allowInfinity()
+          .doc("xpbd: a longer step is taken in equal substeps no longer than this (a fixed number of sweeps holds "
+               "the springs less the longer the step; Macklin et al. 2019, small steps); .inf = one step"));
   add(field<InSoftBodies>("soft_bodies[].tear_strain", [](auto& b) -> auto& { return b.tear_strain; })
           .unit("1").greaterThan(0).allowInfinity().doc("a spring breaks for good when its strain (L - L0) / L0 exceeds this; .inf = never"));
   add(field<InSoftBodies>("soft_bodies[].prestrain", [](auto& b) -> auto& { return b.prestrain; })

@@ -240,6 +240,14 @@ __kernel void cloth_xpbd_velocity(const uint n, const float dt, const float t, _
     v[i] = (float4)((x4.xyz - p4.xyz) / dt, 0.0f);
 }
 
+/* DFSPH's strong coupling (ClothSim::dryVelocityChange): a step's velocity change without the fluid. */
+__kernel void cloth_velocity_change(const uint n, __global const float4* v1, __global const float4* v0,
+                                    __global float4* dv) {
+  const uint i = get_global_id(0);
+  if (i >= n) return;
+  dv[i] = (float4)(v1[i].xyz - v0[i].xyz, 0.0f);
+}
+
 /* The domain's closed walls (after either solver's step): a free node past one is put back just
  * inside (margin) and keeps no velocity into the wall, as a fluid particle in integrate.cl. Bit 2a of
  * mask closes the wall at lo[a], bit 2a + 1 the one at hi[a]. Anchored nodes (w = 0) are scripted. */

@@ -919,9 +919,21 @@ __kernel void dfsph_node_accel(const SimParams p, const uint n, const uint offse
   bacc[s] = (float4)(a, 1.0f);
 }
 
-/* After the divergence solve: the nodes move on by dt a_b in the density solve's eyes (the cloth's
+/* Before the density solve: each free node's acceleration a_b (the divergence solve's, in bacc) gains
+ * what the cloth's own forces do in the step, dv / dt (ClothSim::dryVelocityChange: gravity, springs,
+ * anchors, balls), so that the density solve sees the nodes move as the step will move them. */
+__kernel void dfsph_node_dry(const uint n, const uint offset, const float inv_dt, __global const float4* nodes,
+                             __global const uint* slot, __global const float4* dv, __global float4* bacc) {
+  const uint k = get_global_id(0);
+  if (k >= n || nodes[k].w == 0.0f) return;
+  const uint s = slot[offset + k];
+  bacc[s] = (float4)(bacc[s].xyz + inv_dt * dv[k].xyz, bacc[s].w);
+}
+
+/* Before the density solve: the nodes move on by dt a_b in the density solve's eyes (the cloth's
  * step applies both solves' forces): gwall_i.w = sum_b psi_b v_b . gradW_ib gains dt sum_b psi_b
- * a_b . gradW_ib (a_b of the solve's final pressures, dfsph_node_accel). */
+ * a_b . gradW_ib (a_b: the divergence solve's final pressures' (dfsph_node_accel), plus the cloth's
+ * own forces' (dfsph_node_dry)). */
 __kernel void dfsph_node_rate(const SimParams p, __global const float4* pos, __global const float4* bpos,
                               __global const uint* bnbr, __global const uint* bnbr_count,
                               __global const float4* bacc, __global float4* gwall) {
