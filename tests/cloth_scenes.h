@@ -20,4 +20,42 @@ inline SceneSpec clothScene(const ClothSpec& c, double frame_rate, int substeps,
   return s;
 }
 
+/// A square net of nodes x nodes over size x size metres centred at (0.5, 0.5, 0.5), its four edges
+/// anchored, springs 10^4 / 10^3 / 1 N/m (stretch, shear, bend) with 1 N s/m dashpots: the sheet of
+/// the ball-on-cloth tests.
+inline ClothSpec anchoredSquare(const std::string& name, double size, int nodes, double areal_density, int iterations,
+                                double air_damping) {
+  ClothSpec c;
+  c.name = name;
+  c.width = c.length = size;
+  c.resolution_x = c.resolution_y = nodes;
+  c.position = Eigen::Vector3d(0.5, 0.5, 0.5);
+  c.areal_density = areal_density;
+  c.stretch_stiffness = 1e4;
+  c.shear_stiffness = 1e3;
+  c.bend_stiffness = 1;
+  c.iterations = iterations;
+  c.damping = 1.0;
+  c.air_damping = air_damping;
+  for (ClothEdge e : {ClothEdge::XMin, ClothEdge::XMax, ClothEdge::YMin, ClothEdge::YMax}) {
+    ClothAnchorSpec an;
+    an.type = AnchorType::Edge;
+    an.edge = e;
+    c.anchors.push_back(an);
+  }
+  return c;
+}
+
+/// A dynamic ball (sphere) of the given radius (m), centre (m) and density (kg/m^3).
+inline RigidBodySpec dynamicBall(const std::string& name, double radius, const Eigen::Vector3d& position, double density) {
+  RigidBodySpec b;
+  b.name = name;
+  b.shape = BodyShape::Sphere;
+  b.radius = radius;
+  b.position = position;
+  b.density = density;
+  b.dynamic = true;
+  return b;
+}
+
 }  // namespace sph::testing

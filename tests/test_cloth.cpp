@@ -29,6 +29,8 @@ namespace {
 const double kG = 9.81;
 
 using sph::testing::clothScene;
+using sph::testing::anchoredSquare;
+using sph::testing::dynamicBall;
 
 /// A vertical chain of `masses` free nodes of mass m hung by springs (rest length L0, stiffness k)
 /// from an anchored top node: a cloth one node wide along y, turned so that y points up.
@@ -725,32 +727,9 @@ TEST_CASE("Cloth: a ball dropped on a cloth is caught, comes to rest, and a heav
   ClContext cl;
   std::vector<double> mean_z;
   for (double density : {300.0, 600.0}) {
-    SceneSpec s = clothScene(ClothSpec{}, 60, 16, 5.0);
-    ClothSpec& c = s.cloth[0];
-    c.name = "net";
-    c.width = c.length = 0.3;
-    c.resolution_x = c.resolution_y = 21;
-    c.position = Eigen::Vector3d(0.5, 0.5, 0.5);
-    c.areal_density = 0.5;
-    c.stretch_stiffness = 1e4;
-    c.shear_stiffness = 1e3;
-    c.bend_stiffness = 1;
-    c.iterations = 30;
-    c.damping = 1.0;
-    c.air_damping = 20.0;
-    for (ClothEdge e : {ClothEdge::XMin, ClothEdge::XMax, ClothEdge::YMin, ClothEdge::YMax}) {
-      ClothAnchorSpec an;
-      an.type = AnchorType::Edge;
-      an.edge = e;
-      c.anchors.push_back(an);
-    }
-    RigidBodySpec ball;
-    ball.name = "ball";
-    ball.shape = BodyShape::Sphere;
-    ball.radius = 0.04;
-    ball.position = Eigen::Vector3d(0.5, 0.5, 0.6);
-    ball.density = density;
-    ball.dynamic = true;
+    SceneSpec s = clothScene(anchoredSquare("net", 0.3, 21, 0.5, 30, 20.0), 60, 16, 5.0);
+    const ClothSpec& c = s.cloth[0];
+    const RigidBodySpec ball = dynamicBall("ball", 0.04, Eigen::Vector3d(0.5, 0.5, 0.6), density);
     s.rigid_bodies.push_back(ball);
     const Compiled comp = compile(s);
     Simulation sim(comp.model, comp.initial, cl);
@@ -807,34 +786,10 @@ TEST_CASE("Cloth: a heavy ball on a light sheet at long steps stays on it when t
   // on the floor, the anchors carry 1.6 N of 9.8 N), so the check can fail.
   ClContext cl;
   for (const bool split : {true, false}) {
-    SceneSpec s = clothScene(ClothSpec{}, 200, 1, 3.0);
+    SceneSpec s = clothScene(anchoredSquare("sheet", 0.2, 26, 5, 16, 5.0), 200, 1, 3.0);
     ClothSpec& c = s.cloth[0];
-    c.name = "sheet";
-    c.width = c.length = 0.2;
-    c.resolution_x = c.resolution_y = 26;
-    c.position = Eigen::Vector3d(0.5, 0.5, 0.5);
-    c.areal_density = 5;
-    c.stretch_stiffness = 1e4;
-    c.shear_stiffness = 1e3;
-    c.bend_stiffness = 1;
-    c.iterations = 16;
-    c.damping = 1.0;
-    c.air_damping = 5.0;
     if (split) c.max_time_step = 5e-4;
-    for (ClothEdge e : {ClothEdge::XMin, ClothEdge::XMax, ClothEdge::YMin, ClothEdge::YMax}) {
-      ClothAnchorSpec an;
-      an.type = AnchorType::Edge;
-      an.edge = e;
-      c.anchors.push_back(an);
-    }
-    RigidBodySpec ball;
-    ball.name = "metal";
-    ball.shape = BodyShape::Sphere;
-    ball.radius = 0.03;
-    ball.position = Eigen::Vector3d(0.5, 0.5, 0.535);
-    ball.density = 7800;
-    ball.dynamic = true;
-    s.rigid_bodies.push_back(ball);
+    s.rigid_bodies.push_back(dynamicBall("metal", 0.03, Eigen::Vector3d(0.5, 0.5, 0.535), 7800));
     const Compiled comp = compile(s);
     Simulation sim(comp.model, comp.initial, cl);
     const double M = comp.model.bodies[0].mass, m_cloth = c.areal_density * 0.04;
