@@ -318,7 +318,7 @@ ClothModel compileCloths(const std::vector<ClothSpec>& specs, std::vector<InputI
     m.first_spring.push_back(static_cast<uint32_t>(ends.size()));
     m.xpbd.push_back(s.solver == ClothSolver::Xpbd ? 1 : 0);
     m.iterations.push_back(static_cast<uint32_t>(std::max(1, s.iterations)));
-    if (s.solver == ClothSolver::Xpbd) m.xpbd_dt_limit = std::min(m.xpbd_dt_limit, s.max_time_step);
+    if (s.solver == ClothSolver::Xpbd && s.max_time_step > 0.0) m.xpbd_dt_limit = std::min(m.xpbd_dt_limit, s.max_time_step);
 
     // Nodes: equal masses (areal density x area / nodes); anchored nodes get inverse mass 0. A mesh
     // cloth: each vertex a third of the area of its triangles (lumped mass), so the masses sum to
@@ -450,7 +450,7 @@ ClothModel compileCloths(const std::vector<ClothSpec>& specs, std::vector<InputI
     m.first_spring.push_back(static_cast<uint32_t>(ends.size()));
     m.xpbd.push_back(s.solver == ClothSolver::Xpbd ? 1 : 0);
     m.iterations.push_back(static_cast<uint32_t>(std::max(1, s.iterations)));
-    if (s.solver == ClothSolver::Xpbd) m.xpbd_dt_limit = std::min(m.xpbd_dt_limit, s.max_time_step);
+    if (s.solver == ClothSolver::Xpbd && s.max_time_step > 0.0) m.xpbd_dt_limit = std::min(m.xpbd_dt_limit, s.max_time_step);
 
     // Lumped masses: each cell's mass, density x volume, an eighth to each corner.
     const double cell_mass = s.density * L.spacing.prod();

@@ -297,10 +297,11 @@ struct ClothSpec {
   double air_damping = 0.0;                         ///< drag on every node's velocity, dv/dt = -air_damping v (unit: 1/s)
   ClothSolver solver = ClothSolver::Xpbd;           ///< xpbd (default, unconditionally stable) or explicit
   int iterations = 8;                               ///< xpbd: Gauss-Seidel sweeps per step (unit: 1)
-  /// xpbd: a longer step is taken in equal substeps no longer than this; inf: one step (unit: s). A
-  /// fixed number of sweeps holds the springs less the longer the step: at 5 ms steps a heavy ball
-  /// went through a sheet that holds it at 0.5 ms (docs/dfsph.md, session 18).
-  double max_time_step = std::numeric_limits<double>::infinity();
+  /// xpbd: a longer step is taken in equal substeps no longer than this; inf: one step; 0: automatic,
+  /// from the heaviest dynamic ball and the lightest node (core/model.cpp) (unit: s). A fixed number
+  /// of sweeps holds the springs less the longer the step: at 5 ms steps a heavy ball went through a
+  /// sheet that holds it at 0.5 ms (docs/dfsph.md, session 18).
+  double max_time_step = 0.0;
   double tear_strain = std::numeric_limits<double>::infinity();  ///< a spring breaks past this strain (unit: 1)
   double prestrain = 0.0;                           ///< placed stretched: rest length = placed length / (1 + prestrain) (unit: 1)
   Eigen::Vector3d colour{0.8, 0.3, 0.3};            ///< linear RGB in [0,1]
@@ -338,10 +339,11 @@ struct SoftBodySpec {
   double air_damping = 0.0;                         ///< drag on every node's velocity, dv/dt = -air_damping v (unit: 1/s)
   ClothSolver solver = ClothSolver::Xpbd;           ///< xpbd (default, unconditionally stable) or explicit
   int iterations = 8;                               ///< xpbd: Gauss-Seidel sweeps per step (unit: 1)
-  /// xpbd: a longer step is taken in equal substeps no longer than this; inf: one step (unit: s). A
-  /// fixed number of sweeps holds the springs less the longer the step: at 5 ms steps a heavy ball
-  /// went through a sheet that holds it at 0.5 ms (docs/dfsph.md, session 18).
-  double max_time_step = std::numeric_limits<double>::infinity();
+  /// xpbd: a longer step is taken in equal substeps no longer than this; inf: one step; 0: automatic,
+  /// from the heaviest dynamic ball and the lightest node (core/model.cpp) (unit: s). A fixed number
+  /// of sweeps holds the springs less the longer the step: at 5 ms steps a heavy ball went through a
+  /// sheet that holds it at 0.5 ms (docs/dfsph.md, session 18).
+  double max_time_step = 0.0;
   double tear_strain = std::numeric_limits<double>::infinity();  ///< a spring breaks past this strain (unit: 1)
   double prestrain = 0.0;                           ///< placed stretched: rest length = placed length / (1 + prestrain) (unit: 1)
   Eigen::Vector3d colour{0.9, 0.7, 0.6};            ///< linear RGB in [0,1]

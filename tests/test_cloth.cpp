@@ -783,13 +783,24 @@ TEST_CASE("Cloth: a heavy ball on a light sheet at long steps stays on it when t
   // and of the free nodes (momentum balance, as in the test above) within 2 %: the ball still bobs by
   // up to +-7 mm at ~1.5 Hz, whose momentum change over the window, M 2 A w / 1.5 s, is at most 0.7 %
   // of the weight (measured: 0.1 % off). Without the split the same scene loses the ball (measured:
-  // on the floor, the anchors carry 1.6 N of 9.8 N), so the check can fail.
+  // on the floor, the anchors carry 1.6 N of 9.8 N), so the check can fail. The automatic substep
+  // (max_time_step 0, the default) is checked to come out below the 0.5 ms that holds the ball.
   ClContext cl;
   for (const bool split : {true, false}) {
     SceneSpec s = clothScene(anchoredSquare("sheet", 0.2, 26, 5, 16, 5.0), 200, 1, 3.0);
     ClothSpec& c = s.cloth[0];
-    if (split) c.max_time_step = 5e-4;
+    c.max_time_step = split ? 5e-4 : std::numeric_limits<double>::infinity();
     s.rigid_bodies.push_back(dynamicBall("metal", 0.03, Eigen::Vector3d(0.5, 0.5, 0.535), 7800));
+    if (split) {
+      // The automatic substep (max_time_step 0, the default) for this ball and sheet:
+      // sqrt(0.05 L0 n m / W) = sqrt(0.05 x 8 mm x 16 x 0.296 g / 8.11 N) = 0.48 ms.
+      SceneSpec a = s;
+      a.cloth[0].max_time_step = 0.0;
+      const double h = compile(a).model.cloth.xpbd_dt_limit;
+      INFO("automatic substep " << h << " s");
+      CHECK(h == Approx(std::sqrt(0.05 * 0.008 * 16 * (0.2 / 676) / (compile(a).model.bodies[0].mass * kG))).epsilon(1e-3));
+      CHECK(h < 5e-4);
+    }
     const Compiled comp = compile(s);
     Simulation sim(comp.model, comp.initial, cl);
     const double M = comp.model.bodies[0].mass, m_cloth = c.areal_density * 0.04;
