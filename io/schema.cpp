@@ -98,6 +98,11 @@ std::string valueText(const Value& value) {
 // ---------------------------------------------------------------------------------------------
 
 namespace {
+// cloth[].max_time_step and soft_bodies[].max_time_step (core/scene_spec.h, core/model.cpp).
+const char* const kXpbdMaxTimeStepDoc =
+    "xpbd: a longer step is taken in equal substeps no longer than this (a fixed number of sweeps holds the springs "
+    "less the longer the step; Macklin et al. 2019, small steps); .inf = one step; 0 = automatic: sqrt(0.05 L0 n m / "
+    "W) for rest length L0, n sweeps, lightest free node m and heaviest dynamic ball's weight W (one step without balls)";
 
 template <class T>
 constexpr KeyType keyTypeOf() {
@@ -685,10 +690,7 @@ std::vector<KeyDef> buildTable() {
           .unit("1").atLeast(1).atMost(1000).doc("xpbd: Gauss-Seidel sweeps over all springs per time step"));
   add(field<InCloths>("cloth[].max_time_step", [](auto& c) -> auto& { return c.max_time_step; })
           .unit("s").atLeast(0).allowInfinity()
-          .doc("xpbd: a longer step is taken in equal substeps no longer than this (a fixed number of sweeps holds "
-               "the springs less the longer the step; Macklin et al. 2019, small steps); .inf = one step; 0 = automatic: "
-               "sqrt(0.05 L0 n m / W) for rest length L0, n sweeps, lightest free node m and heaviest dynamic ball's "
-               "weight W (one step without balls)"));
+          .doc(kXpbdMaxTimeStepDoc));
   add(field<InCloths>("cloth[].tear_strain", [](auto& c) -> auto& { return c.tear_strain; })
           .unit("1").greaterThan(0).allowInfinity().doc("a spring breaks for good when its strain (L - L0) / L0 exceeds this; .inf = never"));
   add(field<InCloths>("cloth[].prestrain", [](auto& c) -> auto& { return c.prestrain; })
@@ -748,10 +750,7 @@ std::vector<KeyDef> buildTable() {
           .unit("1").atLeast(1).atMost(1000).doc("xpbd: Gauss-Seidel sweeps over all springs per time step"));
   add(field<InSoftBodies>("soft_bodies[].max_time_step", [](auto& b) -> auto& { return b.max_time_step; })
           .unit("s").atLeast(0).allowInfinity()
-          .doc("xpbd: a longer step is taken in equal substeps no longer than this (a fixed number of sweeps holds "
-               "the springs less the longer the step; Macklin et al. 2019, small steps); .inf = one step; 0 = automatic: "
-               "sqrt(0.05 L0 n m / W) for rest length L0, n sweeps, lightest free node m and heaviest dynamic ball's "
-               "weight W (one step without balls)"));
+          .doc(kXpbdMaxTimeStepDoc));
   add(field<InSoftBodies>("soft_bodies[].tear_strain", [](auto& b) -> auto& { return b.tear_strain; })
           .unit("1").greaterThan(0).allowInfinity().doc("a spring breaks for good when its strain (L - L0) / L0 exceeds this; .inf = never"));
   add(field<InSoftBodies>("soft_bodies[].prestrain", [](auto& b) -> auto& { return b.prestrain; })
