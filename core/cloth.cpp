@@ -629,6 +629,9 @@ ClothSim::ClothSim(const ClothModel& model, ClContext& cl, KernelSet& kernels) :
   xlo_[1] = upload(v0);
   prev_ = upload(m_.x0);
   zero_force_ = upload(v0);
+  impulse_M_ = upload(v0);
+  vstart_ = upload(v0);
+  fict_ = upload(std::vector<float>(n_, 0.0f));
   mass_ = upload(m_.mass);
   drag_ = upload(m_.drag);
   anchor_ = upload(m_.anchor);
@@ -699,6 +702,10 @@ std::vector<Eigen::Vector3d> ClothSim::step(double t, double dt, const Eigen::Ve
   // through light nodes: substeps rather than more sweeps (Macklin et al. 2019, "Small steps in
   // physics simulation"). Balls: each substep's projections add to their impulses.
   last_xpbd_substeps_ = 0;
+  // DFSPH's added mass of wet nodes (setAddedMass): the step's velocities kept for its impulse.
+  const bool added_mass = added_mass_ && !dry_;
+  if (added_mass)
+    clCall("keeping the nodes' velocities", [&] { return cl_.queue().enqueueCopyBuffer(v_[cur_], vstart_, 0, 0, std::size_t(n_) * 16); });
   if (any_xpbd_) {
     const int k = std::max(1, static_cast<int>(std::ceil(dt / m_.xpbd_dt_limit * (1.0 - 1e-12))));
     const double h = dt / k;
@@ -708,7 +715,7 @@ std::vector<Eigen::Vector3d> ClothSim::step(double t, double dt, const Eigen::Ve
       uploadTracks(t + (j + 1) * h);
       xpbdStep(t + j * h, float(h), g4, fext, ns);
       if (ns > 0 && !dry_) {
-        k_.call("cloth_sphere_shift_reduce", ns, 0, n_, ns, float(h), mass_, drag_, shift_, impulse_sum_);
+        k_.call("cloth_sphere_shift_reduce", ns, 0, n_, ns, float(h), mass_, drag_, fict_, shift_, impulse_sum_);
         std::vector<Eigen::Vector4f> sums(ns);
         clCall("reading the sphere impulses", [&] { return cl_.queue().enqueueReadBuffer(impulse_sum_, CL_TRUE, 0, ns * 16, sums.data()); });
         for (uint32_t q = 0; q < ns; ++q) J[q] += sums[q].head<3>().cast<double>();
@@ -722,6 +729,7 @@ std::vector<Eigen::Vector3d> ClothSim::step(double t, double dt, const Eigen::Ve
     k_.call("cloth_domain_walls", n_, 64, n_, lo, hi, m_.closed_mask, m_.wall_margin, x_[cur_], v_[cur_], xlo_[lo_cur_]);
   }
   if (m_.any_tear && !dry_) tear();
+  if (added_mass) k_.call("cloth_added_mass_impulse", n_, 64, n_, fict_, v_[cur_], vstart_, impulse_M_);
   if (ns == 0 || dry_) return J;
   // Balls: the XPBD nodes' projections (J = -sum m dx / dt, in node order), then the explicit
   // nodes' velocity contact.
@@ -762,7 +770,7 @@ void ClothSim::xpbdStep(double t, float dt, const Eigen::Vector4f& g, const cl::
   // Predict x* = x + dt (v + dt (g + f/m)) / (1 + dt c), remember x, clear the multipliers; the
   // solve acts on the effective inverse mass 1 / (m (1 + dt c)) (implicit drag, cloth.cl).
   k_.call("cloth_xpbd_predict", n_, 64, n_, dt, float(t), g4, x_[cur_], v_[cur_], mass_, drag_, anchor_, x_rest_,
-          track_, is_xpbd_, row_start_, fext, prev_, lambda_);
+          track_, is_xpbd_, row_start_, fext, fict_, prev_, lambda_);
   // Coloured Gauss-Seidel: per colour one gather pass, ping-ponging the positions.
   // Balls: the projections of this step add up per node and sphere (shift), from zero.
   if (n_spheres > 0)
@@ -805,8 +813,18 @@ std::vector<Eigen::Vector3d> ClothSim::collideSpheres(const std::vector<SphereCo
   return out;
 }
 
+
+Eigen::Vector3d ClothSim::pendingAddedMassMomentum() {
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  if (!added_mass_ || n_ == 0) return sum;
+  std::vector<Eigen::Vector4f> J(n_);
+  clCall("reading the added-mass impulses", [&] { return cl_.queue().enqueueReadBuffer(impulse_M_, CL_TRUE, 0, std::size_t(n_) * 16, J.data()); });
+  for (const Eigen::Vector4f& j : J) sum += j.head<3>().cast<double>();
+  return sum;
+}
+
 void ClothSim::nodeResponse(double dt, cl::Buffer& out) {
-  k_.call("cloth_node_response", n_, 64, n_, float(dt), x_[cur_], mass_, drag_, row_start_, spring_, other_, prm_, broken_, out);
+  k_.call("cloth_node_response", n_, 64, n_, float(dt), x_[cur_], mass_, drag_, row_start_, spring_, other_, prm_, broken_, fict_, out);
 }
 
 void ClothSim::dryVelocityChange(double t, double dt, const Eigen::Vector3d& g,

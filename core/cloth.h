@@ -226,6 +226,17 @@ class ClothSim {
   /// springs implicit (kernels/cloth.cl, cloth_node_response): the rows of M^-1, 3 float4 per node
   /// into `out` (unit: 1/kg; zero for anchored nodes).
   void nodeResponse(double dt, cl::Buffer& out);
+  /// DFSPH's added mass of wet nodes (Simulation::clothAddedMass): with it on, the XPBD step moves
+  /// node i as m_i + M_i (addedMass(): M_i per node, unit: kg, 0 for none, written by the caller
+  /// before each step), nodeResponse and the balls' impulses count M_i, and each step leaves the
+  /// momentum M_i (v' - v) in addedMassImpulse() (float4 per node, unit: N s) for the fluid.
+  void setAddedMass(bool on) { added_mass_ = on; }
+  cl::Buffer& addedMass() { return fict_; }
+  cl::Buffer& addedMassImpulse() { return impulse_M_; }
+  /// addedMassImpulse() summed over the nodes in order: what the fluid has yet to take (the last
+  /// step's, given before the next step's solves, and a dry node's until it is wet; unit: N s). Zero
+  /// without the added mass.
+  Eigen::Vector3d pendingAddedMassMomentum();
   /// DFSPH's strong coupling: what this step would do to each node's velocity without the fluid
   /// (gravity, springs, anchors, damping, balls, the domain's walls: step() with no external force
   /// and no tearing), v' - v per node into `out` (float4, unit: m/s). The cloth is left as it was.
@@ -261,6 +272,8 @@ class ClothSim {
   double last_dt_ = 0.0;  // the last XPBD (sub)step's length, for its constraint forces (unit: s)
   bool any_explicit_ = false, any_xpbd_ = false;
   bool dry_ = false;              // inside dryVelocityChange: no tearing, no impulses read
+  bool added_mass_ = false;       // DFSPH's added mass of wet nodes (setAddedMass)
+  cl::Buffer fict_, impulse_M_, vstart_;  // per node: M (kg, 0: none), M (v' - v) (N s), v at the step's start
   cl::Buffer dry_x_, dry_v_, dry_lo_;  // the state kept over a dry step
   cl::Buffer x_rest_, track_;  // placed positions; tracks at the step's end (offset, velocity) per track
   // Explicit solver: the low parts of the positions (x = x_[cur_] + xlo_[lo_cur_], an unevaluated

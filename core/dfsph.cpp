@@ -34,6 +34,9 @@ static constexpr float kWallContactRange = 0.75f;     ///< r0 / dx (unit: 1)
 // without the contact, 0 with it.
 static constexpr float kWallGap = 0.25f;  ///< gap / dx (unit: 1)
 
+float DfsphSolver::wallContactStiffness() const { return extrapolated() ? kWallContactStiffness : 0.0f; }
+float DfsphSolver::wallContactRange() { return kWallContactRange; }
+
 cl::Buffer DfsphSolver::makeBuffer(std::size_t bytes) {
   bytes = std::max<std::size_t>(bytes, 16);
   bytes_ += bytes;

@@ -107,6 +107,11 @@ class DfsphSolver {
   /// The velocities before this step's density solve: what the viscous forces saw, so that the
   /// rigid coupling's viscous reaction matches them (n x float4) (unit: m/s).
   const cl::Buffer& viscousVelocities() const { return vel_before_; }
+  /// Extrapolated walls' contact (kernels/dfsph.cl, dfsph_wall_contact_accel; from cloth nodes too):
+  /// its stiffness dt^2 k_w / dx (0 where it does not act: other walls) and its range r0 / dx (unit:
+  /// 1); the cloth nodes take its reaction (rigid.cl, rigid_fluid_forces).
+  float wallContactStiffness() const;
+  static float wallContactRange();
 
  private:
   enum class Kind { Divergence, Density };

@@ -198,6 +198,7 @@ Simulation::Simulation(const Model& model, const HostParticles& initial, ClConte
         cutters_.push_back(b);
       }
     cloth_->setCutters(blades);
+    cloth_->setAddedMass(strongCloth() && model_.spec.fluid.dfsph.cloth_added_mass > 0.0);
     // Other shapes than spheres (boxes, cylinders, capsules, meshes) are obstacles through their
     // closed surfaces (core/mesh_distance.h).
     for (std::size_t b = 0; b < model_.bodies.size(); ++b) {
@@ -794,7 +795,7 @@ void Simulation::gatherBodyForces() {
   // velocities of the fluid's viscous pass (the no-slip ghost velocities or the wall's own).
   const int mirror = dfsphWallMode();
   const cl::Buffer& vel = dfsph_ ? dfsph_->viscousVelocities() : vel_[cur_];
-  kernels_.call("rigid_fluid_forces", n_moving_, kLocal, params_, n_moving_, n_static_, bsrc_, bslot_, viscousBoundaryVelocities(), bpressure_, pos_[cur_], vel, phase_[cur_], density_, pterm_, cell_start_, viscous, mirror, bforce_);
+  kernels_.call("rigid_fluid_forces", n_moving_, kLocal, params_, n_moving_, n_static_, bsrc_, bslot_, viscousBoundaryVelocities(), bpressure_, pos_[cur_], vel, phase_[cur_], density_, pterm_, cell_start_, viscous, mirror, 0.0f, 0.0f, bforce_);
   // The per-body reduction is timed on its own (profile.rigid_reduce_seconds).
   clCall("waiting for the body forces", [&] { return cl_.queue().finish(); });
   const auto t_reduce = std::chrono::steady_clock::now();
@@ -1045,6 +1046,7 @@ void Simulation::clothResponse(double dt) {
   // implicit, so that the solves move a node of a taut or sagging sheet as little as its springs let
   // it move, and a flat sheet's node across itself as freely as its mass does.
   StageTimer timer(*this, Stage::ClothCoupling);
+  clothAddedMass();
   if (!node_response_()) node_response_ = makeBuffer(std::size_t(n_cloth_) * 48);
   cloth_->nodeResponse(dt, node_response_);
   // What the cloth's own forces (gravity, springs, anchors, damping, balls) do to the nodes in this
@@ -1053,6 +1055,30 @@ void Simulation::clothResponse(double dt) {
   // act on the nodes from the host after the step, are not in it.)
   if (!node_dv_()) node_dv_ = makeBuffer(std::size_t(n_cloth_) * 16);
   cloth_->dryVelocityChange(time_, dt, gravityAt(model_.spec.simulation, time_), clothSpheres(nullptr), node_dv_);
+}
+
+void Simulation::clothAddedMass() {
+  // DFSPH's added mass of wet cloth nodes (fluid.dfsph.cloth_added_mass = C; 0 = off). With the
+  // strong coupling a light node with water on both sides moves in the solves as its mass (or with
+  // its springs implicit), while its own step resolves stiff springs in substeps that the solves
+  // see only through their end: the sealed sheet of scenes/tests/dfsph_cloth_sandwich.yaml at 0.5 ms
+  // substeps flutters with period ~2 steps at ~0.13 m/s (its nodes' velocities alternate in sign
+  // from step to step) and rests once its areal density is ~8x (docs/dfsph.md, session 19). Each
+  // free node with fluid within H gets M_k = C rho0 V_k (V_k = psi_k dx^3, the fluid volume its
+  // boundary particle stands for) in its own step and in the solves' response: its inertia, not its
+  // weight, so where it rests is unchanged. The fluid near it takes the momentum M_k (v' - v) of the
+  // last step (kernels/dfsph.cl, dfsph_node_added_mass_reaction), so the total is conserved.
+  const double C = model_.spec.fluid.dfsph.cloth_added_mass;
+  if (!(C > 0.0)) return;
+  if (!node_share_()) node_share_ = makeBuffer(std::size_t(n_cloth_) * 16);
+  const double rho0 = model_.spec.fluid.phases.empty() ? 1000.0 : model_.spec.fluid.phases[0].rest_density;
+  const float c_rho_v0 = static_cast<float>(C * rho0 * model_.dx * model_.dx * model_.dx);
+  const uint32_t offset = n_static_ + n_moving_;
+  kernels_.call("dfsph_node_added_mass", n_cloth_, kLocal, params_, n_cloth_, offset, cloth_->positions(), bsrc_,
+                pos_[cur_], phase_[cur_], cell_start_, cloth_->rowStart(), cloth_->others(), c_rho_v0,
+                cloth_->addedMassImpulse(), cloth_->addedMass(), node_share_);
+  kernels_.call("dfsph_node_added_mass_reaction", n_, kLocal, params_, offset, n_cloth_, pos_[cur_], bpos_, sbnbr_,
+                sbnbr_count_, bsorted_, node_share_, vel_[cur_]);
 }
 
 void Simulation::gatherClothForces() {
@@ -1065,7 +1091,10 @@ void Simulation::gatherClothForces() {
   const int viscous = on(Stage::Viscosity) ? 1 : 0;
   const int mirror = dfsphWallMode();
   const cl::Buffer& vel = dfsph_ ? dfsph_->viscousVelocities() : vel_[cur_];
-  kernels_.call("rigid_fluid_forces", n_cloth_, kLocal, params_, n_cloth_, n_static_ + n_moving_, bsrc_, bslot_, viscousBoundaryVelocities(), bpressure_, pos_[cur_], vel, phase_[cur_], density_, pterm_, cell_start_, viscous, mirror, cloth_force_);
+  // DFSPH's extrapolated walls push the fluid off the nodes too (dfsph_wall_contact_accel): the nodes
+  // take that contact's reaction.
+  const float contact = dfsph_ ? dfsph_->wallContactStiffness() : 0.0f;
+  kernels_.call("rigid_fluid_forces", n_cloth_, kLocal, params_, n_cloth_, n_static_ + n_moving_, bsrc_, bslot_, viscousBoundaryVelocities(), bpressure_, pos_[cur_], vel, phase_[cur_], density_, pterm_, cell_start_, viscous, mirror, contact, DfsphSolver::wallContactRange(), cloth_force_);
 }
 
 FrameReport Simulation::runDiagnostics() {

@@ -227,6 +227,7 @@ class Simulation {
   void gatherClothForces();
   bool strongCloth() const;
   void clothResponse(double dt);
+  void clothAddedMass();
   /// The balls the cloth meets (rigid spheres, at their pose and velocity now) and their body indices.
   std::vector<cloth::SphereCollider> clothSpheres(std::vector<std::size_t>* which) const;
   FrameReport runDiagnostics();
@@ -267,6 +268,7 @@ class Simulation {
   uint32_t n_static_ = 0, n_moving_ = 0;  // boundary particles: static, moving
   // Cloth nodes coupled with the fluid: boundary particles after the moving bodies' (kernels/cloth.cl).
   uint32_t n_cloth_ = 0;
+  cl::Buffer node_share_;  // DFSPH's added mass of wet cloth nodes: per node J_k / s_k (clothAddedMass)
   cl::Buffer cloth_volume_, cloth_force_;  // per node: V_b / V0 (Akinci 2012), fluid force (unit: N)
   cl::Buffer node_response_;  // DFSPH strong coupling: per node M^-1 of this step (3 float4, unit: 1/kg)
   cl::Buffer node_dv_;        // DFSPH strong coupling: per node the step's velocity change without the fluid (unit: m/s)

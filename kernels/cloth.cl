@@ -103,7 +103,8 @@ __kernel void cloth_xpbd_predict(const uint n, const float dt, const float t, co
                                  __global const float* drag, __global const float4* anchor,
                                  __global const float4* x_rest, __global const float4* track,
                                  __global const uint* is_xpbd, __global const uint* row_start,
-                                 __global const float4* fext, __global float4* prev, __global float* lambda) {
+                                 __global const float4* fext, __global const float* fict,
+                                 __global float4* prev, __global float* lambda) {
   const uint i = get_global_id(0);
   if (i >= n || !is_xpbd[i]) return;
   const float4 x4 = x[i];
@@ -111,6 +112,17 @@ __kernel void cloth_xpbd_predict(const uint n, const float dt, const float t, co
   for (uint e = row_start[i]; e < row_start[i + 1]; ++e) lambda[e] = 0.0f;
   if (x4.w == 0.0f) {
     x[i] = (float4)(cloth_anchor_x(i, x4.xyz, t, dt, anchor, x_rest, track), 0.0f);
+    return;
+  }
+  const float M = fict[i];
+  if (M > 0.0f) {
+    /* DFSPH's added mass M of a wet node (Simulation::clothAddedMass): it moves as m + M under its
+     * forces, (m + M) (v' - v) / dt = m g + f - m c v', the constraints on m (1 + dt c) + M; the
+     * fluid takes the reaction M (v' - v) (cloth_added_mass_impulse) */
+    const float m = mass[i];
+    const float me = m * (1.0f + dt * drag[i]) + M;
+    const float3 vi = ((m + M) * v[i].xyz + dt * (m * g.xyz + fext[i].xyz)) / me;
+    x[i] = (float4)(x4.xyz + dt * vi, 1.0f / me);
     return;
   }
   const float damp = 1.0f + dt * drag[i];
@@ -248,6 +260,16 @@ __kernel void cloth_velocity_change(const uint n, __global const float4* v1, __g
   dv[i] = (float4)(v1[i].xyz - v0[i].xyz, 0.0f);
 }
 
+/* DFSPH's added mass: the momentum M (v1 - v0) that node i's added mass took over the whole step adds
+ * to what the fluid has yet to take (before the next step's solves, Simulation::clothAddedMass, which
+ * clears it; unit: N s). */
+__kernel void cloth_added_mass_impulse(const uint n, __global const float* fict, __global const float4* v1,
+                                       __global const float4* v0, __global float4* impulse) {
+  const uint i = get_global_id(0);
+  if (i >= n) return;
+  impulse[i] = (float4)(impulse[i].xyz + fict[i] * (v1[i].xyz - v0[i].xyz), 0.0f);
+}
+
 /* The domain's closed walls (after either solver's step): a free node past one is put back just
  * inside (margin) and keeps no velocity into the wall, as a fluid particle in integrate.cl. Bit 2a of
  * mask closes the wall at lo[a], bit 2a + 1 the one at hi[a]. Anchored nodes (w = 0) are scripted. */
@@ -369,16 +391,17 @@ __kernel void cloth_sphere_project(const uint n, const uint n_spheres, __global 
   cloth_sphere_project_node(i, n, n_spheres, sphere, is_xpbd, x, shift);
 }
 
-/* Per sphere k: J = -sum_i m_i (1 + dt c_i) shift_i / dt over the nodes in order (deterministic):
- * the projection acts on the effective mass of the solve (cloth_xpbd_predict), so a ball resting
- * on the cloth receives exactly what holds it. */
+/* Per sphere k: J = -sum_i (m_i (1 + dt c_i) + M_i) shift_i / dt over the nodes in order
+ * (deterministic): the projection acts on the effective mass of the solve (cloth_xpbd_predict, M_i
+ * DFSPH's added mass of a wet node), so a ball resting on the cloth receives exactly what holds it. */
 __kernel void cloth_sphere_shift_reduce(const uint n, const uint n_spheres, const float dt,
                                         __global const float* mass, __global const float* drag,
-                                        __global const float4* shift, __global float4* out) {
+                                        __global const float* fict, __global const float4* shift,
+                                        __global float4* out) {
   const uint k = get_global_id(0);
   if (k >= n_spheres) return;
   float3 J = (float3)(0.0f);
-  for (uint i = 0; i < n; ++i) J -= mass[i] * (1.0f + dt * drag[i]) * shift[k * n + i].xyz;
+  for (uint i = 0; i < n; ++i) J -= (mass[i] * (1.0f + dt * drag[i]) + fict[i]) * shift[k * n + i].xyz;
   out[k] = (float4)(J / dt, 0.0f);
 }
 
@@ -452,7 +475,8 @@ __kernel void cloth_cut(const uint ns, const uint n_cutters, __global const floa
 __kernel void cloth_node_response(const uint n, const float dt, __global const float4* x, __global const float* mass,
                                   __global const float* drag, __global const uint* row_start,
                                   __global const uint* spring, __global const uint* other,
-                                  __global const float4* prm, __global const uint* broken, __global float4* minv) {
+                                  __global const float4* prm, __global const uint* broken, __global const float* fict,
+                                  __global float4* minv) {
   const uint i = get_global_id(0);
   if (i >= n) return;
   const float4 xi = x[i];
@@ -460,7 +484,7 @@ __kernel void cloth_node_response(const uint n, const float dt, __global const f
     minv[3 * i] = minv[3 * i + 1] = minv[3 * i + 2] = (float4)(0.0f);
     return;
   }
-  const float m0 = mass[i] * (1.0f + dt * drag[i]);
+  const float m0 = mass[i] * (1.0f + dt * drag[i]) + fict[i];
   float a00 = m0, a11 = m0, a22 = m0, a01 = 0.0f, a02 = 0.0f, a12 = 0.0f;
   for (uint e = row_start[i]; e < row_start[i + 1]; ++e) {
     const uint sp = spring[e];
@@ -484,7 +508,8 @@ __kernel void cloth_node_response(const uint n, const float dt, __global const f
   const float c00 = a11 * a22 - a12 * a12, c01 = a02 * a12 - a01 * a22, c02 = a01 * a12 - a02 * a11;
   const float c11 = a00 * a22 - a02 * a02, c12 = a01 * a02 - a00 * a12, c22 = a00 * a11 - a01 * a01;
   const float inv = 1.0f / (a00 * c00 + a01 * c01 + a02 * c02);
-  minv[3 * i] = (float4)(c00, c01, c02, 0.0f) * inv;
+  /* w of the first row: 1 / (m + M) with a fictitious mass M (dfsph_node_slots), else 0 (it takes 1 / m) */
+  minv[3 * i] = (float4)((float3)(c00, c01, c02) * inv, fict[i] > 0.0f ? 1.0f / (mass[i] + fict[i]) : 0.0f);
   minv[3 * i + 1] = (float4)(c01, c11, c12, 0.0f) * inv;
   minv[3 * i + 2] = (float4)(c02, c12, c22, 0.0f) * inv;
 }

@@ -795,22 +795,16 @@ __kernel void dfsph_wall_list_pressure(const SimParams p, const uint n_active, _
  * The nodes' springs, gravity and contacts stay with the cloth's own step, which takes the fluid's
  * force of the final pressures (Simulation::gatherClothForces). */
 
-/* Per step: each node's slot gets its response (rows of M_b^-1; w of the first row 1 / m_b for the
- * diagonal, w of the second 1 for a node that moves as its mass) and a zero acceleration; the other
- * slots were zeroed by the host (walls and bodies do not move in the solves). response: cloth.cl's
- * cloth_node_response, the node's mass with its springs implicit (0 anchored). */
-__kernel void dfsph_node_slots(const SimParams p, const uint n, const uint offset, __global const float4* nodes,
-                               __global const float4* response, __global const uint* slot, __global const float4* pos,
-                               __global const uint* phase, __global const uint* cell_start,
-                               __global const uint* row_start, __global const uint* other,
-                               __global float4* bminv, __global float4* bacc) {
-  const uint k = get_global_id(0);
-  if (k >= n) return;
-  const uint s = slot[offset + k];
-  bacc[s] = (float4)(0.0f);
+/* The fluid around cloth node k on either side of its sheet: the sheet's normal from two of the
+ * node's springs (the first pair more than 30 degrees apart), the fluid within H weighed by W on
+ * either side of it. Out: (above, below, +-sum_i m_i W_ik (unit: kg/m^3; negative where the node has no
+ * normal), 0). Water on both sides (dfsph_node_both_sides): the lesser side has more than `fraction` of
+ * the greater. */
+inline float4 dfsph_node_sides(const SimParams* p, const uint k, __global const float4* nodes,
+                               __global const float4* pos, __global const uint* phase,
+                               __global const uint* cell_start, __global const uint* row_start,
+                               __global const uint* other) {
   const float4 xk = nodes[k];
-  /* water on both sides of the sheet: its normal from two of the node's springs (the first pair
-   * more than 30 degrees apart), the fluid within H weighed by W on either side of it */
   float3 nrm = (float3)(0.0f);
   {
     float3 u0 = (float3)(0.0f);
@@ -830,26 +824,51 @@ __kernel void dfsph_node_slots(const SimParams p, const uint n, const uint offse
       }
     }
   }
-  const float H = p.support;
-  float above = 0.0f, below = 0.0f;
-  SPH_FOR_NEIGHBOURS(&p, cell_start, xk.xyz, i) {
+  const float H = p->support;
+  float above = 0.0f, below = 0.0f, mass = 0.0f;
+  SPH_FOR_NEIGHBOURS(p, cell_start, xk.xyz, i) {
     const float3 d = pos[i].xyz - xk.xyz;
     const float r2 = dot(d, d);
     if (r2 < H * H) {
       const float w = sph_w(SPH_KERNEL, sqrt(r2), H);
       if (dot(d, nrm) >= 0.0f) above += w; else below += w;
+      mass += p->phase_mass[phase[i]] * w;
     }
   }
   SPH_END_NEIGHBOURS
-  if (xk.w != 0.0f && dot(nrm, nrm) > 0.0f && fmin(above, below) > 0.25f * fmax(above, below)) {
+  return (float4)(above, below, dot(nrm, nrm) > 0.0f ? mass : -mass, 0.0f);
+}
+
+inline bool dfsph_node_both_sides(const float4 sides, const float fraction) {
+  return sides.z > 0.0f && fmin(sides.x, sides.y) > fraction * fmax(sides.x, sides.y);
+}
+
+/* Per step: each node's slot gets its response (rows of M_b^-1; w of the first row 1 / m_b for the
+ * diagonal, w of the second 1 for a node that moves as its mass) and a zero acceleration; the other
+ * slots were zeroed by the host (walls and bodies do not move in the solves). response: cloth.cl's
+ * cloth_node_response, the node's mass with its springs implicit (0 anchored), and 1 / (m_b + M_b)
+ * with an added mass M_b (dfsph_node_added_mass). */
+__kernel void dfsph_node_slots(const SimParams p, const uint n, const uint offset, __global const float4* nodes,
+                               __global const float4* response, __global const uint* slot, __global const float4* pos,
+                               __global const uint* phase, __global const uint* cell_start,
+                               __global const uint* row_start, __global const uint* other,
+                               __global float4* bminv, __global float4* bacc) {
+  const uint k = get_global_id(0);
+  if (k >= n) return;
+  const uint s = slot[offset + k];
+  bacc[s] = (float4)(0.0f);
+  const float4 xk = nodes[k];
+  /* 1 / m, or 1 / (m + M) with an added mass (cloth_node_response) */
+  const float wk = response[3 * k].w > 0.0f ? response[3 * k].w : xk.w;
+  if (xk.w != 0.0f && dfsph_node_both_sides(dfsph_node_sides(&p, k, nodes, pos, phase, cell_start, row_start, other), 0.25f)) {
     /* water on both sides: the water's inertia, not the springs, answers the node's motion across
      * the sheet; the node moves as its mass (w of the second row: 1, no spring sweep) */
-    bminv[3 * s] = (float4)(xk.w, 0.0f, 0.0f, xk.w);
-    bminv[3 * s + 1] = (float4)(0.0f, xk.w, 0.0f, 1.0f);
-    bminv[3 * s + 2] = (float4)(0.0f, 0.0f, xk.w, 0.0f);
+    bminv[3 * s] = (float4)(wk, 0.0f, 0.0f, wk);
+    bminv[3 * s + 1] = (float4)(0.0f, wk, 0.0f, 1.0f);
+    bminv[3 * s + 2] = (float4)(0.0f, 0.0f, wk, 0.0f);
     return;
   }
-  bminv[3 * s] = (float4)(response[3 * k].xyz, xk.w); /* w: 1 / m, the diagonal's (dfsph_factor) */
+  bminv[3 * s] = (float4)(response[3 * k].xyz, wk); /* w: 1 / m, the diagonal's (dfsph_factor) */
   bminv[3 * s + 1] = (float4)(response[3 * k + 1].xyz, 0.0f);
   bminv[3 * s + 2] = response[3 * k + 2];
 }
@@ -914,9 +933,67 @@ __kernel void dfsph_node_accel(const SimParams p, const uint n, const uint offse
     const float3 aj = nacc_in[j].xyz;
     F += tr * aj + (ax - tr) * dot(u, aj) * u;
   }
-  const float3 a = free_node ? xk.w * F : 0.5f * (nacc_in[k].xyz + dfsph_mul3(bminv, s, F));
+  const float3 a = free_node ? bminv[3 * s].x * F : 0.5f * (nacc_in[k].xyz + dfsph_mul3(bminv, s, F));
   nacc_out[k] = (float4)(a, 0.0f);
   bacc[s] = (float4)(a, 1.0f);
+}
+
+/* DFSPH's added mass of cloth nodes with water on both sides (Simulation::clothAddedMass), before the
+ * step's solves. Per node k: the added mass M_k = c_rho_v0 psi_k = C rho0 V_k (V_k = psi_k V0, the
+ * volume its boundary particle stands for) of a free node with water on both sides of its sheet (the
+ * lesser side over a tenth of the greater: the nodes the solves move as their mass, dfsph_node_slots,
+ * and those next to the tank's walls, whose cut support weighs a side less), else 0 (a node wet on
+ * one side, as a hammock's under its pool, is moved with its springs implicit and did not flutter;
+ * with the added mass its pool spilled more); s_k = psi_k sum_i m_i W(|x_i -
+ * x_k|) over the fluid within H (unit: kg/m^3); and the share J_k / s_k of the momentum J_k = M_k (v'
+ * - v) the node's added mass took (cloth_added_mass_impulse), which dfsph_node_added_mass_reaction
+ * gives the fluid (as rigid.cl's (4a)-(4c) give a body's fictitious force's); J_k is then cleared,
+ * or kept while the node has no fluid within H. */
+__kernel void dfsph_node_added_mass(const SimParams p, const uint n, const uint offset, __global const float4* nodes,
+                                    __global const float4* bsrc, __global const float4* pos,
+                                    __global const uint* phase, __global const uint* cell_start,
+                                    __global const uint* row_start, __global const uint* other,
+                                    const float c_rho_v0, __global float4* impulse, __global float* fict,
+                                    __global float4* share) {
+  const uint k = get_global_id(0);
+  if (k >= n) return;
+  const float psi = bsrc[offset + k].w;
+  const float4 sides = dfsph_node_sides(&p, k, nodes, pos, phase, cell_start, row_start, other);
+  const float s = psi * fabs(sides.z);
+  if (s > 0.0f) {
+    share[k] = impulse[k] / s;
+    impulse[k] = (float4)(0.0f);
+  } else {
+    share[k] = (float4)(0.0f);
+  }
+  fict[k] = nodes[k].w != 0.0f && dfsph_node_both_sides(sides, 0.1f) ? c_rho_v0 * psi : 0.0f;
+}
+
+/* Each fluid particle i: v_i += sum over its boundary neighbours k within H that are cloth nodes of
+ * psi_k W_ik share_k, so that sum_i m_i dv_i = sum_k J_k (the pairs are those of
+ * dfsph_node_added_mass: the lists hold every pair within H at the step's start). */
+__kernel void dfsph_node_added_mass_reaction(const SimParams p, const uint offset, const uint n_nodes,
+                                             __global const float4* pos, __global const float4* bpos,
+                                             __global const uint* sbnbr, __global const uint* sbnbr_count,
+                                             __global const uint* sorted, __global const float4* share,
+                                             __global float4* vel) {
+  const uint i = get_global_id(0);
+  if (i >= p.n_fluid) return;
+  const uint K = p.max_neighbours;
+  const float3 xi = pos[i].xyz;
+  const float H = p.support;
+  float3 dv = (float3)(0.0f);
+  const uint nb = sbnbr_count[i];
+  for (uint q = 0; q < nb; ++q) {
+    const uint s = sbnbr[(size_t)i * K + q];
+    const uint k = sorted[s];
+    if (k < offset || k >= offset + n_nodes) continue; /* a wall or a body particle */
+    const float4 pb = bpos[s];
+    const float3 d = xi - pb.xyz;
+    const float r2 = dot(d, d);
+    if (r2 < H * H) dv += pb.w * sph_w(SPH_KERNEL, sqrt(r2), H) * share[k - offset].xyz;
+  }
+  if (nb > 0) vel[i] = (float4)(vel[i].xyz + dv, vel[i].w);
 }
 
 /* Before the density solve: each free node's acceleration a_b (the divergence solve's, in bacc) gains

@@ -73,6 +73,9 @@ __kernel void rigid_boundary_reorder(const uint n, const uint n_static, const ui
  *     contact  (pair_loops.h):               F_b = - m_i (V_b/V0) k_c c0^2/dx (1 - r/r0) (x_i - x_b) / r,
  *                                            r0 = dx/2 on a body's particle, dx on a cloth node
  *     viscosity (pair_loops.h):              F_b = - m_i a_visc(i from b)
+ *     DFSPH's wall contact, on a cloth node (`contact` = dt^2 k_w / dx > 0: extrapolated walls;
+ *     dfsph.cl, dfsph_wall_contact_accel): F_b = - m_i (V_b/V0) k_w (1 - r/r0) (x_i - x_b) / r,
+ *                                            k_w = contact dx / dt^2, r0 = `range` dx
  * Fluid neighbours come from the fluid grid of the last list rebuild: its cells are H + skin
  * wide and no particle has moved skin/2 since, so the 27 cells hold every neighbour within H. */
 __kernel void rigid_fluid_forces(const SimParams p, const uint n, const uint n_static, __global const float4* bsrc,
@@ -81,7 +84,7 @@ __kernel void rigid_fluid_forces(const SimParams p, const uint n, const uint n_s
                                  __global const float4* vel, __global const uint* phase,
                                  __global const float* density, __global const float* pterm,
                                  __global const uint* cell_start, const int viscous, const int mirror,
-                                 __global float4* force) {
+                                 const float contact, const float range, __global float4* force) {
   const uint k = get_global_id(0);
   if (k >= n) return;
   const float4 bb = bsrc[n_static + k];
@@ -92,12 +95,16 @@ __kernel void rigid_fluid_forces(const SimParams p, const uint n, const uint n_s
   const float3 xb = bb.xyz;
   const float H = p.support;
   const float H2 = H * H;
+  /* DFSPH's wall contact acts on the fluid from walls and cloth nodes, not from bodies' particles */
+  const float dx = cbrt(p.rest_volume);
+  const float kw = vb4.w > 0.5f ? 0.0f : contact * dx / (p.dt * p.dt), r0 = range * dx;
   float3 f = (float3)(0.0f);
   SPH_FOR_NEIGHBOURS(&p, cell_start, xb, i) {
     const float3 d = pos[i].xyz - xb;
     const float r2 = dot(d, d);
     if (r2 < H2) {
       const float r = sqrt(r2);
+      if (kw > 0.0f && r < r0 && r > 1e-6f * dx) f -= p.phase_mass[phase[i]] * (bb.w * kw * (1.0f - r / r0) / r) * d;
       const float mi = p.phase_mass[phase[i]];
       const float inv_delta = mi / density[i];
       const float F = sph_grad_factor(SPH_KERNEL, r, H);

@@ -3,7 +3,8 @@
 # side: where the balls rest, how far the cloth stretches, whether it has come to rest, and the wall
 # time (no particle or isosurface output). Prints a table and writes OUT/compare.csv.
 #   scripts/measurements/balls_on_cloth/compare.sh [DURATION] [OUT_DIR]
-# Extra --set arguments for the DFSPH run can be given in DFSPH_SET (e.g. "cloth[0].max_time_step=.inf").
+# Extra --set arguments for the DFSPH run can be given in DFSPH_SET (e.g. "cloth[0].max_time_step=.inf");
+# SOLVERS="dfsph" runs one solver only (default: "wcsph dfsph").
 set -uo pipefail
 top=$(cd "$(dirname "$0")/../../.." && pwd)
 sph=${SPHAPTICS:-$top/build/cli/sphaptics}
@@ -12,7 +13,7 @@ out=${2:-$(mktemp -d)}
 mkdir -p "$out"
 csv="$out/compare.csv"
 echo "solver,wall_s,steps,wood_z_m,plastic_z_m,metal_z_m,max_strain,cloth_ke_last_quarter_J,anchor_fz_N" > "$csv"
-for solver in wcsph dfsph; do
+for solver in ${SOLVERS:-wcsph dfsph}; do
   extra=()
   if [ "$solver" = dfsph ]; then for s in ${DFSPH_SET:-}; do extra+=(--set "$s"); done; fi
   dir="$out/$solver"
