@@ -707,7 +707,7 @@ std::vector<Eigen::Vector3d> ClothSim::step(double t, double dt, const Eigen::Ve
   if (added_mass)
     clCall("keeping the nodes' velocities", [&] { return cl_.queue().enqueueCopyBuffer(v_[cur_], vstart_, 0, 0, std::size_t(n_) * 16); });
   if (any_xpbd_) {
-    const int k = std::max(1, static_cast<int>(std::ceil(dt / m_.xpbd_dt_limit * (1.0 - 1e-12))));
+    const int k = xpbdSubsteps(dt);
     const double h = dt / k;
     last_xpbd_substeps_ = k;
     last_dt_ = h;
@@ -821,6 +821,10 @@ Eigen::Vector3d ClothSim::pendingAddedMassMomentum() {
   clCall("reading the added-mass impulses", [&] { return cl_.queue().enqueueReadBuffer(impulse_M_, CL_TRUE, 0, std::size_t(n_) * 16, J.data()); });
   for (const Eigen::Vector4f& j : J) sum += j.head<3>().cast<double>();
   return sum;
+}
+
+int ClothSim::xpbdSubsteps(double dt) const {
+  return any_xpbd_ ? std::max(1, static_cast<int>(std::ceil(dt / m_.xpbd_dt_limit * (1.0 - 1e-12)))) : 0;
 }
 
 void ClothSim::nodeResponse(double dt, cl::Buffer& out) {

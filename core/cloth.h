@@ -213,6 +213,9 @@ class ClothSim {
   void cut(const std::vector<CutterPose>& poses);
   /// Substeps the explicit solver took in the last step().
   int lastSubsteps() const { return last_substeps_; }
+  /// Substeps the XPBD solver takes in a step of dt (unit: s): ceil(dt / ClothModel::xpbd_dt_limit),
+  /// 0 without an XPBD cloth.
+  int xpbdSubsteps(double dt) const;
   /// Substeps the XPBD solver took in the last step() (ClothModel::xpbd_dt_limit).
   int lastXpbdSubsteps() const { return last_xpbd_substeps_; }
   /// Positions (w = inverse mass) and velocities of all nodes.

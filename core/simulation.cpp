@@ -1057,25 +1057,37 @@ void Simulation::clothResponse(double dt) {
   cloth_->dryVelocityChange(time_, dt, gravityAt(model_.spec.simulation, time_), clothSpheres(nullptr), node_dv_);
 }
 
+// DFSPH's added mass of wet cloth nodes (clothAddedMass): a node has all of it with at least this
+// fraction of rho0 of fluid in its support (sum_i m_i W_ik), less in proportion below (a few drops).
+// A tenth: the sealed column's nodes (water on both sides, a spacing off) have 0.1-0.25 and flutter
+// unless they all have it (docs/dfsph.md, session 19).
+static constexpr double kAddedMassWetFraction = 0.1;  // (unit: 1)
+
 void Simulation::clothAddedMass() {
   // DFSPH's added mass of wet cloth nodes (fluid.dfsph.cloth_added_mass = C; 0 = off). With the
   // strong coupling a light node with water on both sides moves in the solves as its mass (or with
   // its springs implicit), while its own step resolves stiff springs in substeps that the solves
   // see only through their end: the sealed sheet of scenes/tests/dfsph_cloth_sandwich.yaml at 0.5 ms
   // substeps flutters with period ~2 steps at ~0.13 m/s (its nodes' velocities alternate in sign
-  // from step to step) and rests once its areal density is ~8x (docs/dfsph.md, session 19). Each
-  // free node with fluid within H gets M_k = C rho0 V_k (V_k = psi_k dx^3, the fluid volume its
-  // boundary particle stands for) in its own step and in the solves' response: its inertia, not its
-  // weight, so where it rests is unchanged. The fluid near it takes the momentum M_k (v' - v) of the
-  // last step (kernels/dfsph.cl, dfsph_node_added_mass_reaction), so the total is conserved.
+  // from step to step) and rests once its areal density is ~8x (docs/dfsph.md, session 19). In a
+  // step the cloth takes in substeps, each free wet node gets M_k = C rho0 V_k (V_k = psi_k dx^3, the
+  // fluid volume its boundary particle stands for; scaled down where it has less than a tenth of a
+  // full support of fluid, kernels/dfsph.cl) in its own step and in the solves' response: its
+  // inertia, not its weight, so where it rests is unchanged. The fluid near it takes the momentum
+  // M_k (v' - v) of the last step (kernels/dfsph.cl, dfsph_node_added_mass_reaction), so the total
+  // is conserved.
   const double C = model_.spec.fluid.dfsph.cloth_added_mass;
   if (!(C > 0.0)) return;
   if (!node_share_()) node_share_ = makeBuffer(std::size_t(n_cloth_) * 16);
   const double rho0 = model_.spec.fluid.phases.empty() ? 1000.0 : model_.spec.fluid.phases[0].rest_density;
-  const float c_rho_v0 = static_cast<float>(C * rho0 * model_.dx * model_.dx * model_.dx);
+  // Only where the cloth's step is split (cloth[].max_time_step): one soft XPBD step damps what the
+  // solves miss, and needs none (the column rests in one step; a hammock's pool spilled more with it).
+  const bool split = cloth_->xpbdSubsteps(params_.dt) > 1;
+  const float c_rho_v0 = split ? static_cast<float>(C * rho0 * model_.dx * model_.dx * model_.dx) : 0.0f;
+  const float wet_rho = static_cast<float>(kAddedMassWetFraction * rho0);
   const uint32_t offset = n_static_ + n_moving_;
   kernels_.call("dfsph_node_added_mass", n_cloth_, kLocal, params_, n_cloth_, offset, cloth_->positions(), bsrc_,
-                pos_[cur_], phase_[cur_], cell_start_, cloth_->rowStart(), cloth_->others(), c_rho_v0,
+                pos_[cur_], phase_[cur_], cell_start_, cloth_->rowStart(), cloth_->others(), c_rho_v0, wet_rho,
                 cloth_->addedMassImpulse(), cloth_->addedMass(), node_share_);
   kernels_.call("dfsph_node_added_mass_reaction", n_, kLocal, params_, offset, n_cloth_, pos_[cur_], bpos_, sbnbr_,
                 sbnbr_count_, bsorted_, node_share_, vel_[cur_]);

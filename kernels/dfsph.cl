@@ -938,22 +938,22 @@ __kernel void dfsph_node_accel(const SimParams p, const uint n, const uint offse
   bacc[s] = (float4)(a, 1.0f);
 }
 
-/* DFSPH's added mass of cloth nodes with water on both sides (Simulation::clothAddedMass), before the
- * step's solves. Per node k: the added mass M_k = c_rho_v0 psi_k = C rho0 V_k (V_k = psi_k V0, the
- * volume its boundary particle stands for) of a free node with water on both sides of its sheet (the
- * lesser side over a tenth of the greater: the nodes the solves move as their mass, dfsph_node_slots,
- * and those next to the tank's walls, whose cut support weighs a side less), else 0 (a node wet on
- * one side, as a hammock's under its pool, is moved with its springs implicit and did not flutter;
- * with the added mass its pool spilled more); s_k = psi_k sum_i m_i W(|x_i -
- * x_k|) over the fluid within H (unit: kg/m^3); and the share J_k / s_k of the momentum J_k = M_k (v'
- * - v) the node's added mass took (cloth_added_mass_impulse), which dfsph_node_added_mass_reaction
- * gives the fluid (as rigid.cl's (4a)-(4c) give a body's fictitious force's); J_k is then cleared,
- * or kept while the node has no fluid within H. */
+/* DFSPH's added mass of wet cloth nodes (Simulation::clothAddedMass), before the step's solves. Per
+ * node k: sigma_k = sum_i m_i W(|x_i - x_k|) over the fluid within H (dfsph_node_sides; unit: kg/m^3);
+ * the added mass of a free node M_k = c_rho_v0 psi_k min(1, sigma_k / wet_rho) (c_rho_v0 psi_k = C rho0
+ * V_k, V_k = psi_k V0 the volume its boundary particle stands for; wet_rho a tenth of rho0: a node in
+ * water has the whole of it, one touched by a few drops little, so that a splash's particles do not
+ * take a whole node's reaction), 0 for an anchored node or with c_rho_v0 = 0; and the share J_k / s_k,
+ * s_k = psi_k sigma_k, of the momentum J_k = M_k (v' - v) the node's added mass took
+ * (cloth_added_mass_impulse), which dfsph_node_added_mass_reaction gives the fluid (as rigid.cl's
+ * (4a)-(4c) give a body's fictitious force's); J_k is then cleared, or kept while the node has no
+ * fluid within H. */
 __kernel void dfsph_node_added_mass(const SimParams p, const uint n, const uint offset, __global const float4* nodes,
                                     __global const float4* bsrc, __global const float4* pos,
                                     __global const uint* phase, __global const uint* cell_start,
                                     __global const uint* row_start, __global const uint* other,
-                                    const float c_rho_v0, __global float4* impulse, __global float* fict,
+                                    const float c_rho_v0, const float wet_rho, __global float4* impulse,
+                                    __global float* fict,
                                     __global float4* share) {
   const uint k = get_global_id(0);
   if (k >= n) return;
@@ -966,7 +966,7 @@ __kernel void dfsph_node_added_mass(const SimParams p, const uint n, const uint 
   } else {
     share[k] = (float4)(0.0f);
   }
-  fict[k] = nodes[k].w != 0.0f && dfsph_node_both_sides(sides, 0.1f) ? c_rho_v0 * psi : 0.0f;
+  fict[k] = nodes[k].w != 0.0f ? c_rho_v0 * psi * fmin(1.0f, fabs(sides.z) / wet_rho) : 0.0f;
 }
 
 /* Each fluid particle i: v_i += sum over its boundary neighbours k within H that are cloth nodes of
@@ -979,20 +979,8 @@ __kernel void dfsph_node_added_mass_reaction(const SimParams p, const uint offse
                                              __global float4* vel) {
   const uint i = get_global_id(0);
   if (i >= p.n_fluid) return;
-  const uint K = p.max_neighbours;
-  const float3 xi = pos[i].xyz;
-  const float H = p.support;
-  float3 dv = (float3)(0.0f);
+  const float3 dv = sph_boundary_share_dv(&p, i, pos, bpos, sbnbr, sbnbr_count, sorted, offset, n_nodes, 0, share);
   const uint nb = sbnbr_count[i];
-  for (uint q = 0; q < nb; ++q) {
-    const uint s = sbnbr[(size_t)i * K + q];
-    const uint k = sorted[s];
-    if (k < offset || k >= offset + n_nodes) continue; /* a wall or a body particle */
-    const float4 pb = bpos[s];
-    const float3 d = xi - pb.xyz;
-    const float r2 = dot(d, d);
-    if (r2 < H * H) dv += pb.w * sph_w(SPH_KERNEL, sqrt(r2), H) * share[k - offset].xyz;
-  }
   if (nb > 0) vel[i] = (float4)(vel[i].xyz + dv, vel[i].w);
 }
 

@@ -197,20 +197,7 @@ __kernel void rigid_added_mass_reaction(const SimParams p, const uint n_static, 
                                         __global const float4* share, __global float4* vel) {
   const uint i = get_global_id(0);
   if (i >= p.n_fluid) return;
-  const uint K = p.max_neighbours;
-  const float3 xi = pos[i].xyz;
-  const float H = p.support;
-  const float H2 = H * H;
-  float3 dv = (float3)(0.0f);
+  const float3 dv = sph_boundary_share_dv(&p, i, pos, bpos, sbnbr, sbnbr_count, sorted, n_static, n_moving, body, share);
   const uint nb = sbnbr_count[i];
-  for (uint q = 0; q < nb; ++q) {
-    const uint s = sbnbr[(size_t)i * K + q];
-    const uint k = sorted[s];
-    if (k < n_static || k >= n_static + n_moving) continue; /* a wall or a cloth node */
-    const float4 pb = bpos[s];
-    const float3 d = xi - pb.xyz;
-    const float r2 = dot(d, d);
-    if (r2 < H2) dv += pb.w * sph_w(SPH_KERNEL, sqrt(r2), H) * share[body[k - n_static]].xyz;
-  }
   if (nb > 0) vel[i] = (float4)(vel[i].xyz + dv, vel[i].w);
 }

@@ -301,5 +301,32 @@ inline float3 sph_boundary_contact(const SimParams* p, const float3 d, const flo
   return w * (5.0f * p->c0 * p->c0 / dx) * (1.0f - r / r0) / r * d;
 }
 
+/* DFSPH's fictitious and added masses give their momentum back to the fluid (rigid.cl (4c), a body's;
+ * dfsph.cl, dfsph_node_added_mass_reaction, a cloth node's): fluid particle i's velocity change
+ * sum over its boundary neighbours b within H whose source index k is in [first, first + count) of
+ * psi_b W_ib share[map ? map[k - first] : k - first] (share: a momentum over its s = sum psi_b m_i W_ib,
+ * unit: m^4/s). Slot s of bpos holds boundary particle sorted[s]; this step's lists (sbnbr). */
+inline float3 sph_boundary_share_dv(const SimParams* p, const uint i, __global const float4* pos,
+                                    __global const float4* bpos, __global const uint* sbnbr,
+                                    __global const uint* sbnbr_count, __global const uint* sorted, const uint first,
+                                    const uint count, __global const uint* map, __global const float4* share) {
+  const uint K = p->max_neighbours;
+  const float3 xi = pos[i].xyz;
+  const float H = p->support;
+  const float H2 = H * H;
+  float3 dv = (float3)(0.0f);
+  const uint nb = sbnbr_count[i];
+  for (uint q = 0; q < nb; ++q) {
+    const uint s = sbnbr[(size_t)i * K + q];
+    const uint k = sorted[s];
+    if (k < first || k >= first + count) continue; /* another kind of boundary particle */
+    const float4 pb = bpos[s];
+    const float3 d = xi - pb.xyz;
+    const float r2 = dot(d, d);
+    if (r2 < H2) dv += pb.w * sph_w(SPH_KERNEL, sqrt(r2), H) * share[map ? map[k - first] : k - first].xyz;
+  }
+  return dv;
+}
+
 #endif
 #endif
