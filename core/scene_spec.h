@@ -154,9 +154,10 @@ struct DfsphSpec {
   /// step's worth); 0.5, a sphere's added mass, by default; 0 = off (unit: 1)
   double body_added_mass = 0.5;
   DfsphClothCoupling cloth_coupling = DfsphClothCoupling::Strong;  ///< see DfsphClothCoupling
-  /// with strong cloth coupling: each wet free node (fluid within H) moves with an added mass C rho0
-  /// V_k (V_k the fluid volume its boundary particle stands for) in its own step, the reaction going to
-  /// the fluid near it (Simulation::clothAddedMass); 1 by default; 0 = off (unit: 1)
+  /// with strong cloth coupling, in steps the cloth takes in XPBD substeps: each wet free node (fluid
+  /// within H) moves with an added mass C rho0 V_k (V_k the fluid volume its boundary particle stands
+  /// for) in its own step, the reaction going to the fluid near it (Simulation::clothAddedMass); 1 by
+  /// default; 0 = off (unit: 1)
   double cloth_added_mass = 1.0;
   SourceLoc loc;
 };

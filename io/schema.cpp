@@ -516,12 +516,13 @@ std::vector<KeyDef> buildTable() {
                "staggered"));
   add(field<InScene>("fluid.dfsph.cloth_added_mass", [](auto& s) -> auto& { return s.fluid.dfsph.cloth_added_mass; })
           .unit("1").atLeast(0).atMost(10)
-          .doc("with strong cloth coupling: each free cloth or soft-body node with fluid within H moves in its own "
-               "step with an added mass C rho0 V_k (V_k the fluid volume its boundary particle stands for; the "
-               "solves count it too), and the fluid near it takes the momentum M (v' - v) before the next step's "
-               "solves (momentum conserved); its weight and its place at rest are unchanged. A light sheet with "
-               "water on both sides and resolved XPBD substeps (max_time_step) otherwise flutters with period "
-               "about 2 steps (docs/dfsph.md, session 19); 0 = off"));
+          .doc("with strong cloth coupling, in a step the cloth takes in XPBD substeps (cloth[].max_time_step): "
+               "each free cloth or soft-body node with fluid within H moves in its own step with an added mass C "
+               "rho0 V_k (V_k the fluid volume its boundary particle stands for; less where it has under a tenth "
+               "of a full support of fluid; the solves count it too), and the fluid near it takes the momentum "
+               "M (v' - v) before the next step's solves (momentum conserved); its weight and its place at rest "
+               "are unchanged. A light sheet with water on both sides otherwise flutters with period about 2 "
+               "steps at substeps (docs/dfsph.md, session 19); 0 = off"));
   add(field<InScene>("fluid.particle_spacing", [](auto& s) -> auto& { return s.fluid.particle_spacing; })
           .unit("m").greaterThan(0).doc("lattice spacing dx of the fluid particles"));
   add(field<InScene>("fluid.equation_of_state", [](auto& s) -> auto& { return s.fluid.equation_of_state; })

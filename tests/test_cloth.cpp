@@ -670,7 +670,8 @@ TEST_CASE("Cloth with DFSPH: a light sheet sealed between two water layers stays
   // Session 19: the same with the cloth in XPBD substeps of 0.5 ms (cloth[].max_time_step; the
   // scene's one XPBD step per fluid step leaves this sheet soft: strain 7 %, 1 % with substeps).
   // Resolved, the light sheet fluttered with period ~2 steps (4.3e-4 J over the last 0.2 s) until its
-  // wet nodes moved with an added mass (fluid.dfsph.cloth_added_mass, 1 by default): 7.8e-8 J.
+  // wet nodes moved with an added mass in substepped steps (fluid.dfsph.cloth_added_mass, 1 by
+  // default): 1.7e-7 J.
   // Mutation: cloth_added_mass 0 fails (4.3e-4 J).
   const bool substeps = GENERATE(false, true);
   INFO("XPBD substeps of 0.5 ms: " << substeps);
@@ -957,9 +958,9 @@ TEST_CASE("Cloth with DFSPH: a ball pushing water against a free sheet conserves
   // (x - x_prev) / h carry up to 6e-5 m/s of rounding on ~0.15 kg of nodes and added mass, a random
   // walk over the run's ~200 substeps of ~1.3e-4 N s: the check allows 0.5 % of the ball's 0.034 kg
   // m/s (1.7e-4). The sheet must take a real share: over 5 % of it.
-  // Measured (session 19): C = 0 drift 6.0e-6 with the sheet at 0.0044 kg m/s, C = 1 7.2e-5 (0.0045).
+  // Measured (session 19): C = 0 drift 6.0e-6 with the sheet at 0.0044 kg m/s, C = 1 5.1e-5 (0.0045).
   // Mutations, each fails: the water's reaction not enqueued (dfsph_node_added_mass_reaction): drift
-  // 9.2e-3; the extrapolated walls' contact from the nodes without its reaction on them (as before
+  // 5.3e-3; the extrapolated walls' contact from the nodes without its reaction on them (as before
   // session 19), in this scene's first version (water landing on the sheet, C = 1): 4.6e-3.
   const double C = GENERATE(0.0, 1.0);
   INFO("fluid.dfsph.cloth_added_mass " << C);
