@@ -813,7 +813,6 @@ std::vector<Eigen::Vector3d> ClothSim::collideSpheres(const std::vector<SphereCo
   return out;
 }
 
-
 Eigen::Vector3d ClothSim::pendingAddedMassMomentum() {
   Eigen::Vector3d sum = Eigen::Vector3d::Zero();
   if (!added_mass_ || n_ == 0) return sum;

@@ -253,6 +253,8 @@ class ClothSim {
   const cl::Buffer& springParams() const { return prm_; }
   const cl::Buffer& brokenSprings() const { return broken_; }
   const cl::Buffer& velocities() const { return v_[cur_]; }
+  /// Per node 1 if its cloth is stepped by XPBD, 0 if explicit (uint).
+  const cl::Buffer& xpbdNodes() const { return is_xpbd_; }
   std::size_t bytes() const { return bytes_; }
 
  private:

@@ -1087,7 +1087,7 @@ void Simulation::clothAddedMass() {
   const float wet_rho = static_cast<float>(kAddedMassWetFraction * rho0);
   const uint32_t offset = n_static_ + n_moving_;
   kernels_.call("dfsph_node_added_mass", n_cloth_, kLocal, params_, n_cloth_, offset, cloth_->positions(), bsrc_,
-                pos_[cur_], phase_[cur_], cell_start_, cloth_->rowStart(), cloth_->others(), c_rho_v0, wet_rho,
+                pos_[cur_], phase_[cur_], cell_start_, cloth_->rowStart(), cloth_->others(), cloth_->xpbdNodes(), c_rho_v0, wet_rho,
                 cloth_->addedMassImpulse(), cloth_->addedMass(), node_share_);
   kernels_.call("dfsph_node_added_mass_reaction", n_, kLocal, params_, offset, n_cloth_, pos_[cur_], bpos_, sbnbr_,
                 sbnbr_count_, bsorted_, node_share_, vel_[cur_]);

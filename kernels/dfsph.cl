@@ -943,7 +943,8 @@ __kernel void dfsph_node_accel(const SimParams p, const uint n, const uint offse
  * the added mass of a free node M_k = c_rho_v0 psi_k min(1, sigma_k / wet_rho) (c_rho_v0 psi_k = C rho0
  * V_k, V_k = psi_k V0 the volume its boundary particle stands for; wet_rho a tenth of rho0: a node in
  * water has the whole of it, one touched by a few drops little, so that a splash's particles do not
- * take a whole node's reaction), 0 for an anchored node or with c_rho_v0 = 0; and the share J_k / s_k,
+ * take a whole node's reaction), 0 for an anchored node, an explicit cloth's (its step has no added
+ * mass) or with c_rho_v0 = 0; and the share J_k / s_k,
  * s_k = psi_k sigma_k, of the momentum J_k = M_k (v' - v) the node's added mass took
  * (cloth_added_mass_impulse), which dfsph_node_added_mass_reaction gives the fluid (as rigid.cl's
  * (4a)-(4c) give a body's fictitious force's); J_k is then cleared, or kept while the node has no
@@ -952,7 +953,8 @@ __kernel void dfsph_node_added_mass(const SimParams p, const uint n, const uint 
                                     __global const float4* bsrc, __global const float4* pos,
                                     __global const uint* phase, __global const uint* cell_start,
                                     __global const uint* row_start, __global const uint* other,
-                                    const float c_rho_v0, const float wet_rho, __global float4* impulse,
+                                    __global const uint* is_xpbd, const float c_rho_v0, const float wet_rho,
+                                    __global float4* impulse,
                                     __global float* fict,
                                     __global float4* share) {
   const uint k = get_global_id(0);
@@ -966,7 +968,7 @@ __kernel void dfsph_node_added_mass(const SimParams p, const uint n, const uint 
   } else {
     share[k] = (float4)(0.0f);
   }
-  fict[k] = nodes[k].w != 0.0f ? c_rho_v0 * psi * fmin(1.0f, fabs(sides.z) / wet_rho) : 0.0f;
+  fict[k] = nodes[k].w != 0.0f && is_xpbd[k] ? c_rho_v0 * psi * fmin(1.0f, fabs(sides.z) / wet_rho) : 0.0f;
 }
 
 /* Each fluid particle i: v_i += sum over its boundary neighbours k within H that are cloth nodes of
