@@ -32,14 +32,19 @@
  *       next to it (p_b = p_i, mirrored), w = 1 with single walls (p_b = 0). A neighbour within H
  *       of i lies in i's aggregate cell or the next one, so K couples aggregates up to two cells
  *       apart: a 125-point stencil per row;
- *   coarse solve: conjugate gradients with a Jacobi preconditioner (Hestenes & Stiefel 1952; Saad
- *   2003, "Iterative Methods for Sparse Linear Systems", Alg. 9.1) in one work-group, until the
- *   residual is below 1e-4 of P^T r (2-norm) or after 100 iterations (core/dfsph_coarse.cpp).
- *   K is symmetric but for the walls' w and the densities (F weighs by 1 / delta^2, R does not),
- *   so CG is not guaranteed to converge; on the scenes measured it did (the tank: 13-49
- *   iterations to 1e-4, <= 70 to 1e-6), and a stop when K is not positive along the search
- *   direction guards it. CG on the symmetric part (K + K^T) / 2 instead: the tank rang until
- *   1.25-1.5 s (1 kPa between steps at 1-1.25 s, against < 1 Pa);
+ *   coarse solve: BiCGStab with a Jacobi preconditioner (van der Vorst 1992; Saad 2003, "Iterative
+ *   Methods for Sparse Linear Systems", Alg. 7.7) in one work-group, until the residual is below
+ *   1e-4 of P^T r (2-norm) or after 100 iterations (core/dfsph_coarse.cpp). K is symmetric but for
+ *   the walls' w and the densities (F weighs by 1 / delta^2, R does not): 5 % of its norm in the
+ *   sealed column and the paper's demo, whose K's symmetric part even has a negative eigenvalue.
+ *   Conjugate gradients (sessions 10-20) converged on the tank (13-49 iterations to 1e-4; BiCGStab
+ *   ~20, session 21) but stalled in the demo: 100 of 100 iterations, the residual left at 4e-3
+ *   (measured, session 20; in double precision on the same K, 3.4e-3 after 1000), where BiCGStab
+ *   reaches 1e-4 in 30 (two products with K each). Not kept: CG on the symmetric part (K + K^T) / 2
+ *   (the tank rang until 1.25-1.5 s, 1 kPa between steps at 1-1.25 s, against < 1 Pa); CG on a Gram
+ *   form sum_i B_i(c) . B_i(d) / m_i with 1 / delta weights on both sides, symmetric positive
+ *   semi-definite and equal to K where the density is uniform (the resting tank rang by 1 kPa,
+ *   session 21);
  *   correction: q = P e scaled by the line search theta = -<q, r> / <q, dr> (dr: the residual
  *   change q makes with the walls' own operator, dfsph_coarse_trial), within [0, 2], and
  *   p_i <- max(p_i + theta q_i, 0) for the active particles (the projection of dfsph_jacobi).
@@ -48,7 +53,7 @@
  * work-group reductions over a fixed tree, chunks in order): bitwise deterministic, no float
  * atomics, and nothing crosses to the host. */
 
-/* Work-group size of the single-group kernels (numbering, CG). */
+/* Work-group size of the single-group kernels (numbering, the coarse solve). */
 #define DFSPH_COARSE_WG 256
 
 /* Box coordinates of an aggregate cell index (cells of size H from domain_min, box dims bd). */
@@ -300,68 +305,97 @@ __kernel void dfsph_coarse_assemble(const SimParams p, const int4 bd, __global c
   }
 }
 
-/* K e = b by Jacobi-preconditioned conjugate gradients (Saad 2003, Alg. 9.1), in one work-group: aggregate k is handled by work-item k mod DFSPH_COARSE_WG, the dot products
- * are group sums (fixed order). Stops when |r| <= tol |b| or after max_it iterations, or when the
- * operator is not positive along the search direction; e in x. mcount[1]: iterations run. */
+/* y = K v for this work-item's rows (k = l, l + WG, ...). */
+inline void dfsph_coarse_matvec(const uint l, const uint m, __global const float* kval, __global const int* kcol,
+                                __global const float* v, __global float* y) {
+  for (uint k = l; k < m; k += DFSPH_COARSE_WG) {
+    float s = 0.0f;
+    for (int o = 0; o < 125; ++o) {
+      const int c = kcol[(size_t)k * 125 + o];
+      if (c >= 0) s += kval[(size_t)k * 125 + o] * v[c];
+    }
+    y[k] = s;
+  }
+}
+
+/* K e = b by BiCGStab (van der Vorst 1992; Saad 2003, Alg. 7.7) with the Jacobi preconditioner on the
+ * right, in one work-group (aggregate k is handled by work-item k mod DFSPH_COARSE_WG, the dot
+ * products are group sums in a fixed order). K is not symmetric (the walls' w, the densities) and
+ * its symmetric part need not be positive, so conjugate gradients can stall (the top of this file).
+ * r0hat = b. Stops when |r| <= tol |b|, after max_it iterations, or at a
+ * breakdown (a zero <r0hat, r>, <r0hat, v> or <t, t>, or omega = 0); e in x. mcount[1]: iterations. */
 __kernel __attribute__((reqd_work_group_size(DFSPH_COARSE_WG, 1, 1)))
-void dfsph_coarse_cg(__global uint* mcount, __global const float* kval, __global const int* kcol,
-                     __global const float* b, __global float* x, __global float* r, __global float* z,
-                     __global float* pv, __global float* q, const int max_it, const float tol) {
+void dfsph_coarse_bicgstab(__global uint* mcount, __global const float* kval, __global const int* kcol,
+                           __global const float* b, __global float* x, __global float* r, __global float* ph,
+                           __global float* pv, __global float* v, __global float* sh, __global float* t,
+                           const int max_it, const float tol) {
   __local float red[DFSPH_COARSE_WG];
   const uint l = get_local_id(0);
   const uint m = mcount[0];
-  /* x = 0, r = b, z = D^-1 r, p = z */
-  float rz_l = 0.0f, bb_l = 0.0f;
+  float bb_l = 0.0f;
   for (uint k = l; k < m; k += DFSPH_COARSE_WG) {
-    const float rk = b[k], dk = kval[(size_t)k * 125 + 62];
-    const float zk = dk > 0.0f ? rk / dk : 0.0f;
     x[k] = 0.0f;
-    r[k] = rk;
-    z[k] = zk;
-    pv[k] = zk;
-    rz_l += rk * zk;
-    bb_l += rk * rk;
+    r[k] = b[k];
+    pv[k] = 0.0f;
+    v[k] = 0.0f;
+    bb_l += b[k] * b[k];
   }
-  float rz = dfsph_coarse_group_sum(red, rz_l);
   const float bb = dfsph_coarse_group_sum(red, bb_l);
   barrier(CLK_GLOBAL_MEM_FENCE);
-  float rr = bb;
+  float rho = 1.0f, alpha = 1.0f, omega = 1.0f, rr = bb;
   int it = 0;
-  float go = rz > 0.0f ? 1.0f : 0.0f;
-  for (; it < max_it && go > 0.0f && rr > tol * tol * bb; ++it) {
-    /* q = K p, <p, q> */
-    float pq_l = 0.0f;
+  for (; it < max_it && rr > tol * tol * bb; ++it) {
+    /* rho' = <r0hat, r>; p = r + beta (p - omega v); phat = D^-1 p */
+    float l1 = 0.0f;
+    for (uint k = l; k < m; k += DFSPH_COARSE_WG) l1 += b[k] * r[k];
+    const float rho_new = dfsph_coarse_group_sum(red, l1);
+    if (rho_new == 0.0f) break;
+    const float beta = (rho_new / rho) * (alpha / omega);
+    rho = rho_new;
     for (uint k = l; k < m; k += DFSPH_COARSE_WG) {
-      float s = 0.0f;
-      for (int o = 0; o < 125; ++o) {
-        const int c = kcol[(size_t)k * 125 + o];
-        if (c >= 0) s += kval[(size_t)k * 125 + o] * pv[c];
-      }
-      q[k] = s;
-      pq_l += pv[k] * s;
+      const float pk = r[k] + beta * (pv[k] - omega * v[k]), dk = kval[(size_t)k * 125 + 62];
+      pv[k] = pk;
+      ph[k] = dk > 0.0f ? pk / dk : 0.0f;
     }
-    const float pq = dfsph_coarse_group_sum(red, pq_l);
-    if (!(pq > 0.0f)) go = 0.0f;
-    const float a = go > 0.0f ? rz / pq : 0.0f;
-    /* x += a p, r -= a q, z = D^-1 r */
-    float rz_n = 0.0f, rr_n = 0.0f;
-    for (uint k = l; k < m; k += DFSPH_COARSE_WG) {
-      x[k] += a * pv[k];
-      const float rk = r[k] - a * q[k], dk = kval[(size_t)k * 125 + 62];
-      const float zk = dk > 0.0f ? rk / dk : 0.0f;
-      r[k] = rk;
-      z[k] = zk;
-      rz_n += rk * zk;
-      rr_n += rk * rk;
-    }
-    const float rz_new = dfsph_coarse_group_sum(red, rz_n);
-    rr = dfsph_coarse_group_sum(red, rr_n);
-    const float beta = rz > 0.0f ? rz_new / rz : 0.0f;
-    rz = rz_new;
-    if (!(rz > 0.0f)) go = 0.0f;
-    /* p = z + beta p */
-    for (uint k = l; k < m; k += DFSPH_COARSE_WG) pv[k] = z[k] + beta * pv[k];
     barrier(CLK_GLOBAL_MEM_FENCE);
+    /* v = K phat; alpha = rho / <r0hat, v>; s = r - alpha v (in r) */
+    dfsph_coarse_matvec(l, m, kval, kcol, ph, v);
+    barrier(CLK_GLOBAL_MEM_FENCE);
+    l1 = 0.0f;
+    for (uint k = l; k < m; k += DFSPH_COARSE_WG) l1 += b[k] * v[k];
+    const float r0v = dfsph_coarse_group_sum(red, l1);
+    if (r0v == 0.0f) break;
+    alpha = rho / r0v;
+    l1 = 0.0f;
+    for (uint k = l; k < m; k += DFSPH_COARSE_WG) {
+      const float sk = r[k] - alpha * v[k], dk = kval[(size_t)k * 125 + 62];
+      r[k] = sk;
+      x[k] += alpha * ph[k];
+      sh[k] = dk > 0.0f ? sk / dk : 0.0f;
+      l1 += sk * sk;
+    }
+    rr = dfsph_coarse_group_sum(red, l1);
+    barrier(CLK_GLOBAL_MEM_FENCE);
+    if (!(rr > tol * tol * bb)) { ++it; break; }
+    /* t = K shat; omega = <t, s> / <t, t>; x += omega shat; r = s - omega t */
+    dfsph_coarse_matvec(l, m, kval, kcol, sh, t);
+    barrier(CLK_GLOBAL_MEM_FENCE);
+    float l2 = 0.0f;
+    l1 = 0.0f;
+    for (uint k = l; k < m; k += DFSPH_COARSE_WG) l1 += t[k] * r[k], l2 += t[k] * t[k];
+    const float ts = dfsph_coarse_group_sum(red, l1), tt = dfsph_coarse_group_sum(red, l2);
+    if (!(tt > 0.0f)) break;
+    omega = ts / tt;
+    l1 = 0.0f;
+    for (uint k = l; k < m; k += DFSPH_COARSE_WG) {
+      x[k] += omega * sh[k];
+      const float rk = r[k] - omega * t[k];
+      r[k] = rk;
+      l1 += rk * rk;
+    }
+    rr = dfsph_coarse_group_sum(red, l1);
+    barrier(CLK_GLOBAL_MEM_FENCE);
+    if (omega == 0.0f) { ++it; break; }
   }
   if (l == 0) mcount[1] = (uint)it;
 }
