@@ -65,9 +65,12 @@ void DfsphSolver::coarseCorrection(Kind kind, const SimParams& p, const DfsphFie
   kernels_.call("dfsph_coarse_members", n, kLocal, p, cagg_, cact_, cbnum_, cmem_);
   // Per particle and aggregate F and R, then K row by row. Extrapolated
   // walls: a smooth pressure's wall pressure is the fluid's next to it (mirrored, w = 2); single w = 1.
+  // Cloth nodes with water on both sides, which the solve moves as free masses (dfsph_node_slots), leave
+  // F's wall term (kernels/dfsph_coarse.cl, session 21: 0.67x the paper's demo's time).
   const float wall = extrapolated() ? 2.0f : 1.0f;
   kernels_.call("dfsph_coarse_pairs", n, kLocal, p, bd, *f.pos, *f.phase, *f.density, *f.snbr, *f.snbr_count, gwall_,
-                cagg_, cmem_, wall, cfr_, cmask_);
+                cagg_, cmem_, wall, cfr_, cmask_, *f.bpos, *f.sbnbr, *f.sbnbr_count, nodes_ ? 1 : 0,
+                nodes_ ? bminv_ : gwall_);
   const float scale = p.dt * p.dt * p.rest_volume;
   kernels_.call("dfsph_coarse_assemble", rows, kLocal, p, bd, *f.cell_start, cagg_, cmcount_, ccell_, cbnum_, cfr_,
                 cmask_, scale, ckval_, ckcol_);

@@ -29,7 +29,14 @@
  *       (sum_{k in d} (D a)_k = sum_i a_i . R_i(d) for D a the density change of dfsph_jacobi,
  *       by the antisymmetry of gradW_ij), G_b,i the factor pass's wall sum (gwall); w = 2 with
  *       extrapolated walls: the extrapolated wall pressure of a smooth field is that of the fluid
- *       next to it (p_b = p_i, mirrored), w = 1 with single walls (p_b = 0). A neighbour within H
+ *       next to it (p_b = p_i, mirrored), w = 1 with single walls (p_b = 0). F leaves out the part of
+ *       G_b,i from free cloth nodes with water on both sides (session 21): the solve moves them as
+ *       free masses within it (dfsph_node_accel), and their extrapolated pressure is the average of
+ *       both sides', so a wall's mirrored push over-predicts the sheet's response by ~2x (the line
+ *       search's theta 0.46-0.49 in the paper's demo and the sealed sandwich). Measured, with
+ *       that node term in F weighted 2 / 1.5 / 1 / 0: the demo's 2 s in 10,966 / 10,150 / 8,833 /
+ *       8,284 density iterations, 1,406 / 1,239 / 952 / 798 corrections; 0 is the fastest (0.67x
+ *       the time of 2, medians of 3; docs/dfsph.md, session 21). A neighbour within H
  *       of i lies in i's aggregate cell or the next one, so K couples aggregates up to two cells
  *       apart: a 125-point stencil per row;
  *   coarse solve: BiCGStab with a Jacobi preconditioner (van der Vorst 1992; Saad 2003, "Iterative
@@ -208,7 +215,9 @@ __kernel void dfsph_coarse_pairs(const SimParams p, const int4 bd, __global cons
                                  __global const float* density, __global const uint* nbr,
                                  __global const uint* nbr_count, __global const float4* gwall,
                                  __global const uint* agg, __global const int* mem, const float wall,
-                                 __global float4* fr, __global uint2* mask) {
+                                 __global float4* fr, __global uint2* mask, __global const float4* bpos,
+                                 __global const uint* bnbr, __global const uint* bnbr_count, const int nodes,
+                                 __global const float4* bminv) {
   const uint i = get_global_id(0);
   if (i >= p.n_fluid) return;
   const uint K = p.max_neighbours;
@@ -242,7 +251,21 @@ __kernel void dfsph_coarse_pairs(const SimParams p, const int4 bd, __global cons
   /* i's own aggregate (slot 13): the terms with [i in c], when i is a member */
   if (mem[i] >= 0) {
     const float3 gb = gwall[i].xyz;
-    F[13] += (gsum + wall * gb) / (di * di);
+    /* the free cloth nodes with water on both sides (dfsph_node_slots' mark: bminv w of the second
+     * row): their wall sum leaves the force term (session 21, below) */
+    float3 gbn = (float3)(0.0f);
+    if (nodes) {
+      __global const uint* bl = bnbr + (size_t)i * K;
+      const uint nbb = bnbr_count[i];
+      for (uint q = 0; q < nbb; ++q) {
+        const uint b = bl[q];
+        if (bminv[3 * b + 1].w == 0.0f) continue;
+        const float4 bb = bpos[b];
+        const float3 d = xi - bb.xyz;
+        gbn += (bb.w * sph_grad_factor(SPH_KERNEL, length(d), H)) * d;
+      }
+    }
+    F[13] += (gsum + wall * (gb - gbn)) / (di * di);
     R[13] += gsum + gb;
     fm |= 1u << 13;
     rm |= 1u << 13;
