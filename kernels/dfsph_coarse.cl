@@ -252,7 +252,7 @@ __kernel void dfsph_coarse_pairs(const SimParams p, const int4 bd, __global cons
   if (mem[i] >= 0) {
     const float3 gb = gwall[i].xyz;
     /* the free cloth nodes with water on both sides (dfsph_node_slots' mark: bminv w of the second
-     * row): their wall sum leaves the force term (session 21, below) */
+     * row): their wall sum leaves the force term (session 21: the top of this file) */
     float3 gbn = (float3)(0.0f);
     if (nodes) {
       __global const uint* bl = bnbr + (size_t)i * K;
