@@ -85,7 +85,7 @@ DfsphSolver::DfsphSolver(ClContext& cl, KernelSet& kernels, std::size_t capacity
   cfr_ = makeBuffer(nc * 27 * 2 * 16);
   cmask_ = makeBuffer(nc * 8);
   for (cl::Buffer* b : {&ckval_, &ckcol_}) *b = makeBuffer(rows * 125 * 4);
-  for (cl::Buffer* b : {&cb_, &cx_, &cr_, &cz_, &cp_, &cq_, &csh_, &ct_}) *b = makeBuffer(rows * 4);
+  for (cl::Buffer* b : {&cb_, &cx_, &cr_, &cph_, &cp_, &cv_, &csh_, &ct_}) *b = makeBuffer(rows * 4);
   cmcount_ = makeBuffer(coarse() ? 8 : 0);
   cpartial_ = makeBuffer(coarse() ? 2 * kChunks * 4 : 0);
   ctheta_ = makeBuffer(coarse() ? 4 : 0);

@@ -193,11 +193,11 @@ class DfsphSolver {
   // aggregate number (-1: none), per aggregate slot F and R (n x 27 x 2 float4) with their
   // non-zero masks (n x uint2), the prolonged correction and trial pressures (unit: Pa). Per
   // aggregate (coarseRows): K's 125-slot rows and their columns (unit: m^3 s^2/kg), and the
-  // BiCGStab vectors (b = r0hat, x, r, phat, p, v, shat, t); the aggregate count and its iterations (2 x uint), the line
-  // search's chunk sums and its step theta.
+  // BiCGStab vectors (b = r0hat, x, r, phat, p, v, shat, t); the aggregate count and the solve's
+  // iterations (2 x uint), the line search's chunk sums and its step theta.
   static std::size_t coarseRows(std::size_t n) { return n / 4 + 1; }
   cl::Buffer cagg_, cact_, cres_, ctres_, cmem_, cfr_, cmask_, cdp_, ctrial_;
-  cl::Buffer ckval_, ckcol_, cb_, cx_, cr_, cz_, cp_, cq_, csh_, ct_;
+  cl::Buffer ckval_, ckcol_, cb_, cx_, cr_, cph_, cp_, cv_, csh_, ct_;
   cl::Buffer cmcount_, cpartial_, ctheta_;
   // Per aggregate cell of the box (coarseBox): "is an aggregate", P^T r and the aggregate number;
   // per aggregate its box cell.

@@ -30,8 +30,8 @@ constexpr float kCoarseThetaMax = 2.0f;               // the line search's large
 // reaches 1e-4 (session 21, docs/dfsph.md). With CG, measured on the tank (alpha 0.1, 3.33 ms
 // steps), the largest step-to-step change of the deepest probe over 1-2.75 s: 1e-4 calm (< 1 Pa)
 // from 1.0 s on; 1e-3 rang until 1.5 s (1.8 kPa at 1.0-1.25 s).
-constexpr int kCoarseIterations = 100;                    // (unit: 1)
-constexpr float kCoarseTolerance = 1e-4f;                 // (unit: 1)
+constexpr int kCoarseIterations = 100;                // (unit: 1)
+constexpr float kCoarseTolerance = 1e-4f;             // (unit: 1)
 }  // namespace
 
 DfsphSolver::~DfsphSolver() = default;
@@ -75,7 +75,7 @@ void DfsphSolver::coarseCorrection(Kind kind, const SimParams& p, const DfsphFie
   kernels_.call("dfsph_coarse_assemble", rows, kLocal, p, bd, *f.cell_start, cagg_, cmcount_, ccell_, cbnum_, cfr_,
                 cmask_, scale, ckval_, ckcol_);
   // K e = P^T r by BiCGStab (one work-group), prolonged: q = P e.
-  kernels_.call("dfsph_coarse_bicgstab", kGroup, kGroup, cmcount_, ckval_, ckcol_, cb_, cx_, cr_, cz_, cp_, cq_, csh_, ct_,
+  kernels_.call("dfsph_coarse_bicgstab", kGroup, kGroup, cmcount_, ckval_, ckcol_, cb_, cx_, cr_, cph_, cp_, cv_, csh_, ct_,
                 kCoarseIterations, kCoarseTolerance);
   kernels_.call("dfsph_coarse_prolong", n, kLocal, p, cmem_, cx_, cdp_);
   // Line search: the step theta along q that makes the correction Galerkin-exact for the walls'
