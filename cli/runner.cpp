@@ -28,6 +28,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <iomanip>
 #include <iostream>
 #include <limits>
 #include <memory>
@@ -639,7 +640,25 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
       }
       opt.live_link->mailbox.publish(std::move(lf));
     };
-    write_frame(0, false);  // Step#0 / fluid_*_0000.obj: the initial state
+    // The settle before t = 0 (simulation.settle_time): frame 0 is the settled state.
+    bool settle_interrupted = false;
+    if (spec.simulation.settle_time > 0.0 && sim.numFluid() > 0) {
+      std::ostringstream s;
+      s << "settling: the fluid comes to rest under gravity for " << spec.simulation.settle_time
+        << " s before t = 0 (bodies and cloth held)";
+      log(s.str());
+      try {
+        sim.settle();
+      } catch (const Interrupted&) {
+        settle_interrupted = true;  // a signal during the settle: no frame is written, the loop below stops at once
+      }
+      s.str("");
+      s << "settled: " << sim.profile().settle_steps << " steps in " << std::fixed << std::setprecision(1)
+        << sim.profile().settle_seconds << " s; largest speed in its last step " << std::setprecision(3)
+        << std::scientific << sim.profile().settle_max_speed << " m/s (then set to 0)";
+      if (!settle_interrupted) log(s.str());
+    }
+    if (!settle_interrupted) write_frame(0, false);  // Step#0 / fluid_*_0000.obj: the initial state
     res.output_seconds = 0;
     t_start = Clock::now();
     double last_log = 0.0;

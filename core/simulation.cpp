@@ -3,6 +3,7 @@
 #include "core/errors.h"
 
 #include <algorithm>
+#include <tuple>
 #include <cmath>
 #include <cstring>
 #include <sstream>
@@ -247,7 +248,7 @@ bool Simulation::disable(Stage s) {
 void Simulation::step(double dt) {
   // Per-step constants: step length, gravity (with the scene's ramp).
   params_.dt = static_cast<float>(dt);
-  const Eigen::Vector3d g = gravityAt(model_.spec.simulation, time_);
+  const Eigen::Vector3d g = gravityNow();
   for (int a = 0; a < 3; ++a) params_.gravity[a] = static_cast<float>(g[a]);
 
   if (on(Stage::Inflow)) emitInflow(dt);  // new particles enter at the nozzles
@@ -319,8 +320,110 @@ double Simulation::dfsphStepLimit(StepLimiter* limiter) const {
   return limit;
 }
 
+Eigen::Vector3d Simulation::gravityNow() const {
+  const SimulationSpec& sim = model_.spec.simulation;
+  if (!settling_) return gravityAt(sim, time_);
+  // The settle (t from -settle_time to 0): gravity ramps in smoothly over its first half (the ramp of
+  // gravityAt, zero slope at both ends), full over the second, so the fluid comes to rest under the load
+  // it carries from t = 0 on.
+  const double half = 0.5 * sim.settle_time;
+  const double t = time_ + sim.settle_time;
+  if (t >= half) return sim.gravity;
+  return 0.5 * (std::sin((t / half - 0.5) * M_PI) + 1.0) * sim.gravity;
+}
+
+// WCSPH's step limit at the largest speed max_speed (unit: s): the CFL and viscous limits (Monaghan
+// 1992: dt <= cfl h / (c0 + |v|max); Morris et al. 1997: dt <= 0.125 h^2 / nu). A scene without
+// fluid (rigid bodies alone) has no CFL limit.
+double Simulation::wcsphStepLimit(double max_speed) const {
+  double limit = model_.capacity == 0 ? INFINITY : model_.spec.simulation.cfl * model_.h / (model_.c0 + max_speed);
+  if (on(Stage::Viscosity) && model_.spec.fluid.viscosity_model == ViscosityModel::Laminar && model_.max_viscosity > 0)
+    limit = std::min(limit, 0.125 * model_.h * model_.h / model_.max_viscosity);
+  return limit;
+}
+
+// The settle before t = 0 (simulation.settle_time; docs/dfsph.md, session 22). A fluid block starts
+// on a cubic lattice, which is not stable under the water's own weight: in a resting tank its bottom
+// layers give way ~0.2-0.6 s after the load is on (rows sliding past each other; the column 0.3 mm
+// lower), and the solver answers the rearrangement with a bounce of kPa (DFSPH) or a ringing (WCSPH)
+// long after t = 0 (docs/dfsph.md, sessions 12 and 21). Here the fluid goes through that before t = 0,
+// with its velocities damped, so a scene at rest starts at rest, in the packing its solver holds, at
+// its hydrostatic pressure. Only the fluid moves: bodies stay at their initial pose with zero velocity,
+// cloth and soft bodies as placed (their nodes are still walls to the fluid); inflows, colour mixing,
+// probes, haptics and the per-step force log wait for t = 0.
+void Simulation::settle() {
+  if (settled_) return;
+  settled_ = true;
+  const SimulationSpec& sim = model_.spec.simulation;
+  if (!(sim.settle_time > 0.0) || n_ == 0) return;
+  const auto t0 = std::chrono::steady_clock::now();
+  const StageMask saved_stages = stages_;
+  for (Stage s : {Stage::Inflow, Stage::Probes, Stage::ColourDiffusion, Stage::Haptics, Stage::RigidDynamics, Stage::Cloth})
+    stages_.set(s, false);
+  const bool saved_record = record_forces_;
+  record_forces_ = false;
+  // Bodies held still (rigid_dynamics off: their poses do not change), their particles carrying no
+  // velocity into the fluid; their own velocities come back at t = 0.
+  std::vector<std::pair<Eigen::Vector3d, Eigen::Vector3d>> body_velocities;
+  for (rigid::BodyState& b : bodies_) body_velocities.emplace_back(b.v, b.w), b.v.setZero(), b.w.setZero();
+  const Profile saved_profile = profile_;
+  settling_ = true;
+  time_ = -sim.settle_time;
+  // WCSPH: the scene's own steps (frame / substeps, within the CFL limit of the last step's speed);
+  // DFSPH: its adaptive steps. As many steps as the frames it spans may take, at most.
+  const double max_steps = static_cast<double>(model_.max_steps_per_frame) * std::ceil(sim.settle_time / model_.frame_dt);
+  uint64_t taken = 0;
+  while (-time_ > 1e-12 * sim.settle_time) {
+    const double limit = dfsph_ ? dfsphStepLimit()
+                                : std::min(model_.frame_dt / sim.substeps, wcsphStepLimit(step_max_speed_));
+    const double k = std::ceil(-time_ / limit - 1e-9);
+    const double dt = k <= 1.0 ? -time_ : -time_ / k;
+    if (!(static_cast<double>(taken) + k <= max_steps)) {  // a blown-up speed: stop with the reason, never loop
+      std::ostringstream s;
+      s << "numerical failure in the settle before t = 0 (simulation.settle_time = " << sim.settle_time << " s) at t = "
+        << time_ << " s: it would take more than " << max_steps << " steps (step " << dt
+        << " s, stage: time-step control); the flow has blown up";
+      throw NumericalError(s.str());
+    }
+    checkInterrupt();
+    step(dt);
+    ++taken;
+    const float factor = static_cast<float>(std::exp(-dt / sim.settle_damping));
+    kernels_.call("scale_velocity", n_, kLocal, params_, factor, vel_[cur_]);
+  }
+  const double last_speed = step_max_speed_;
+  // At rest at t = 0: velocities zeroed, the fields computed for the settled positions.
+  kernels_.call("scale_velocity", n_, kLocal, params_, 0.0f, vel_[cur_]);
+  settling_ = false;
+  time_ = 0.0;
+  stages_ = saved_stages;
+  record_forces_ = saved_record;
+  for (std::size_t b = 0; b < bodies_.size(); ++b) std::tie(bodies_[b].v, bodies_[b].w) = body_velocities[b];
+  const uint64_t steps = profile_.steps - saved_profile.steps;
+  profile_ = saved_profile;  // the run's counters start at t = 0
+  profile_.settle_steps = steps;
+  profile_.settle_max_speed = last_speed;
+  step_max_speed_ = 0.0;
+  step_max_pressure_ = 0.0;
+  iteration_step_limit_ = INFINITY;
+  dfsph_frame_ = FrameReport{};
+  prepareInitialState();
+  // A settle that blew up is reported as such, not as frame 0's failure.
+  if (on(Stage::Diagnostics)) {
+    const FrameReport rep = runDiagnostics();
+    if (rep.nonfinite > 0) {
+      std::ostringstream s;
+      s << "numerical failure in the settle before t = 0 (simulation.settle_time = " << sim.settle_time << " s, "
+        << steps << " steps): " << rep.nonfinite << " particle(s) with NaN/inf";
+      throw NumericalError(s.str());
+    }
+  }
+  profile_.settle_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
 FrameReport Simulation::advanceFrame() {
   const SimulationSpec& sim = model_.spec.simulation;
+  settle();  // the scene's settle before t = 0, if it has not run
   if (dfsph_) {
     // DFSPH: adaptive steps, each within the CFL limit of the last step's speed; the frame ends
     // exactly (the steps left in a frame are evened out, so no sliver of a step remains).
@@ -398,12 +501,8 @@ FrameReport Simulation::advanceFrame() {
     abortOnNumericalFailure(rep, "density_solve");
     return rep;
   }
-  // Time-step control: the scene's substeps, checked against the CFL and viscous limits
-  // (Monaghan 1992: dt <= cfl h / (c0 + |v|max); Morris et al. 1997: dt <= 0.125 h^2 / nu).
-  // A scene without fluid (rigid bodies alone) has no CFL limit: the scene's substeps stand.
-  double limit = model_.capacity == 0 ? INFINITY : sim.cfl * model_.h / (model_.c0 + last_max_speed_);
-  if (on(Stage::Viscosity) && model_.spec.fluid.viscosity_model == ViscosityModel::Laminar && model_.max_viscosity > 0)
-    limit = std::min(limit, 0.125 * model_.h * model_.h / model_.max_viscosity);
+  // Time-step control: the scene's substeps, checked against the CFL and viscous limits.
+  const double limit = wcsphStepLimit(last_max_speed_);
   int steps = sim.substeps;
   double dt = model_.frame_dt / steps;
   if (dt > limit * (1.0 + 1e-9)) {

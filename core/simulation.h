@@ -72,6 +72,11 @@ struct Profile {
   /// fluid.dfsph.pressure_cfl bounds it) (unit: 1).
   double max_pressure_step_ratio = 0;
   uint64_t steps_over_pressure_scale = 0;
+  // The settle before t = 0 (simulation.settle_time; Simulation::settle): its steps and wall time,
+  // kept apart from the run's (the fields above count from t = 0).
+  uint64_t settle_steps = 0;     ///< time steps of the settle (unit: 1)
+  double settle_seconds = 0;     ///< wall time of the settle (unit: s)
+  double settle_max_speed = 0;   ///< the fluid's largest speed in the settle's last step, before it was zeroed (unit: m/s)
   double total() const;
 };
 
@@ -130,6 +135,15 @@ class Simulation {
 
   /// One time step of length dt (unit: s).
   void step(double dt);
+  /// The scene's settle before t = 0 (simulation.settle_time > 0; else nothing): the fluid steps from
+  /// t = -settle_time to 0 under gravity (ramped in over the first half) with every velocity damped
+  /// by exp(-dt / settle_damping) after each step, while bodies, cloth, inflows, colour mixing,
+  /// probes and haptics stay still; then the fluid's velocities are set to 0 and the state is
+  /// prepared as at construction, at t = 0. Runs once: advanceFrame() runs it if it has not run
+  /// (so every caller gets the scene's settled start), after any disable() (the stage mask holds).
+  /// Throws NumericalError if the settle leaves a non-finite particle.
+  void settle();
+  bool settled() const { return settled_; }
   /// Steps through one output frame and runs the diagnostics. Under policy 'abort' a problem
   /// throws NumericalError naming frame, time, stage and particle.
   FrameReport advanceFrame();
@@ -204,6 +218,8 @@ class Simulation {
   DfsphFields dfsphFields();
   int dfsphWallMode() const;
   double dfsphStepLimit(StepLimiter* limiter = nullptr) const;
+  double wcsphStepLimit(double max_speed) const;
+  Eigen::Vector3d gravityNow() const;
   void viscosityForces();
   void ghostVelocities();
   /// The boundary velocities the viscous terms read: the no-slip ghost velocities when the model
@@ -253,6 +269,8 @@ class Simulation {
   Profile profile_;
   double time_ = 0.0;
   int frame_ = 0;
+  bool settled_ = false;   // settle() has run (or the scene has none)
+  bool settling_ = false;  // inside settle(): time_ runs from -settle_time to 0
   std::size_t n_ = 0;         // active fluid particles
   uint32_t next_id_ = 0;      // id of the next emitted particle
   float last_max_speed_ = 0;  // from the previous diagnostics (unit: m/s)

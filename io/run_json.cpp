@@ -103,6 +103,9 @@ void writeRunJson(const std::string& path, const RunInfo& info) {
   j << "},\n";
   j << "  \"rigid_reduce_seconds\": " << info.profile.rigid_reduce_seconds << ",\n";
   j << "  \"neighbour_list_builds\": " << info.profile.grid_builds << ",\n";
+  // The settle before t = 0 (simulation.settle_time; zero without one), apart from the run's steps
+  j << "  \"settle\": {\"steps\": " << info.profile.settle_steps << ", \"wall_seconds\": " << info.profile.settle_seconds
+    << ", \"max_speed_last_step\": " << info.profile.settle_max_speed << "},\n";
   // DFSPH solver (zero with solver wcsph): iterations, steps above the bound, largest errors reached
   j << "  \"dfsph\": {\"density_iterations\": " << info.profile.density_iterations
     << ", \"divergence_iterations\": " << info.profile.divergence_iterations

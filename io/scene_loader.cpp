@@ -641,6 +641,16 @@ class Loader {
     };
     const std::string domain_text = vecText(domain.min) + " .. " + vecText(domain.max);
 
+    // A settle before t = 0 ends at full gravity; a gravity ramp after it would take the load off the
+    // settled fluid again (it would expand and fall back): one or the other.
+    if (spec.simulation.settle_time > 0.0 && spec.simulation.gravity_ramp > 0.0 && !bad_.count("simulation.settle_time") &&
+        !bad_.count("simulation.gravity_ramp")) {
+      const std::string at = marks_.count("simulation.settle_time") ? "simulation.settle_time" : "simulation.gravity_ramp";
+      issue(at, markOf(at),
+            "'simulation.settle_time' and 'simulation.gravity_ramp' cannot both be set: the settle brings the fluid to "
+            "rest under full gravity before t = 0, and a ramp after it would take the load off again (use one)");
+    }
+
     // DFSPH iteration bounds: the most iterations no fewer than the least (reported at the max key,
     // or at the min key when only it was written).
     const DfsphSpec& dfsph = fluid.dfsph;

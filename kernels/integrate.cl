@@ -27,3 +27,11 @@ __kernel void integrate(const SimParams p, __global float4* pos, __global float4
   const uint sb = as_uint(length(v));
   if (sb > *max_speed_bits) atomic_max(max_speed_bits, sb); /* read first: few atomics */
 }
+
+/* The settle before t = 0 (Simulation::settle): every fluid velocity times `factor` after a step,
+ * exp(-dt / settle_damping) while it settles and 0 at its end (the fluid starts at rest). */
+__kernel void scale_velocity(const SimParams p, const float factor, __global float4* vel) {
+  const uint i = get_global_id(0);
+  if (i >= p.n_fluid) return;
+  vel[i] = (float4)(factor * vel[i].xyz, 0.0f);
+}
