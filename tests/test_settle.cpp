@@ -98,7 +98,7 @@ TEST_CASE("Settle: a DFSPH tank with gravity on from t = 0 starts at rest at its
 
 TEST_CASE("Settle: a WCSPH tank with gravity on from t = 0 starts without its acoustic ringing", "[settle]") {
   // WCSPH answers the load coming on at t = 0 with an acoustic ringing (its lattice starts at rho0,
-  // p = 0 everywhere; the bottom probe 50-3,331 Pa in the first 0.1 s, still +-40 Pa at 1 s); settled
+  // p = 0 everywhere; the bottom probe 0-3,331 Pa in the first 0.1 s, still +-40 Pa at 1 s); settled
   // first (1.5 s, damping 0.2 s) the column starts in its compressed hydrostatic state: measured over
   // 0-0.5 s the probes within -2.9 % .. +0.2 % of the closed form (the shallower ones read 1.7-2.9 % low,
   // as this tank does at rest after 1 s from a ramp), 2.8 Pa between steps. The same bounds as the
