@@ -65,7 +65,7 @@ struct SimulationSpec {
   int substeps = 4;                             ///< time steps per frame before CFL subdivision (unit: 1)
   Eigen::Vector3d gravity{0.0, 0.0, -9.81};     ///< gravitational acceleration (unit: m/s^2)
   double gravity_ramp = 0.0;                    ///< gravity ramps from 0 to full over this time (unit: s)
-  /// Before t = 0 the fluid settles this long under gravity (ramped in over the first half) with
+  /// Before t = 0 the fluid settles this long under gravity (ramped in over the first quarter) with
   /// its velocities damped, bodies and cloth held; then time starts at 0 with the fluid at rest
   /// (Simulation::settle; 0 = start from the blocks' lattice) (unit: s).
   double settle_time = 0.0;

@@ -136,7 +136,7 @@ class Simulation {
   /// One time step of length dt (unit: s).
   void step(double dt);
   /// The scene's settle before t = 0 (simulation.settle_time > 0; else nothing): the fluid steps from
-  /// t = -settle_time to 0 under gravity (ramped in over the first half) with every velocity damped
+  /// t = -settle_time to 0 under gravity (ramped in over the first quarter) with every velocity damped
   /// by exp(-dt / settle_damping) after each step, while bodies, cloth, inflows, colour mixing,
   /// probes and haptics stay still; then the fluid's velocities are set to 0 and the state is
   /// prepared as at construction, at t = 0. Runs once: advanceFrame() runs it if it has not run

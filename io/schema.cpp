@@ -379,7 +379,7 @@ std::vector<KeyDef> buildTable() {
   add(field<InScene>("simulation.gravity_ramp", [](auto& s) -> auto& { return s.simulation.gravity_ramp; })
           .unit("s").atLeast(0).doc("gravity ramps from 0 to full over this time; 0 = full from the start"));
   add(field<InScene>("simulation.settle_time", [](auto& s) -> auto& { return s.simulation.settle_time; })
-          .unit("s").atLeast(0).doc("before t = 0 the fluid settles this long under gravity (ramped in over the first half), "
+          .unit("s").atLeast(0).doc("before t = 0 the fluid settles this long under gravity (ramped in over the first quarter), "
                                     "its velocities damped, bodies and cloth held: a scene at rest starts at rest, "
                                     "its particles off the blocks' cubic lattice; 0 = start from the lattice"));
   add(field<InScene>("simulation.settle_damping", [](auto& s) -> auto& { return s.simulation.settle_damping; })
