@@ -649,14 +649,14 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
       log(s.str());
       try {
         sim.settle();
+        s.str("");
+        s << "settled: " << sim.profile().settle_steps << " steps in " << std::fixed << std::setprecision(1)
+          << sim.profile().settle_seconds << " s; largest speed in its last step " << std::setprecision(3)
+          << std::scientific << sim.profile().settle_max_speed << " m/s (then set to 0)";
+        log(s.str());
       } catch (const Interrupted&) {
         settle_interrupted = true;  // a signal during the settle: no frame is written, the loop below stops at once
       }
-      s.str("");
-      s << "settled: " << sim.profile().settle_steps << " steps in " << std::fixed << std::setprecision(1)
-        << sim.profile().settle_seconds << " s; largest speed in its last step " << std::setprecision(3)
-        << std::scientific << sim.profile().settle_max_speed << " m/s (then set to 0)";
-      if (!settle_interrupted) log(s.str());
     }
     if (!settle_interrupted) write_frame(0, false);  // Step#0 / fluid_*_0000.obj: the initial state
     res.output_seconds = 0;

@@ -49,11 +49,15 @@ void HostParticles::push(const Eigen::Vector3f& x, const Eigen::Vector3f& v, con
   id.push_back(i);
 }
 
+double smoothRamp(double t, double duration) {
+  if (duration <= 0.0 || t >= duration) return 1.0;
+  // Smooth ramp (zero slope at both ends), as in Adami et al. 2012's hydrostatic tank.
+  return 0.5 * (std::sin((t / duration - 0.5) * M_PI) + 1.0);
+}
+
 Eigen::Vector3d gravityAt(const SimulationSpec& sim, double t) {
   if (sim.gravity_ramp <= 0.0 || t >= sim.gravity_ramp) return sim.gravity;
-  // Smooth ramp (zero slope at both ends), as in Adami et al. 2012's hydrostatic tank.
-  const double s = 0.5 * (std::sin((t / sim.gravity_ramp - 0.5) * M_PI) + 1.0);
-  return s * sim.gravity;
+  return smoothRamp(t, sim.gravity_ramp) * sim.gravity;
 }
 
 namespace {

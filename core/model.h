@@ -129,5 +129,7 @@ double bodyVolumeScale(double dx, double support, int kernel);
 
 /// Gravity at time t with the scene's ramp (0 -> full over gravity_ramp seconds, smooth).
 Eigen::Vector3d gravityAt(const SimulationSpec& sim, double t);
+/// The smooth ramp of gravityAt: 0 at t = 0, 1 from t = duration on, zero slope at both ends (unit: 1).
+double smoothRamp(double t, double duration);
 
 }  // namespace sph

@@ -3,7 +3,6 @@
 #include "core/errors.h"
 
 #include <algorithm>
-#include <tuple>
 #include <cmath>
 #include <cstring>
 #include <sstream>
@@ -328,10 +327,8 @@ Eigen::Vector3d Simulation::gravityNow() const {
   // carries from t = 0 on. The lattice gives way only under the full load: a ramp over the first half
   // left a 1 s settle of the resting tank 1.2 kPa short of rest, over a quarter it is calm (docs/dfsph.md,
   // session 22).
-  const double ramp = 0.25 * sim.settle_time;
-  const double t = time_ + sim.settle_time;
-  if (t >= ramp) return sim.gravity;
-  return 0.5 * (std::sin((t / ramp - 0.5) * M_PI) + 1.0) * sim.gravity;
+  const double ramp = 0.25 * sim.settle_time, t = time_ + sim.settle_time;
+  return t >= ramp ? sim.gravity : Eigen::Vector3d(smoothRamp(t, ramp) * sim.gravity);
 }
 
 // WCSPH's step limit at the largest speed max_speed (unit: s): the CFL and viscous limits (Monaghan
@@ -400,7 +397,7 @@ void Simulation::settle() {
   time_ = 0.0;
   stages_ = saved_stages;
   record_forces_ = saved_record;
-  for (std::size_t b = 0; b < bodies_.size(); ++b) std::tie(bodies_[b].v, bodies_[b].w) = body_velocities[b];
+  for (std::size_t b = 0; b < bodies_.size(); ++b) bodies_[b].v = body_velocities[b].first, bodies_[b].w = body_velocities[b].second;
   const uint64_t steps = profile_.steps - saved_profile.steps;
   profile_ = saved_profile;  // the run's counters start at t = 0
   profile_.settle_steps = steps;
