@@ -135,22 +135,34 @@ void DfsphSolver::factors(const SimParams& p, const DfsphFields& f, bool diverge
   // Cloth nodes move inside the solves (kernels/dfsph.cl, dfsph_node_accel; not with mirrored walls,
   // whose iteration has no residual pass): each node's slot gets its response (M_b^-1, 1 / m_b), the
   // rest of the boundary zeros.
-  nodes_ = f.n_nodes > 0 && !mirrored();
+  // Rigid bodies too with body_coupling strong (dfsph_body_accel; the same rule for the walls).
+  nodes_ = (f.n_nodes > 0 || f.n_bodies > 0) && !mirrored();
+  bodies_ = f.n_bodies > 0 && !mirrored();
   if (nodes_) {
     if (!bminv_()) {
       bminv_ = makeBuffer(std::size_t(f.n_boundary) * 48);
       bacc_ = makeBuffer(std::size_t(f.n_boundary) * 16);
+    }
+    if (f.n_nodes > 0 && !nacc_div_())
       for (cl::Buffer* b : {&nacc_div_, &nacc_dens_, &nacc_tmp_}) {
         *b = makeBuffer(std::size_t(f.n_nodes) * 16);
         clCall("clearing the node accelerations",
                [&] { return cl_.queue().enqueueFillBuffer(*b, cl_float4{}, 0, std::size_t(f.n_nodes) * 16); });
       }
+    if (bodies_ && !bbacc_div_()) {
+      for (cl::Buffer* b : {&bbacc_div_, &bbacc_dens_}) {
+        *b = makeBuffer(std::size_t(f.n_bodies) * 32);
+        clCall("clearing the body accelerations",
+               [&] { return cl_.queue().enqueueFillBuffer(*b, cl_float4{}, 0, std::size_t(f.n_bodies) * 32); });
+      }
+      berr_ = makeBuffer(std::size_t(f.n_bodies) * 4);
     }
     clCall("clearing the node slots", [&] {
       cl_.queue().enqueueFillBuffer(bminv_, cl_float4{}, 0, std::size_t(f.n_boundary) * 48);
       return cl_.queue().enqueueFillBuffer(bacc_, cl_float4{}, 0, std::size_t(f.n_boundary) * 16);
     });
-    kernels_.call("dfsph_node_slots", f.n_nodes, kLocal, p, f.n_nodes, f.node_offset, *f.nodes, *f.response, *f.bslot, *f.pos,
+    if (f.n_nodes > 0)
+      kernels_.call("dfsph_node_slots", f.n_nodes, kLocal, p, f.n_nodes, f.node_offset, *f.nodes, *f.response, *f.bslot, *f.pos,
                   *f.phase, *f.cell_start, *f.row_start, *f.other, bminv_, bacc_);
   }
   kernels_.call("dfsph_factor", p.n_fluid, kLocal, p, *f.pos, *f.phase, *f.density, *f.snbr, *f.snbr_count, *f.bpos,
@@ -208,8 +220,9 @@ void DfsphSolver::iterate(Kind kind, const SimParams& p, const DfsphFields& f, c
   if (use_bp) boundaryPressure(kind, p, f, pressure);
   kernels_.call("dfsph_pressure_accel", p.n_fluid, kLocal, p, xt_, *f.phase, *f.density, pressure, *f.snbr,
                 *f.snbr_count, *f.bpos, *f.sbnbr, *f.sbnbr_count, wallFactor(), wallPressure(kind), use_bp, accel_, gwall_);
-  // Cloth nodes: their accelerations under the same pressures (the residual counts them).
-  if (nodes_) nodeAccel(kind, p, f);
+  // Cloth nodes and bodies: their accelerations under the same pressures (the residual counts them).
+  if (nodes_ && f.n_nodes > 0) nodeAccel(kind, p, f);
+  if (bodies_) bodyAccel(kind, p, f, 0.5f, true);
   const uint32_t min_nbr = kind == Kind::Divergence ? min_neighbours_ : 0u;
   kernels_.call("dfsph_jacobi", p.n_fluid, kLocal, p, *f.pos, accel_, alpha_, source_, *f.snbr, *f.snbr_count,
                 *f.bpos, *f.sbnbr, *f.sbnbr_count, min_nbr, static_cast<float>(spec_.relaxation), extrapolated() ? 1 : 0, pressure, err_,
@@ -226,6 +239,20 @@ void DfsphSolver::nodeAccel(Kind kind, const SimParams& p, const DfsphFields& f)
   std::swap(cur, nacc_tmp_);
 }
 
+void DfsphSolver::bodyAccel(Kind kind, const SimParams& p, const DfsphFields& f, float relax, bool slots) {
+  // kernels/dfsph.cl (a)-(c): each body particle's force, per body (a, alpha) in particle order, and
+  // (while iterating) each particle's slot.
+  cl::Buffer& acc = kind == Kind::Divergence ? bbacc_div_ : bbacc_dens_;
+  const int use_bp = extrapolated() ? 1 : 0;
+  kernels_.call("dfsph_body_force", f.n_moving, kLocal, p, f.n_moving, f.n_static, *f.bsrc, *f.bslot, wallPressure(kind),
+                use_bp, xt_, *f.phase, *f.density, *f.cell_start, wallFactor(), *f.body_force);
+  kernels_.call("dfsph_body_accel", f.n_bodies, 0, f.n_bodies, f.n_static, *f.body_range, *f.bsrc, *f.body_data,
+                *f.body_force, relax, acc, berr_);
+  if (slots)
+    kernels_.call("dfsph_body_slots", f.n_moving, kLocal, f.n_moving, f.n_static, *f.body_of, *f.bslot, *f.bsrc,
+                  *f.body_data, acc, 0, bacc_);
+}
+
 void DfsphSolver::apply(Kind kind, const SimParams& p, const DfsphFields& f, const cl::Buffer& pressure) {
   const int use_bp = extrapolated() ? 1 : 0;
   if (use_bp) boundaryPressure(kind, p, f, pressure);
@@ -233,7 +260,13 @@ void DfsphSolver::apply(Kind kind, const SimParams& p, const DfsphFields& f, con
                 *f.snbr_count, *f.bpos, *f.sbnbr, *f.sbnbr_count, wallFactor(), wallPressure(kind), use_bp, gwall_);
   // Cloth nodes after the divergence solve: their acceleration under its final pressures, for the
   // density solve (densitySolve(), dfsph_node_rate).
-  if (nodes_ && kind == Kind::Divergence) nodeAccel(kind, p, f);
+  if (nodes_ && f.n_nodes > 0 && kind == Kind::Divergence) nodeAccel(kind, p, f);
+  // Bodies after the divergence solve: their acceleration under its final pressures (not relaxed),
+  // for the density solve's rate (densitySolve()).
+  if (bodies_ && kind == Kind::Divergence) {
+    bodyAccel(kind, p, f, 1.0f, false);
+    body_div_ready_ = true;
+  }
 }
 
 // --- Mirrored walls: the first version's iteration (kernels/dfsph.cl) ----------------------
@@ -301,6 +334,17 @@ double DfsphSolver::averageError(std::size_t n) {
   return n > 0 ? sum / static_cast<double>(n) : 0.0;
 }
 
+double DfsphSolver::bodyError(const DfsphFields& f) {
+  // The bodies' errors of the last iteration (dfsph_body_accel), the largest.
+  const uint32_t n_bodies = f.n_bodies;
+  std::vector<float> e(n_bodies);
+  clCall("reading the DFSPH body errors",
+         [&] { return cl_.queue().enqueueReadBuffer(berr_, CL_TRUE, 0, n_bodies * 4, e.data()); });
+  double m = 0.0;
+  for (float v : e) m = std::max(m, static_cast<double>(v));
+  return m;
+}
+
 DfsphSolveResult DfsphSolver::solve(Kind kind, const SimParams& p, const DfsphFields& f) {
   if (mirrored()) return solveMirrored(kind, p, f);
   const bool div = kind == Kind::Divergence;
@@ -358,8 +402,12 @@ DfsphSolveResult DfsphSolver::solve(Kind kind, const SimParams& p, const DfsphFi
     iterate(kind, p, f, pressure);
     ++r.iterations;
     error_read = r.iterations >= min_it || r.iterations >= max_it;
-    if (error_read) r.error = averageError(n);
-    const bool stop = (r.iterations >= min_it && r.error <= bound) || r.iterations >= max_it;
+    if (error_read) {
+      r.error = averageError(n);
+      if (bodies_) r.body_error = bodyError(f);
+    }
+    const bool within = r.error <= bound && r.body_error <= spec_.body_error;
+    const bool stop = (r.iterations >= min_it && within) || r.iterations >= max_it;
     const bool rest_now = at_rest && r.iterations == 1 && r.iterations < max_it;
     // the stall rules: from k0 (coarse_start) in any solve; from k_rest (coarse_rest_start) in a
     // density solve at rest
@@ -381,8 +429,8 @@ DfsphSolveResult DfsphSolver::solve(Kind kind, const SimParams& p, const DfsphFi
         r.corrections_stopped = true;
       }
     }
-  } while (again || ((r.iterations < min_it || r.error > bound) && r.iterations < max_it));
-  r.converged = r.error <= bound;
+  } while (again || ((r.iterations < min_it || r.error > bound || r.body_error > spec_.body_error) && r.iterations < max_it));
+  r.converged = r.error <= bound && r.body_error <= spec_.body_error;
   // The velocities take the pressures found.
   apply(kind, p, f, pressure);
   (div ? prev_dt_div_ : prev_dt_dens_) = p.dt;
@@ -411,6 +459,17 @@ DfsphSolveResult DfsphSolver::densitySolve(const SimParams& p, const DfsphFields
   // do in the step (gravity, springs, balls; f.node_dv / dt), as the fluid's v* takes gravity (without
   // it a ball resting on a sheet over sealed water pushed the sheet down unseen every step and sank
   // 3.5 cm deeper than with WCSPH; session 18).
+  // Bodies (body_coupling strong) the same way: their slots take the divergence solve's final
+  // acceleration (zero without that solve) plus the body's own (gravity, the last step's contact and
+  // external forces; dfsph_body_slots, `dry`).
+  if (bodies_) {
+    if (!body_div_ready_)
+      clCall("clearing the body accelerations",
+             [&] { return cl_.queue().enqueueFillBuffer(bbacc_div_, cl_float4{}, 0, std::size_t(f.n_bodies) * 32); });
+    body_div_ready_ = false;
+    kernels_.call("dfsph_body_slots", f.n_moving, kLocal, f.n_moving, f.n_static, *f.body_of, *f.bslot, *f.bsrc,
+                  *f.body_data, bbacc_div_, 1, bacc_);
+  }
   if (nodes_) {
     if (f.node_dv)
       kernels_.call("dfsph_node_dry", f.n_nodes, kLocal, f.n_nodes, f.node_offset, 1.0f / p.dt, *f.nodes, *f.bslot,

@@ -65,6 +65,16 @@ struct DfsphFields {
   const cl::Buffer* node_dv = nullptr;
   /// the cloth's spring table (core/cloth.h, ClothModel: row_start, spring, other, prm, broken)
   const cl::Buffer *row_start = nullptr, *spring = nullptr, *other = nullptr, *prm = nullptr, *broken = nullptr;
+  // Rigid bodies that move inside the solves (fluid.dfsph.body_coupling: strong; kernels/dfsph.cl,
+  // dfsph_body_accel; none: n_bodies = 0). bslot (above) too.
+  uint32_t n_bodies = 0;                  ///< moving bodies (dynamic and kinematic)
+  uint32_t n_moving = 0;                  ///< their particles, after the n_static walls' in bsrc
+  uint32_t n_static = 0;                  ///< boundary index of the first moving particle
+  const cl::Buffer* bsrc = nullptr;       ///< boundary particles in source order (n_boundary x float4) (unit: m)
+  const cl::Buffer* body_of = nullptr;    ///< (n_moving) each moving particle's body
+  const cl::Buffer* body_range = nullptr; ///< (2 n_bodies) each body's first particle and count
+  const cl::Buffer* body_data = nullptr;  ///< (6 n_bodies x float4) dfsph_body_accel's body data (unit: m, 1/kg, 1/(kg m^2), m/s^2, 1/s^2)
+  cl::Buffer* body_force = nullptr;       ///< (n_moving x float4) scratch for the particles' forces (unit: N)
 };
 
 /// How one solve ended.
@@ -74,6 +84,9 @@ struct DfsphSolveResult {
   bool converged = true;  ///< error <= bound when it stopped
   int corrections = 0;    ///< coarse-grid corrections of the two-level solve (unit: 1)
   bool corrections_stopped = false;  ///< a correction did not lower the error, so the solve made no more
+  /// body_coupling strong: the largest body error of the last iteration read, |F / m - a| + R |I^-1 T -
+  /// alpha| (dfsph_body_accel; 0 without bodies in the solve) (unit: m/s^2)
+  double body_error = 0.0;
 };
 
 class DfsphSolver {
@@ -162,14 +175,25 @@ class DfsphSolver {
   // Per particle, from the factor pass: the wall sums (G_b = sum_b psi_b gradW_ib (unit: 1/m^4),
   // sum_b psi_b v_b . gradW_ib (unit: 1/(m^3 s))) the solves use instead of wall loops (n x float4).
   cl::Buffer gwall_;
-  // Cloth nodes inside the solves (factors(): nodes_ this step), per boundary slot: M_b^-1 (3 float4;
-  // 0 for walls, bodies, anchored nodes) and the node's pressure acceleration of the current pressures.
+  // Boundary particles that move inside the solves (factors(): nodes_ this step; cloth nodes, and
+  // bodies with body_coupling strong), per boundary slot: M_b^-1 (3 float4; 0 for walls, bodies,
+  // anchored nodes) and the particle's pressure acceleration of the current pressures.
   cl::Buffer bminv_, bacc_;
   bool nodes_ = false;
   // ... and per node, each solve's last sweep of the nodes' accelerations (kept from step to step:
   // the warm start of the nodes' block-Jacobi sweeps) and a scratch half (unit: m/s^2).
   cl::Buffer nacc_div_, nacc_dens_, nacc_tmp_;
   void nodeAccel(Kind kind, const SimParams& p, const DfsphFields& f);
+  // Rigid bodies inside the solves (factors(): bodies_ this step): per body, each solve's relaxed
+  // (a, alpha) (2 float4; kept from step to step) (unit: m/s^2, 1/s^2); the divergence solve's final
+  // one is ready for the density solve's rate (body_div_ready_).
+  cl::Buffer bbacc_div_, bbacc_dens_;
+  cl::Buffer berr_;  // per body, the last iteration's error (dfsph_body_accel) (unit: m/s^2)
+  double bodyError(const DfsphFields& f);
+  bool bodies_ = false, body_div_ready_ = false;
+  /// The bodies' accelerations under the current pressures (relaxed by `relax`), into their slots of
+  /// bacc_ when `slots`.
+  void bodyAccel(Kind kind, const SimParams& p, const DfsphFields& f, float relax, bool slots);
   cl::Buffer pdiv_, pdens_;                // the solves' pressures (unit: Pa), kept for the warm start
   bool divergence_ran_ = false;            // the divergence solve runs (its wall pressure counts)
   bool rate_in_source_ = false;            // source_ holds the divergence solve's density rate (factors())

@@ -53,11 +53,12 @@ enum class FluidSolver { Wcsph, Dfsph };
 /// extrapolated (p_b from the fluid around the wall particle, Adami et al. 2012 eq. 27, in each
 /// projected Jacobi iteration, as WCSPH's walls; Band et al. 2018 for IISPH).
 enum class DfsphWalls { Mirrored, Single, Extrapolated };
-/// How DFSPH couples cloth and soft-body nodes (boundary particles that move): strong, the free
-/// nodes move under the pressure inside the solves' iterations (kernels/dfsph.cl, dfsph_node_accel);
-/// staggered, they answer the solves' pressure in the cloth's step after (a light sheet between
-/// two water layers blows up: the added-mass instability).
-enum class DfsphClothCoupling { Strong, Staggered };
+/// How DFSPH couples boundary particles that move (cloth and soft-body nodes, rigid bodies): strong,
+/// they move under the pressure inside the solves' iterations (kernels/dfsph.cl, dfsph_node_accel
+/// and dfsph_body_accel); staggered, they answer the solves' pressure in their own step after (a
+/// light sheet between two water layers blows up: the added-mass instability; a light body needs
+/// the fictitious mass body_added_mass).
+enum class DfsphCoupling { Strong, Staggered };
 
 struct SimulationSpec {
   double duration = 2.0;                        ///< simulated time to run (unit: s)
@@ -158,7 +159,15 @@ struct DfsphSpec {
   /// to the fluid near the body (momentum conserved; the torque's does not, its sum over a run is one
   /// step's worth); 0.5, a sphere's added mass, by default; 0 = off (unit: 1)
   double body_added_mass = 0.5;
-  DfsphClothCoupling cloth_coupling = DfsphClothCoupling::Strong;  ///< see DfsphClothCoupling
+  DfsphCoupling cloth_coupling = DfsphCoupling::Strong;  ///< see DfsphCoupling
+  /// dynamic rigid bodies: staggered (the default for now: the force checks of docs/forces.md were
+  /// measured with it) or strong, each free dynamic body's velocity inside the solves' iterations
+  /// (Gissler et al. 2019's interlinked coupling; then without the fictitious mass); see DfsphCoupling
+  DfsphCoupling body_coupling = DfsphCoupling::Staggered;
+  /// with strong body coupling: a solve goes on until each free body's acceleration is within this of
+  /// the one its current pressures give, |F / m - a| + R |I^-1 T - alpha| (R its reach; kernels/dfsph.cl,
+  /// dfsph_body_accel), besides the average density error (unit: m/s^2)
+  double body_error = 0.1;
   /// with strong cloth coupling, in steps the cloth takes in XPBD substeps: each wet free node (fluid
   /// within H) moves with an added mass C rho0 V_k (V_k the fluid volume its boundary particle stands
   /// for) in its own step, the reaction going to the fluid near it (Simulation::clothAddedMass); 1 by

@@ -262,6 +262,7 @@ void Simulation::step(double dt) {
     computeDensity();                                  // number density, rho, p (S&P 2008, Akinci 2012)
     if (on(Stage::Probes) && probes_->due(time_)) sampleProbes();  // gauges read the state at the step's start
     if (strongCloth()) clothResponse(dt);              // DFSPH: how each cloth node answers a force this step
+    if (strongBodies()) bodyResponse();                // DFSPH: how each body answers a force this step
     if (on(Stage::DivergenceSolve)) divergenceSolve(); // DFSPH: factors, divergence-free velocities (B&K 2017 Alg. 2)
     if (on(Stage::Viscosity) && model_.ghost_velocity_mode)
       ghostVelocities();                               // no-slip wall velocities 2 v_w - v~ (Adami 2012 eq. 22-23)
@@ -755,6 +756,18 @@ DfsphFields Simulation::dfsphFields() {
     f.broken = &cloth_->brokenSprings();
     f.node_dv = &node_dv_;
   }
+  // The free dynamic bodies move inside the solves too (body_coupling: strong, kernels/dfsph.cl).
+  if (strongBodies()) {
+    f.n_bodies = static_cast<uint32_t>(moving_.size());
+    f.n_moving = static_cast<uint32_t>(n_moving_);
+    f.n_static = static_cast<uint32_t>(n_static_);
+    f.bsrc = &bsrc_;
+    f.bslot = &bslot_;
+    f.body_of = &bbody_;
+    f.body_range = &brange_;
+    f.body_data = &bdata_;
+    f.body_force = &bforce_;
+  }
   return f;
 }
 
@@ -943,7 +956,8 @@ void Simulation::addedMassReaction(double dt) {
   const double c_rho = dfsph_ && !model_.spec.fluid.phases.empty()
                            ? model_.spec.fluid.dfsph.body_added_mass * model_.spec.fluid.phases[0].rest_density
                            : 0.0;  // C rho0 (unit: kg/m^3)
-  if (c_rho == 0.0 || n_moving_ == 0) return;
+  // With the strong body coupling the bodies move inside the solves: no lag, no fictitious mass.
+  if (c_rho == 0.0 || n_moving_ == 0 || strongBodies()) return;
   bool free_body = false;
   for (std::size_t b : moving_) free_body = free_body || (model_.bodies[b].kind == rigid::BodyKind::Dynamic && !heldBody(b));
   if (!free_body) return;
@@ -1136,7 +1150,43 @@ bool Simulation::strongCloth() const {
   // pressure inside the solves' iterations (kernels/dfsph.cl, dfsph_node_accel). Not with mirrored
   // walls (core/dfsph.cpp, factors()).
   return dfsph_ && n_cloth_ > 0 && on(Stage::ClothCoupling) && on(Stage::Cloth) &&
-         model_.spec.fluid.dfsph.cloth_coupling == DfsphClothCoupling::Strong;
+         model_.spec.fluid.dfsph.cloth_coupling == DfsphCoupling::Strong;
+}
+
+bool Simulation::strongBodies() const {
+  // DFSPH's strong body coupling (fluid.dfsph.body_coupling: strong): the free dynamic bodies move
+  // under the pressure inside the solves' iterations (kernels/dfsph.cl, dfsph_body_accel). Not with
+  // mirrored walls (as the cloth's), and not while the bodies are held (the settle before t = 0).
+  return dfsph_ && n_moving_ > 0 && on(Stage::RigidCoupling) && on(Stage::RigidDynamics) &&
+         model_.spec.fluid.dfsph.body_coupling == DfsphCoupling::Strong &&
+         model_.spec.fluid.dfsph.walls != DfsphWalls::Mirrored;
+}
+
+void Simulation::bodyResponse() {
+  // Per moving body, what the solves need to move it with the pressure (kernels/dfsph.cl,
+  // dfsph_body_accel): (c, 1 / m), I^-1 in the world frame, and its acceleration without the fluid's
+  // pressure: gravity, and the last step's contact and external forces (a body resting on the floor
+  // is held there by its contacts; a haptic grab's spring changes little in one step). A body that
+  // does not move in the solves (held, kinematic) has 1 / m = 0.
+  StageTimer timer(*this, Stage::RigidCoupling);
+  const Eigen::Vector3d g = gravityAt(model_.spec.simulation, time_);
+  std::vector<Eigen::Vector4f> data(6 * moving_.size(), Eigen::Vector4f::Zero());
+  for (std::size_t m = 0; m < moving_.size(); ++m) {
+    const std::size_t b = moving_[m];
+    const rigid::RigidBody& body = model_.bodies[b];
+    const rigid::BodyState& s = bodies_[b];
+    data[6 * m].head<3>() = s.x.cast<float>();
+    if (body.kind != rigid::BodyKind::Dynamic || heldBody(b) || !(body.mass > 0.0)) continue;
+    const Eigen::Matrix3d Iinv = rigid::worldInverseInertia(body, s.q);
+    data[6 * m].w() = static_cast<float>(1.0 / body.mass);
+    for (int r = 0; r < 3; ++r) data[6 * m + 1 + r].head<3>() = Iinv.row(r).transpose().cast<float>();
+    data[6 * m + 1].w() = static_cast<float>(moving_reach_[m]);  // the body's reach (its error's rotation part)
+    data[6 * m + 4].head<3>() = (g + (s.contact_force + s.external_force) / body.mass).cast<float>();
+    data[6 * m + 5].head<3>() = (Iinv * (s.contact_torque + s.external_torque)).cast<float>();
+  }
+  if (!bdata_()) bdata_ = makeBuffer(data.size() * 16);
+  clCall("uploading the bodies' responses",
+         [&] { return cl_.queue().enqueueWriteBuffer(bdata_, CL_TRUE, 0, data.size() * 16, data.data()); });
 }
 
 void Simulation::clothResponse(double dt) {

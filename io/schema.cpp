@@ -520,6 +520,23 @@ std::vector<KeyDef> buildTable() {
                "after; a light sheet between two water layers then swings with period 2 steps and blows up "
                "(scenes/balls_on_cloth.yaml at 0.043 s; docs/dfsph.md, session 17). Walls: mirrored is always "
                "staggered"));
+  add(field<InScene>("fluid.dfsph.body_coupling", [](auto& s) -> auto& { return s.fluid.dfsph.body_coupling; })
+          .doc("staggered (the default for now): a dynamic body answers the solves' pressure in its own step "
+               "after them, with the fictitious mass body_added_mass against the added-mass instability. strong: "
+               "each free dynamic body moves under the current pressures inside every iteration of both solves "
+               "(its force and torque summed on the device, its acceleration relaxed by 1/2 between iterations), "
+               "and every fluid particle's residual counts that motion (Gissler et al. 2019, interlinked rigid-fluid "
+               "coupling), so body and fluid meet the density constraint together and body_added_mass is not used; "
+               "the density solve sees the body move under gravity and the last step's contact and external "
+               "forces too. A light flat body floating free swings with the staggered coupling at long steps "
+               "(docs/forces.md, session 23). Walls: mirrored is always staggered"));
+  add(field<InScene>("fluid.dfsph.body_error", [](auto& s) -> auto& { return s.fluid.dfsph.body_error; })
+          .unit("m/s^2").atLeast(1e-6).atMost(100)
+          .doc("with body_coupling strong: each solve goes on (up to its max iterations) until every free body's "
+               "acceleration in the iterations is within this of the one the current pressures give, |F / m - a| + "
+               "R |I^-1 T - alpha| (R: the body's reach): the average density error alone stops before the pressure "
+               "about a body has settled, and the body's force then swings from step to step (docs/forces.md, "
+               "session 23)"));
   add(field<InScene>("fluid.dfsph.cloth_added_mass", [](auto& s) -> auto& { return s.fluid.dfsph.cloth_added_mass; })
           .unit("1").atLeast(0).atMost(10)
           .doc("with strong cloth coupling, in a step the cloth takes in XPBD substeps (cloth[].max_time_step): "

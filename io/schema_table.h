@@ -71,9 +71,9 @@ struct EnumNames<DfsphWalls> {
                                                                     {DfsphWalls::Extrapolated, "extrapolated"}};
 };
 template <>
-struct EnumNames<DfsphClothCoupling> {
-  static constexpr std::pair<DfsphClothCoupling, const char*> values[] = {{DfsphClothCoupling::Strong, "strong"},
-                                                                            {DfsphClothCoupling::Staggered, "staggered"}};
+struct EnumNames<DfsphCoupling> {
+  static constexpr std::pair<DfsphCoupling, const char*> values[] = {{DfsphCoupling::Strong, "strong"},
+                                                                            {DfsphCoupling::Staggered, "staggered"}};
 };
 template <>
 struct EnumNames<TimeStepControl> {

@@ -874,6 +874,30 @@ __kernel void dfsph_node_slots(const SimParams p, const uint n, const uint offse
 }
 
 
+/* The pressure force of the current pressures on boundary particle b at bb (xyz, w = psi_b), with
+ * its wall pressure pb (extrapolated walls; 0 else): F_b = sum_i (wall t_i + pb / delta_i^2) psi_b
+ * gradW_ib over the fluid within H (the reaction to dfsph_force's wall terms; t_i = p_i / delta_i^2
+ * = xt.w, gradW_ib = F (x_i - x_b)) (unit: N). The fluid comes from the grid of the last list
+ * rebuild (its cells hold every neighbour within H, rigid.cl says why). */
+inline float3 dfsph_boundary_force(const SimParams* p, const float4 bb, const float pb, __global const float4* xt,
+                                   __global const uint* phase, __global const float* density,
+                                   __global const uint* cell_start, const float wall) {
+  const float3 xb = bb.xyz;
+  const float H = p->support;
+  float3 F = (float3)(0.0f);
+  SPH_FOR_NEIGHBOURS(p, cell_start, xb, i) {
+    const float4 x4 = xt[i];
+    const float3 d = x4.xyz - xb;
+    const float r2 = dot(d, d);
+    if (r2 < H * H) {
+      const float di = density[i] / p->phase_mass[phase[i]];
+      F += ((wall * x4.w + pb / (di * di)) * bb.w * sph_grad_factor(SPH_KERNEL, sqrt(r2), H)) * d;
+    }
+  }
+  SPH_END_NEIGHBOURS
+  return F;
+}
+
 /* Per iteration: node k's acceleration a_k in the step under the pressure force of the current
  * pressures, F_k = sum_i (wall t_i + use_bp p_b / delta_i^2) psi_b gradW_ib (the reaction to
  * dfsph_force's wall terms; t_i = p_i / delta_i^2 = xt.w, gradW_ib = F (x_i - x_b)). A node that
@@ -900,21 +924,7 @@ __kernel void dfsph_node_accel(const SimParams p, const uint n, const uint offse
     nacc_out[k] = (float4)(0.0f);
     return;
   }
-  const float4 bb = bpos[s];
-  const float3 xb = bb.xyz;
-  const float H = p.support;
-  const float pb = use_bp ? bpr[s] : 0.0f;
-  float3 F = (float3)(0.0f);
-  SPH_FOR_NEIGHBOURS(&p, cell_start, xb, i) {
-    const float4 x4 = xt[i];
-    const float3 d = x4.xyz - xb;
-    const float r2 = dot(d, d);
-    if (r2 < H * H) {
-      const float di = density[i] / p.phase_mass[phase[i]];
-      F += ((wall * x4.w + pb / (di * di)) * bb.w * sph_grad_factor(SPH_KERNEL, sqrt(r2), H)) * d;
-    }
-  }
-  SPH_END_NEIGHBOURS
+  float3 F = dfsph_boundary_force(&p, bpos[s], use_bp ? bpr[s] : 0.0f, xt, phase, density, cell_start, wall);
   /* the springs: sum_e K_e a_j, K_e = ax u u^T + tr (I - u u^T) (none for a node moving as its mass) */
   const float dt = p.dt;
   const bool free_node = bminv[3 * s + 1].w != 0.0f;
@@ -1010,3 +1020,90 @@ __kernel void dfsph_node_rate(const SimParams p, __global const float4* pos, __g
   const float add = dfsph_node_sum(pos[i].xyz, bnbr + (size_t)i * K, bnbr_count[i], bpos, bacc, p.support);
   if (add != 0.0f) gwall[i].w += p.dt * add;
 }
+
+/* --- Rigid bodies inside the solves (fluid.dfsph.body_coupling: strong) ---------------------------
+ * Gissler et al. 2019 (Interlinked SPH pressure solvers for strong fluid-rigid coupling, ACM TOG
+ * 38(1) 5) move each rigid body under the pressures inside the solver's iterations, so that fluid
+ * and body meet the density constraint together. Here the body's particles are boundary particles
+ * that move in the solves as the cloth nodes do (their slot's acceleration in bacc, w = 1; the
+ * residual of dfsph_jacobi and the density rate of dfsph_node_rate count it), their acceleration
+ * that of the whole body:
+ *     a_k = a + alpha x (x_k - c),   a = F / m,   alpha = I^-1 T,
+ * F and T the pressure force and torque of the current pressures on all the body's particles.
+ * Per iteration, three gathers: (a) dfsph_body_force, each body particle's force; (b)
+ * dfsph_body_accel, per body, F and T summed in particle order (a fixed order: deterministic) and
+ * the acceleration relaxed by 1/2 against the last iteration's (a body lighter than the water
+ * around it answers a pressure more than one fluid layer does, and the plain update would
+ * overshoot; the fixed point is the same); (c) dfsph_body_slots, each particle's slot. The gyroscopic
+ * term w x I w is left to the body's own step. body data, 6 float4 per moving body (from the host,
+ * Simulation::bodyResponse): (c, 1 / m) (1 / m = 0: a body that does not move in the solves: held,
+ * kinematic), the three rows of I^-1 in the world frame, the centre's acceleration without the
+ * fluid's pressure (gravity, the last step's contact and external forces / m), and the same for
+ * the rotation (I^-1 times their torques). */
+
+/* (a) The pressure force of the current pressures on moving particle k (unit: N). */
+__kernel void dfsph_body_force(const SimParams p, const uint n, const uint n_static, __global const float4* bsrc,
+                               __global const uint* slot, __global const float* bpr, const int use_bp,
+                               __global const float4* xt, __global const uint* phase,
+                               __global const float* density, __global const uint* cell_start, const float wall,
+                               __global float4* force) {
+  const uint k = get_global_id(0);
+  if (k >= n) return;
+  const float pb = use_bp ? bpr[slot[n_static + k]] : 0.0f;
+  force[k] = (float4)(dfsph_boundary_force(&p, bsrc[n_static + k], pb, xt, phase, density, cell_start, wall), 0.0f);
+}
+
+/* (b) Per body b (particles range[2b] .. range[2b] + range[2b+1] - 1): acc[2b] = a, acc[2b+1] = alpha
+ * (unit: m/s^2, 1/s^2), relaxed: acc <- relax (F / m, I^-1 T) + (1 - relax) acc; and the body's error
+ * err[b] = |F / m - a| + R |I^-1 T - alpha| (R: the body's reach, data[6b+1].w) (unit: m/s^2): how far
+ * the acceleration the fluid saw is from the one its pressures give. The solve goes on while a body's
+ * error is above fluid.dfsph.body_error: the average density error alone stops before the smooth
+ * pressure mode about a body has converged (a floating block's force swung with period 2 steps,
+ * 3.3 N standard deviation for its 4.2 N weight, when its density solve stopped at 6 iterations;
+ * 0.10 N at 20; docs/forces.md, session 23). */
+__kernel void dfsph_body_accel(const uint n_bodies, const uint n_static, __global const uint* range,
+                               __global const float4* bsrc, __global const float4* data,
+                               __global const float4* force, const float relax, __global float4* acc,
+                               __global float* err) {
+  const uint b = get_global_id(0);
+  if (b >= n_bodies) return;
+  const float4 c4 = data[6 * b];
+  if (c4.w == 0.0f) {
+    acc[2 * b] = acc[2 * b + 1] = (float4)(0.0f);
+    err[b] = 0.0f;
+    return;
+  }
+  float3 F = (float3)(0.0f), T = (float3)(0.0f);
+  const uint begin = range[2 * b], end = begin + range[2 * b + 1];
+  for (uint k = begin; k < end; ++k) {
+    const float3 f = force[k].xyz;
+    F += f;
+    T += cross(bsrc[n_static + k].xyz - c4.xyz, f);
+  }
+  const float3 a = c4.w * F;
+  const float3 al = (float3)(dot(data[6 * b + 1].xyz, T), dot(data[6 * b + 2].xyz, T), dot(data[6 * b + 3].xyz, T));
+  err[b] = length(a - acc[2 * b].xyz) + data[6 * b + 1].w * length(al - acc[2 * b + 1].xyz);
+  acc[2 * b] = (float4)(relax * a + (1.0f - relax) * acc[2 * b].xyz, 0.0f);
+  acc[2 * b + 1] = (float4)(relax * al + (1.0f - relax) * acc[2 * b + 1].xyz, 0.0f);
+}
+
+/* (c) Each moving particle k of a body that moves in the solves: its slot's acceleration
+ * a + alpha x r (w = 1), with `dry` the body's own (data rows 4, 5) added: before the density
+ * solve, whose density rate counts the motion of the whole step (dfsph_node_rate). */
+__kernel void dfsph_body_slots(const uint n, const uint n_static, __global const uint* body,
+                               __global const uint* slot, __global const float4* bsrc, __global const float4* data,
+                               __global const float4* acc, const int dry, __global float4* bacc) {
+  const uint k = get_global_id(0);
+  if (k >= n) return;
+  const uint b = body[k];
+  const float4 c4 = data[6 * b];
+  const uint s = slot[n_static + k];
+  if (c4.w == 0.0f) {
+    bacc[s] = (float4)(0.0f);
+    return;
+  }
+  float3 a = acc[2 * b].xyz, al = acc[2 * b + 1].xyz;
+  if (dry) a += data[6 * b + 4].xyz, al += data[6 * b + 5].xyz;
+  bacc[s] = (float4)(a + cross(al, bsrc[n_static + k].xyz - c4.xyz), 1.0f);
+}
+

@@ -677,7 +677,7 @@ TEST_CASE("Cloth with DFSPH: a light sheet sealed between two water layers stays
   INFO("XPBD substeps of 0.5 ms: " << substeps);
   SceneSpec spec = io::loadScene(std::string(SPHAPTICS_SOURCE_DIR) + "/scenes/tests/dfsph_cloth_sandwich.yaml");
   REQUIRE(spec.fluid.solver == FluidSolver::Dfsph);
-  REQUIRE(spec.fluid.dfsph.cloth_coupling == DfsphClothCoupling::Strong);  // the default
+  REQUIRE(spec.fluid.dfsph.cloth_coupling == DfsphCoupling::Strong);  // the default
   if (substeps) spec.cloth[0].max_time_step = 0.0005;
   const Compiled comp = compile(spec);
   ClContext cl;

@@ -471,6 +471,77 @@ TEST_CASE("DFSPH coupling: with the fictitious body mass, a light ball pushed in
        << " kg m/s, worst total drift " << worst << " kg m/s (" << worst / exchanged << " of it)");
 }
 
+TEST_CASE("DFSPH strong body coupling: a light ball pushed into a free blob conserves the total momentum", "[dfsph]") {
+  // fluid.dfsph.body_coupling strong (kernels/dfsph.cl, dfsph_body_accel): the ball moves inside the
+  // solves' iterations, without the fictitious mass. The force the ball is integrated with is still
+  // the reaction gathered from the final pressures (rigid.cl), so the third-law test's measure and
+  // limit hold: 1e-3 of the momentum exchanged. The 500 kg/m^3 ball is lighter than its added mass,
+  // where the staggered update without a fictitious mass swings and grows.
+  const std::string density = GENERATE(std::string("500"), std::string("1000"));
+  INFO("ball density " << density << " kg/m^3");
+  const BlobMomentum b = pushBlobMomentum({"fluid.solver=dfsph", "fluid.dfsph.body_coupling=strong",
+                                          "rigid_bodies[0].density=" + density});
+  REQUIRE(b.exit_code == 0);
+  INFO("initial momentum " << b.p0.transpose() << " kg m/s; exchanged " << b.exchanged << "; worst total drift " << b.worst);
+  CHECK(b.exchanged > 0.1 * b.p0.norm());
+  CHECK(b.fictitious == 0.0);  // no fictitious mass with the strong coupling
+  CHECK(b.worst < 1e-3 * b.exchanged);
+}
+
+namespace {
+/// The floating block of floating_block.yaml (500 kg/m^3, placed at its draft) left free for 0.3 s:
+/// the mean and standard deviation of the fluid's vertical force on it over the steps from 0.1 s,
+/// and its weight (unit: N).
+struct BlockForce {
+  int exit_code = 0;
+  double mean = 0, sd = 0, weight = 0;
+  int steps = 0;
+};
+
+BlockForce freeBlockForce(const std::string& coupling) {
+  std::vector<double> f;
+  BlockForce out;
+  app::RunOptions o = quietRun("floating_block.yaml", {"fluid.solver=dfsph", "fluid.dfsph.body_coupling=" + coupling,
+                                                       "simulation.duration=0.3"});
+  const app::RunResult r = app::runScene(o, [&](Simulation& sim, const FrameReport&) {
+    out.weight = sim.model().bodies[0].mass * 9.81;
+    sim.recordStepForces(true);
+    for (const StepForce& s : sim.takeStepForces())
+      if (s.time >= 0.1 - 1e-9) f.push_back(s.force.z());
+  });
+  out.exit_code = r.exit_code;
+  out.steps = static_cast<int>(f.size());
+  for (double v : f) out.mean += v / std::max<std::size_t>(f.size(), 1);
+  for (double v : f) out.sd += (v - out.mean) * (v - out.mean) / std::max<std::size_t>(f.size(), 1);
+  out.sd = std::sqrt(out.sd);
+  return out;
+}
+}  // namespace
+
+TEST_CASE("DFSPH strong body coupling: a light block floating free feels its weight in every step, not a swing", "[dfsph]") {
+  // A free body at rest on water feels its weight in every step. With the staggered coupling a light
+  // flat body at DFSPH's long steps does not: the body answers the force of the step's start and the
+  // fluid its motion one step later, and the per-step force swings (docs/forces.md, session 22:
+  // 1.52 N standard deviation for 4.24 N over 0.22-0.6 s; held still, the same block feels 0.33 N,
+  // 8 %, the fluid's own noise). The limit: 10 % of the weight, a free body no noisier than a held
+  // one; the mean within 3 % (the heave left from the start, the block placed at its draft).
+  // Measured: strong 0.11 N (2.6 %), mean 4.22 N; staggered 1.45 N (34 %), which the contrast checks
+  // (a mutation: the strong coupling off).
+  const BlockForce strong = freeBlockForce("strong");
+  REQUIRE(strong.exit_code == 0);
+  INFO("strong: " << strong.steps << " steps, mean " << strong.mean << " N, standard deviation " << strong.sd
+                  << " N, weight " << strong.weight << " N");
+  CHECK(strong.steps > 50);
+  CHECK(std::abs(strong.mean - strong.weight) < 0.03 * strong.weight);
+  CHECK(strong.sd < 0.10 * strong.weight);
+  const BlockForce staggered = freeBlockForce("staggered");
+  REQUIRE(staggered.exit_code == 0);
+  INFO("staggered: mean " << staggered.mean << " N, standard deviation " << staggered.sd << " N");
+  CHECK(staggered.sd > 0.2 * staggered.weight);
+  WARN("dfsph floating block free, per-step force 0.1-0.3 s: strong coupling " << strong.mean << " +- " << strong.sd
+       << " N, staggered " << staggered.mean << " +- " << staggered.sd << " N (weight " << strong.weight << " N)");
+}
+
 TEST_CASE("DFSPH two phases of density ratio 10: heavy stays under light", "[dfsph]") {
   // The WCSPH test's scene and criterion (test_physics.cpp): light (100 kg/m^3) on heavy
   // (1000 kg/m^3); after settling every heavy particle lies below every light one, allowing two
