@@ -412,7 +412,11 @@ DfsphSolveResult DfsphSolver::solve(Kind kind, const SimParams& p, const DfsphFi
     // the stall rules: from k0 (coarse_start) in any solve; from k_rest (coarse_rest_start) in a
     // density solve at rest
     auto due = [&](int k0) { return k0 > 0 && r.iterations >= k0 && (r.iterations - k0) % spec_.coarse_interval == 0; };
-    const bool stalled = coarse() && !stop && (due(spec_.coarse_start) || (at_rest && due(spec_.coarse_rest_start)));
+    // (only while the fluid's own error is above the bound: a correction ignores the bodies that move
+    // in the solve, body_coupling strong, and would pull the pressure about a free body back toward a
+    // held one's; the iterations a body's error still needs are plain Jacobi: docs/forces.md, session 23)
+    const bool fluid_within = r.iterations >= min_it && r.error <= bound;
+    const bool stalled = coarse() && !stop && !fluid_within && (due(spec_.coarse_start) || (at_rest && due(spec_.coarse_rest_start)));
     again = false;
     if ((rest_now || stalled) && corrections_pay) {
       if (r.corrections > 0) {  // did the last correction pay?

@@ -1157,9 +1157,13 @@ bool Simulation::strongBodies() const {
   // DFSPH's strong body coupling (fluid.dfsph.body_coupling: strong): the free dynamic bodies move
   // under the pressure inside the solves' iterations (kernels/dfsph.cl, dfsph_body_accel). Not with
   // mirrored walls (as the cloth's), and not while the bodies are held (the settle before t = 0).
-  return dfsph_ && n_moving_ > 0 && on(Stage::RigidCoupling) && on(Stage::RigidDynamics) &&
-         model_.spec.fluid.dfsph.body_coupling == DfsphCoupling::Strong &&
-         model_.spec.fluid.dfsph.walls != DfsphWalls::Mirrored;
+  // Kinematic bodies alone (a prescribed motion) have nothing to move in the solves: no extra passes.
+  if (!dfsph_ || n_moving_ == 0 || !on(Stage::RigidCoupling) || !on(Stage::RigidDynamics) ||
+      model_.spec.fluid.dfsph.body_coupling != DfsphCoupling::Strong || model_.spec.fluid.dfsph.walls == DfsphWalls::Mirrored)
+    return false;
+  for (std::size_t b : moving_)
+    if (model_.bodies[b].kind == rigid::BodyKind::Dynamic) return true;
+  return false;
 }
 
 void Simulation::bodyResponse() {
