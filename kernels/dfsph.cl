@@ -1037,7 +1037,7 @@ __kernel void dfsph_node_rate(const SimParams p, __global const float4* pos, __g
  * overshoot; the fixed point is the same); (c) dfsph_body_slots, each particle's slot. The gyroscopic
  * term w x I w is left to the body's own step. body data, 6 float4 per moving body (from the host,
  * Simulation::bodyResponse): (c, 1 / m) (1 / m = 0: a body that does not move in the solves: held,
- * kinematic), the three rows of I^-1 in the world frame, the centre's acceleration without the
+ * kinematic), the three rows of I^-1 in the world frame (w of the first: the body's reach R), the centre's acceleration without the
  * fluid's pressure (gravity, the last step's contact and external forces / m), and the same for
  * the rotation (I^-1 times their torques). */
 
