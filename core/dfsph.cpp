@@ -136,14 +136,15 @@ void DfsphSolver::factors(const SimParams& p, const DfsphFields& f, bool diverge
   // whose iteration has no residual pass): each node's slot gets its response (M_b^-1, 1 / m_b), the
   // rest of the boundary zeros.
   // Rigid bodies too with body_coupling strong (dfsph_body_accel; the same rule for the walls).
-  nodes_ = (f.n_nodes > 0 || f.n_bodies > 0) && !mirrored();
+  cloth_ = f.n_nodes > 0 && !mirrored();
   bodies_ = f.n_bodies > 0 && !mirrored();
+  nodes_ = cloth_ || bodies_;
   if (nodes_) {
     if (!bminv_()) {
       bminv_ = makeBuffer(std::size_t(f.n_boundary) * 48);
       bacc_ = makeBuffer(std::size_t(f.n_boundary) * 16);
     }
-    if (f.n_nodes > 0 && !nacc_div_())
+    if (cloth_ && !nacc_div_())
       for (cl::Buffer* b : {&nacc_div_, &nacc_dens_, &nacc_tmp_}) {
         *b = makeBuffer(std::size_t(f.n_nodes) * 16);
         clCall("clearing the node accelerations",
@@ -161,7 +162,7 @@ void DfsphSolver::factors(const SimParams& p, const DfsphFields& f, bool diverge
       cl_.queue().enqueueFillBuffer(bminv_, cl_float4{}, 0, std::size_t(f.n_boundary) * 48);
       return cl_.queue().enqueueFillBuffer(bacc_, cl_float4{}, 0, std::size_t(f.n_boundary) * 16);
     });
-    if (f.n_nodes > 0)
+    if (cloth_)
       kernels_.call("dfsph_node_slots", f.n_nodes, kLocal, p, f.n_nodes, f.node_offset, *f.nodes, *f.response, *f.bslot, *f.pos,
                   *f.phase, *f.cell_start, *f.row_start, *f.other, bminv_, bacc_);
   }
@@ -221,7 +222,7 @@ void DfsphSolver::iterate(Kind kind, const SimParams& p, const DfsphFields& f, c
   kernels_.call("dfsph_pressure_accel", p.n_fluid, kLocal, p, xt_, *f.phase, *f.density, pressure, *f.snbr,
                 *f.snbr_count, *f.bpos, *f.sbnbr, *f.sbnbr_count, wallFactor(), wallPressure(kind), use_bp, accel_, gwall_);
   // Cloth nodes and bodies: their accelerations under the same pressures (the residual counts them).
-  if (nodes_ && f.n_nodes > 0) nodeAccel(kind, p, f);
+  if (cloth_) nodeAccel(kind, p, f);
   if (bodies_) bodyAccel(kind, p, f, 0.5f, true);
   const uint32_t min_nbr = kind == Kind::Divergence ? min_neighbours_ : 0u;
   kernels_.call("dfsph_jacobi", p.n_fluid, kLocal, p, *f.pos, accel_, alpha_, source_, *f.snbr, *f.snbr_count,
@@ -260,7 +261,7 @@ void DfsphSolver::apply(Kind kind, const SimParams& p, const DfsphFields& f, con
                 *f.snbr_count, *f.bpos, *f.sbnbr, *f.sbnbr_count, wallFactor(), wallPressure(kind), use_bp, gwall_);
   // Cloth nodes after the divergence solve: their acceleration under its final pressures, for the
   // density solve (densitySolve(), dfsph_node_rate).
-  if (nodes_ && f.n_nodes > 0 && kind == Kind::Divergence) nodeAccel(kind, p, f);
+  if (cloth_ && kind == Kind::Divergence) nodeAccel(kind, p, f);
   // Bodies after the divergence solve: their acceleration under its final pressures (not relaxed),
   // for the density solve's rate (densitySolve()).
   if (bodies_ && kind == Kind::Divergence) {

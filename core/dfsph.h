@@ -179,7 +179,8 @@ class DfsphSolver {
   // bodies with body_coupling strong), per boundary slot: M_b^-1 (3 float4; 0 for walls, bodies,
   // anchored nodes) and the particle's pressure acceleration of the current pressures.
   cl::Buffer bminv_, bacc_;
-  bool nodes_ = false;
+  bool nodes_ = false;   // any of them this step: cloth nodes (cloth_) or bodies (bodies_)
+  bool cloth_ = false;
   // ... and per node, each solve's last sweep of the nodes' accelerations (kept from step to step:
   // the warm start of the nodes' block-Jacobi sweeps) and a scratch half (unit: m/s^2).
   cl::Buffer nacc_div_, nacc_dens_, nacc_tmp_;
