@@ -170,6 +170,8 @@ std::string profileLine(const Profile& p) {
       std::snprintf(buf, sizeof buf, "; %.2f density and %.2f divergence coarse corrections per step",
                     double(p.density_corrections) / double(p.steps), double(p.divergence_corrections) / double(p.steps));
       s << buf;
+      if (p.corrections_reused > 0)
+        s << " (" << p.corrections_reused << " with a reused operator, fluid.dfsph.coarse_reuse)";
       if (p.corrections_stopped > 0)
         s << " (" << p.corrections_stopped << " solve(s) stopped correcting: a correction did not lower the error)";
     }

@@ -129,6 +129,7 @@ const cl::Buffer& DfsphSolver::stepPressure(std::size_t n) {
 
 void DfsphSolver::factors(const SimParams& p, const DfsphFields& f, bool divergence_next) {
   ++steps_;  // one factor pass per step (core/dfsph_coarse.cpp finds the aggregates once per step)
+  coarse_travel_ += f.max_speed * p.dt;  // the fastest particle's travel over the steps (coarse_reuse)
   // Before a divergence solve (walls single or extrapolated: dfsph_source), the factor pass also
   // sums its density rate from the same pairs, into source_ (one neighbour pass fewer per step).
   rate_in_source_ = divergence_next && !mirrored();
@@ -427,7 +428,7 @@ DfsphSolveResult DfsphSolver::solve(Kind kind, const SimParams& p, const DfsphFi
       if (corrections_pay) {
         if (!error_read && r.corrections == 0) r.error = averageError(n);
         error_before_correction = r.error;
-        coarseCorrection(kind, p, f, pressure);
+        r.reused += coarseCorrection(kind, p, f, pressure) ? 1 : 0;
         ++r.corrections;
         again = r.iterations < max_it;
       } else {

@@ -84,6 +84,7 @@ struct DfsphSolveResult {
   bool converged = true;  ///< error <= bound when it stopped
   int corrections = 0;    ///< coarse-grid corrections of the two-level solve (unit: 1)
   bool corrections_stopped = false;  ///< a correction did not lower the error, so the solve made no more
+  int reused = 0;         ///< of the corrections, those with a reused coarse operator (fluid.dfsph.coarse_reuse) (unit: 1)
   /// body_coupling strong: the largest body error of the last iteration read, |F / m - a| + R |I^-1 T -
   /// alpha| (dfsph_body_accel; 0 without bodies in the solve) (unit: m/s^2)
   double body_error = 0.0;
@@ -154,7 +155,8 @@ class DfsphSolver {
   cl::Buffer makeBuffer(std::size_t bytes);
   /// Two-level solve (kernels/dfsph_coarse.cl, core/dfsph_coarse.cpp): the Galerkin coarse-grid
   /// correction of `pressure` on aggregates of one support H, projected to p >= 0.
-  void coarseCorrection(Kind kind, const SimParams& p, const DfsphFields& f, cl::Buffer& pressure);
+  /// ... true when it reused an assembled operator (fluid.dfsph.coarse_reuse).
+  bool coarseCorrection(Kind kind, const SimParams& p, const DfsphFields& f, cl::Buffer& pressure);
   bool coarse() const { return spec_.coarse_interval > 0 && !mirrored(); }
 
   ClContext& cl_;
@@ -229,6 +231,12 @@ class DfsphSolver {
   std::array<int32_t, 4> cbox_{};
   cl::Buffer cbok_, cbb_, cbnum_, ccell_;
   uint64_t coarse_cells_step_ = ~uint64_t(0);  // the step cagg_ was computed in
+  // The assembled operator's solve kind (-1: none), step, dt (unit: s) and the travel summed to
+  // then; the fastest particle's travel summed over the steps (unit: m) (fluid.dfsph.coarse_reuse).
+  int coarse_k_kind_ = -1;
+  uint64_t coarse_k_step_ = 0;
+  double coarse_k_dt_ = 0.0, coarse_k_travel_ = 0.0, coarse_travel_ = 0.0;
+
   uint64_t steps_ = 0;           // steps so far (factors() counts them)
 };
 

@@ -15,6 +15,7 @@
 #include "core/errors.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
 
 namespace sph {
@@ -32,13 +33,18 @@ constexpr float kCoarseThetaMax = 2.0f;               // the line search's large
 // from 1.0 s on; 1e-3 rang until 1.5 s (1.8 kPa at 1.0-1.25 s).
 constexpr int kCoarseIterations = 100;                // (unit: 1)
 constexpr float kCoarseTolerance = 1e-4f;             // (unit: 1)
+// A reused coarse operator (fluid.dfsph.coarse_reuse): reassembled once the fastest particle has
+// travelled this many spacings since its assembly (unit: 1; session 24).
+constexpr double kCoarseReuseTravel = 0.25;
+// ... and once the step differs from the operator's by more than this fraction (unit: 1).
+constexpr double kCoarseReuseDt = 0.25;
 }  // namespace
 
 DfsphSolver::~DfsphSolver() = default;
 
-void DfsphSolver::coarseCorrection(Kind kind, const SimParams& p, const DfsphFields& f, cl::Buffer& pressure) {
+bool DfsphSolver::coarseCorrection(Kind kind, const SimParams& p, const DfsphFields& f, cl::Buffer& pressure) {
   const std::size_t n = p.n_fluid;
-  if (n == 0 || f.cell_start == nullptr) return;
+  if (n == 0 || f.cell_start == nullptr) return false;
   const bool div = kind == Kind::Divergence;
   const uint32_t min_nbr = div ? min_neighbours_ : 0u;
   // Each particle's aggregate cell (once per step: positions do not change within it).
@@ -59,25 +65,48 @@ void DfsphSolver::coarseCorrection(Kind kind, const SimParams& p, const DfsphFie
   // The aggregates (cells with at least 4 active particles) with P^T r, numbered in box order;
   // each particle's aggregate number.
   const uint32_t rows = static_cast<uint32_t>(coarseRows(n));
+  // Reuse (fluid.dfsph.coarse_reuse n >= 1): an operator assembled in step s serves this solve's
+  // corrections up to step s + n - 1 while the fastest particle has travelled less than
+  // kCoarseReuseTravel dx since (the travel summed per step from its largest speed): K keeps its
+  // aggregates (numbered then), its pair terms and its dt (K ~ dt^2: the correction e of K(dt0) is
+  // scaled by (dt0 / dt)^2). The right-hand side and the members are those of now.
+  const int reuse_steps = spec_.coarse_reuse;
+  const bool reuse = reuse_steps > 0 && coarse_k_kind_ == static_cast<int>(kind) && steps_ - coarse_k_step_ < uint64_t(reuse_steps) &&
+                     coarse_travel_ - coarse_k_travel_ <= kCoarseReuseTravel * dx_ &&
+                     std::abs(p.dt / coarse_k_dt_ - 1.0) <= kCoarseReuseDt;
   kernels_.call("dfsph_coarse_aggregate", static_cast<std::size_t>(cbox_[3]), kLocal, p, bd, *f.cell_start, cagg_,
                 cact_, cres_, cbok_, cbb_);
-  kernels_.call("dfsph_coarse_number", kGroup, kGroup, bd, rows, cbok_, cbb_, cbnum_, ccell_, cb_, cmcount_);
-  kernels_.call("dfsph_coarse_members", n, kLocal, p, cagg_, cact_, cbnum_, cmem_);
-  // Per particle and aggregate F and R, then K row by row. Extrapolated
-  // walls: a smooth pressure's wall pressure is the fluid's next to it (mirrored, w = 2); single w = 1.
-  // Cloth nodes with water on both sides, which the solve moves as free masses (dfsph_node_slots), leave
-  // F's wall term (kernels/dfsph_coarse.cl, session 21: 0.67x the paper's demo's time).
-  const float wall = extrapolated() ? 2.0f : 1.0f;
-  kernels_.call("dfsph_coarse_pairs", n, kLocal, p, bd, *f.pos, *f.phase, *f.density, *f.snbr, *f.snbr_count, gwall_,
-                cagg_, cmem_, wall, cfr_, cmask_, *f.bpos, *f.sbnbr, *f.sbnbr_count, nodes_ ? 1 : 0,
-                nodes_ ? bminv_ : gwall_);
-  const float scale = p.dt * p.dt * p.rest_volume;
-  kernels_.call("dfsph_coarse_assemble", rows, kLocal, p, bd, *f.cell_start, cagg_, cmcount_, ccell_, cbnum_, cfr_,
-                cmask_, scale, ckval_, ckcol_);
+  float e_scale = 1.0f;
+  bool reused = false;
+  if (reuse) {
+    kernels_.call("dfsph_coarse_rhs", rows, kLocal, cmcount_, ccell_, cbb_, cb_);
+    kernels_.call("dfsph_coarse_members", n, kLocal, p, cagg_, cact_, cbnum_, cmem_);
+    const double r = coarse_k_dt_ / p.dt;
+    e_scale = static_cast<float>(r * r);
+    reused = true;
+  } else {
+    kernels_.call("dfsph_coarse_number", kGroup, kGroup, bd, rows, cbok_, cbb_, cbnum_, ccell_, cb_, cmcount_);
+    kernels_.call("dfsph_coarse_members", n, kLocal, p, cagg_, cact_, cbnum_, cmem_);
+    // Per particle and aggregate F and R, then K row by row. Extrapolated
+    // walls: a smooth pressure's wall pressure is the fluid's next to it (mirrored, w = 2); single w = 1.
+    // Cloth nodes with water on both sides, which the solve moves as free masses (dfsph_node_slots), leave
+    // F's wall term (kernels/dfsph_coarse.cl, session 21: 0.67x the paper's demo's time).
+    const float wall = extrapolated() ? 2.0f : 1.0f;
+    kernels_.call("dfsph_coarse_pairs", n, kLocal, p, bd, *f.pos, *f.phase, *f.density, *f.snbr, *f.snbr_count, gwall_,
+                  cagg_, cmem_, wall, cfr_, cmask_, *f.bpos, *f.sbnbr, *f.sbnbr_count, nodes_ ? 1 : 0,
+                  nodes_ ? bminv_ : gwall_);
+    const float scale = p.dt * p.dt * p.rest_volume;
+    kernels_.call("dfsph_coarse_assemble", rows, kLocal, p, bd, *f.cell_start, cagg_, cmcount_, ccell_, cbnum_, cfr_,
+                  cmask_, scale, ckval_, ckcol_);
+    coarse_k_kind_ = static_cast<int>(kind);
+    coarse_k_step_ = steps_;
+    coarse_k_dt_ = p.dt;
+    coarse_k_travel_ = coarse_travel_;
+  }
   // K e = P^T r by BiCGStab (one work-group), prolonged: q = P e.
   kernels_.call("dfsph_coarse_bicgstab", kGroup, kGroup, cmcount_, ckval_, ckcol_, cb_, cx_, cr_, cph_, cp_, cv_, csh_, ct_,
                 kCoarseIterations, kCoarseTolerance);
-  kernels_.call("dfsph_coarse_prolong", n, kLocal, p, cmem_, cx_, cdp_);
+  kernels_.call("dfsph_coarse_prolong", n, kLocal, p, cmem_, cx_, e_scale, cdp_);
   // Line search: the step theta along q that makes the correction Galerkin-exact for the walls'
   // own operator (K's mirrored wall term is an approximation, and the wall pressure is projected
   // to >= 0): with dr the change of the residual that q actually makes (the trial pressures
@@ -95,6 +124,7 @@ void DfsphSolver::coarseCorrection(Kind kind, const SimParams& p, const DfsphFie
   kernels_.call("dfsph_coarse_theta", 1, 0, kChunks, cpartial_, kCoarseThetaMax, ctheta_);
   // p <- max(p + theta q, 0), and the packed p / delta^2 for the next pass.
   kernels_.call("dfsph_coarse_apply", n, kLocal, p, *f.pos, *f.phase, *f.density, cdp_, ctheta_, pressure, xt_);
+  return reused;
 }
 
 }  // namespace sph

@@ -140,6 +140,7 @@ struct DfsphSpec {
   int coarse_interval = 4;           ///< two-level solve: a coarse-grid correction after the first iteration of the density solve at rest (and every n iterations after from coarse_rest_start while above its bound), and every n Jacobi iterations of a stalled solve from coarse_start (if > 0); 0 = off, plain Jacobi (kernels/dfsph_coarse.cl) (unit: 1)
   int coarse_start = 0;              ///< two-level solve: a solve still above its bound after k0 iterations takes a correction then and every coarse_interval after; 0 = never (unit: 1)
   double coarse_rest_travel = 0.1;   ///< two-level solve: a step whose fastest particle moved less than this many spacings dx in the last step is at rest: its density solve takes a correction after the first iteration (unit: 1)
+  int coarse_reuse = 0;              ///< two-level solve: an assembled coarse operator serves the corrections of this many steps while the fastest particle moves less than 0.25 dx and the step changes by less than 25 % (K ~ dt^2 scaled); 0 = assembled for every correction (core/dfsph_coarse.cpp, session 24) (unit: 1)
   int coarse_rest_start = 1;         ///< two-level solve: a density solve at rest (coarse_rest_travel) still above its bound after this many iterations takes another correction then and every coarse_interval after; 0 = never (unit: 1)
   double cfl = 0.4;                  ///< Courant number: dt <= cfl * dx / |v|max (unit: 1)
   double max_time_step = 0.005;      ///< largest step (unit: s)

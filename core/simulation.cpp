@@ -780,6 +780,7 @@ void Simulation::divergenceSolve() {
   dfsph_frame_.divergence_error = std::max(dfsph_frame_.divergence_error, r.error);
   profile_.divergence_iterations += static_cast<uint64_t>(r.iterations);
   profile_.divergence_corrections += static_cast<uint64_t>(r.corrections);
+  profile_.corrections_reused += static_cast<uint64_t>(r.reused);
   profile_.corrections_stopped += r.corrections_stopped ? 1u : 0u;
   profile_.max_divergence_error = std::max(profile_.max_divergence_error, r.error);
 }
@@ -804,6 +805,7 @@ void Simulation::densitySolve() {
   }
   profile_.density_iterations += static_cast<uint64_t>(r.iterations);
   profile_.density_corrections += static_cast<uint64_t>(r.corrections);
+  profile_.corrections_reused += static_cast<uint64_t>(r.reused);
   profile_.corrections_stopped += r.corrections_stopped ? 1u : 0u;
   profile_.max_density_error = std::max(profile_.max_density_error, r.error);
 }

@@ -60,6 +60,7 @@ struct Profile {
   uint64_t density_iterations = 0;     ///< density-solve iterations, all steps
   uint64_t divergence_iterations = 0;  ///< divergence-solve iterations, all steps
   uint64_t density_corrections = 0;    ///< density-solve coarse-grid corrections (two-level solve), all steps
+  uint64_t corrections_reused = 0;     ///< of the corrections, those with a reused coarse operator (fluid.dfsph.coarse_reuse)
   uint64_t corrections_stopped = 0;    ///< solves whose coarse-grid corrections stopped: one did not lower the error
   uint64_t divergence_corrections = 0; ///< divergence-solve coarse-grid corrections, all steps
   uint64_t unconverged_steps = 0;      ///< steps whose density solve stopped above its bound

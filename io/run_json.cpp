@@ -111,6 +111,7 @@ void writeRunJson(const std::string& path, const RunInfo& info) {
     << ", \"divergence_iterations\": " << info.profile.divergence_iterations
     << ", \"density_corrections\": " << info.profile.density_corrections
     << ", \"divergence_corrections\": " << info.profile.divergence_corrections
+    << ", \"corrections_reused\": " << info.profile.corrections_reused
     << ", \"density_iterations_per_step\": "
     << (info.profile.steps ? double(info.profile.density_iterations) / double(info.profile.steps) : 0.0)
     << ", \"unconverged_steps\": " << info.profile.unconverged_steps

@@ -478,6 +478,13 @@ std::vector<KeyDef> buildTable() {
                "in the last step is at rest, and its density solve takes a coarse-grid correction after the first "
                "Jacobi iteration (a fluid at rest rings at the default density bound without it; moving flows move "
                "~0.2-0.4 spacings per step at the Courant number 0.4); 0 = never"));
+  add(field<InScene>("fluid.dfsph.coarse_reuse", [](auto& s) -> auto& { return s.fluid.dfsph.coarse_reuse; })
+          .unit("1").atLeast(0).atMost(1000)
+          .doc("two-level solve: an assembled coarse-grid operator serves the corrections of up to this many steps "
+               "(of the same solve) while the fastest particle has moved less than 0.25 dx since and the step is "
+               "within 25 % of the operator's (its dt^2 scaled); half of a correction's cost is the assembly, so "
+               "scenes at rest run faster (docs/dfsph.md, session 24); the results differ from 0 within the "
+               "solve's bound; 0 = assembled for every correction"));
   add(field<InScene>("fluid.dfsph.coarse_rest_start", [](auto& s) -> auto& { return s.fluid.dfsph.coarse_rest_start; })
           .unit("1").atLeast(0).atMost(10000)
           .doc("two-level solve: a density solve at rest (coarse_rest_travel) still above its bound after this many "

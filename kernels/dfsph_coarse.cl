@@ -199,6 +199,16 @@ void dfsph_coarse_number(const int4 bd, const uint rows, __global const int* box
   if (l == 0) mcount[0] = min(base, rows);
 }
 
+/* A reused operator (core/dfsph_coarse.cpp, fluid.dfsph.coarse_reuse): the right-hand side P^T r
+ * of the aggregates numbered when it was assembled, b[k] = box_b[cell[k]] (the cell's active
+ * particles' residual sum now). */
+__kernel void dfsph_coarse_rhs(__global const uint* mcount, __global const uint* cell, __global const float* box_b,
+                               __global float* b) {
+  const uint k = get_global_id(0);
+  if (k >= mcount[0]) return;
+  b[k] = box_b[cell[k]];
+}
+
 /* Each particle's aggregate number when it is active and its cell an aggregate, else -1. */
 __kernel void dfsph_coarse_members(const SimParams p, __global const uint* agg, __global const int* act,
                                    __global const int* num, __global int* mem) {
@@ -425,11 +435,11 @@ void dfsph_coarse_bicgstab(__global uint* mcount, __global const float* kval, __
 
 /* Prolongation: dp_i = e of i's aggregate for the members, 0 for the others (unit: Pa). */
 __kernel void dfsph_coarse_prolong(const SimParams p, __global const int* mem, __global const float* e,
-                                   __global float* dp) {
+                                   const float scale, __global float* dp) {
   const uint i = get_global_id(0);
   if (i >= p.n_fluid) return;
   const int k = mem[i];
-  dp[i] = k >= 0 ? e[k] : 0.0f;
+  dp[i] = k >= 0 ? scale * e[k] : 0.0f;
 }
 
 /* The line search's trial pressures max(p_i + dp_i, 0) into `trial`, and their packed position and
