@@ -76,17 +76,17 @@ bool DfsphSolver::coarseCorrection(Kind kind, const SimParams& p, const DfsphFie
                      std::abs(p.dt / coarse_k_dt_ - 1.0) <= kCoarseReuseDt;
   kernels_.call("dfsph_coarse_aggregate", static_cast<std::size_t>(cbox_[3]), kLocal, p, bd, *f.cell_start, cagg_,
                 cact_, cres_, cbok_, cbb_);
-  float e_scale = 1.0f;
-  bool reused = false;
-  if (reuse) {
+  // The right-hand side P^T r: gathered by the reused operator's numbering, or numbered anew.
+  if (reuse)
     kernels_.call("dfsph_coarse_rhs", rows, kLocal, cmcount_, ccell_, cbb_, cb_);
-    kernels_.call("dfsph_coarse_members", n, kLocal, p, cagg_, cact_, cbnum_, cmem_);
+  else
+    kernels_.call("dfsph_coarse_number", kGroup, kGroup, bd, rows, cbok_, cbb_, cbnum_, ccell_, cb_, cmcount_);
+  kernels_.call("dfsph_coarse_members", n, kLocal, p, cagg_, cact_, cbnum_, cmem_);
+  float e_scale = 1.0f;
+  if (reuse) {
     const double r = coarse_k_dt_ / p.dt;
     e_scale = static_cast<float>(r * r);
-    reused = true;
   } else {
-    kernels_.call("dfsph_coarse_number", kGroup, kGroup, bd, rows, cbok_, cbb_, cbnum_, ccell_, cb_, cmcount_);
-    kernels_.call("dfsph_coarse_members", n, kLocal, p, cagg_, cact_, cbnum_, cmem_);
     // Per particle and aggregate F and R, then K row by row. Extrapolated
     // walls: a smooth pressure's wall pressure is the fluid's next to it (mirrored, w = 2); single w = 1.
     // Cloth nodes with water on both sides, which the solve moves as free masses (dfsph_node_slots), leave
@@ -124,7 +124,7 @@ bool DfsphSolver::coarseCorrection(Kind kind, const SimParams& p, const DfsphFie
   kernels_.call("dfsph_coarse_theta", 1, 0, kChunks, cpartial_, kCoarseThetaMax, ctheta_);
   // p <- max(p + theta q, 0), and the packed p / delta^2 for the next pass.
   kernels_.call("dfsph_coarse_apply", n, kLocal, p, *f.pos, *f.phase, *f.density, cdp_, ctheta_, pressure, xt_);
-  return reused;
+  return reuse;
 }
 
 }  // namespace sph

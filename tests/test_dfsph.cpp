@@ -1049,8 +1049,10 @@ TEST_CASE("DFSPH coarse_reuse: a coarse operator reused over steps at rest keeps
   // default-settings test's above, from the same physics (the 5 % band of rho0 g H for the calm, the
   // issue's 5 % of rho0 g (H - z)); and most corrections must reuse (the key must act).
   // Measured (session 24): reuse off: 1.6 Pa between steps, 25.7 Pa between frames, worst layer
-  // 5.0 %, probes 2.9 %; reuse 8: see the WARN. Mutation: a reused operator's correction not
-  // rescaled for a changed dt is not exercised here (constant dt); the reuse off fails the count.
+  // 5.0 %, probes 2.9 %; reuse 8: see the WARN. Mutations (run, session 24): the reused operator's
+  // right-hand side not gathered anew (dfsph_coarse_rhs skipped: the assembly's stale P^T r) reads
+  // 2.4 kPa between steps and 28 iterations per step: fails; reuse never taken fails the count. A
+  // correction not rescaled for a changed dt is not exercised here (constant dt).
   const TankResult d = hydrostaticTank("dfsph", {"probes.rate=1000", "fluid.dfsph.coarse_reuse=8"});
   REQUIRE(d.exit_code == 0);
   INFO("coarse_reuse 8: worst layer " << 100 * d.worst << " %, frame-to-frame " << d.worst_change
