@@ -77,6 +77,7 @@ DfsphSolver::DfsphSolver(ClContext& cl, KernelSet& kernels, std::size_t capacity
   // Coarse-grid correction: its per-particle and per-aggregate buffers (kernels/dfsph_coarse.cl), when it runs.
   const std::size_t nc = coarse() ? capacity : 0;
   const std::size_t rows = coarse() ? coarseRows(capacity) : 0;
+  coarse_rows_ = rows;
   for (cl::Buffer* b : {&cagg_, &cact_, &cres_, &ctres_, &cmem_, &cdp_, &ctrial_}) *b = makeBuffer(nc * 4);
   cbox_ = coarseBox(extent, support);
   const std::size_t box = coarse() ? static_cast<std::size_t>(cbox_[3]) : 0;
@@ -400,6 +401,12 @@ DfsphSolveResult DfsphSolver::solve(Kind kind, const SimParams& p, const DfsphFi
   bool error_read = false;
   double error_before_correction = INFINITY;  // the error before the last correction
   bool corrections_pay = true;
+  // Free bodies in the coarse corrections (bodyCoarse()): a correction leaves each body at the
+  // acceleration of the corrected pressures, so the body error of the next iteration reads 0 whatever
+  // the pressures; it says something again from the second iteration after a correction.
+  const bool body_coarse = bodyCoarse();
+  int last_correction = -2;  // the iteration after which the last correction was made
+  bool body_pending = false;  // a body's error is above its bound, or not yet read after a correction
   do {
     iterate(kind, p, f, pressure);
     ++r.iterations;
@@ -408,7 +415,8 @@ DfsphSolveResult DfsphSolver::solve(Kind kind, const SimParams& p, const DfsphFi
       r.error = averageError(n);
       if (bodies_) r.body_error = bodyError(f);
     }
-    const bool within = r.error <= bound && r.body_error <= spec_.body_error;
+    body_pending = r.body_error > spec_.body_error || (body_coarse && r.iterations < last_correction + 2);
+    const bool within = r.error <= bound && !body_pending;
     const bool stop = (r.iterations >= min_it && within) || r.iterations >= max_it;
     const bool rest_now = at_rest && r.iterations == 1 && r.iterations < max_it;
     // the stall rules: from k0 (coarse_start) in any solve; from k_rest (coarse_rest_start) in a
@@ -417,8 +425,11 @@ DfsphSolveResult DfsphSolver::solve(Kind kind, const SimParams& p, const DfsphFi
     // (only while the fluid's own error is above the bound: a correction ignores the bodies that move
     // in the solve, body_coupling strong, and would pull the pressure about a free body back toward a
     // held one's; the iterations a body's error still needs are plain Jacobi: docs/forces.md, session 23)
+    // With the bodies in the corrections (body_coarse, session 25) the corrections go on while a body's
+    // error is above its bound too.
     const bool fluid_within = r.iterations >= min_it && r.error <= bound;
-    const bool stalled = coarse() && !stop && !fluid_within && (due(spec_.coarse_start) || (at_rest && due(spec_.coarse_rest_start)));
+    const bool needed = !fluid_within || (body_coarse && r.body_error > spec_.body_error);
+    const bool stalled = coarse() && !stop && needed && (due(spec_.coarse_start) || (at_rest && due(spec_.coarse_rest_start)));
     again = false;
     if ((rest_now || stalled) && corrections_pay) {
       if (r.corrections > 0) {  // did the last correction pay?
@@ -430,12 +441,13 @@ DfsphSolveResult DfsphSolver::solve(Kind kind, const SimParams& p, const DfsphFi
         error_before_correction = r.error;
         r.reused += coarseCorrection(kind, p, f, pressure) ? 1 : 0;
         ++r.corrections;
+        last_correction = r.iterations;
         again = r.iterations < max_it;
       } else {
         r.corrections_stopped = true;
       }
     }
-  } while (again || ((r.iterations < min_it || r.error > bound || r.body_error > spec_.body_error) && r.iterations < max_it));
+  } while (again || ((r.iterations < min_it || r.error > bound || body_pending) && r.iterations < max_it));
   r.converged = r.error <= bound && r.body_error <= spec_.body_error;
   // The velocities take the pressures found.
   apply(kind, p, f, pressure);

@@ -158,6 +158,8 @@ class DfsphSolver {
   /// ... true when it reused an assembled operator (fluid.dfsph.coarse_reuse).
   bool coarseCorrection(Kind kind, const SimParams& p, const DfsphFields& f, cl::Buffer& pressure);
   bool coarse() const { return spec_.coarse_interval > 0 && !mirrored(); }
+  /// The free bodies (body_coupling strong) take part in the coarse corrections (fluid.dfsph.body_coarse).
+  bool bodyCoarse() const { return bodies_ && coarse() && spec_.body_coarse; }
 
   ClContext& cl_;
   KernelSet& kernels_;
@@ -231,6 +233,12 @@ class DfsphSolver {
   std::array<int32_t, 4> cbox_{};
   cl::Buffer cbok_, cbb_, cbnum_, ccell_;
   uint64_t coarse_cells_step_ = ~uint64_t(0);  // the step cagg_ was computed in
+  // Free bodies in the coarse system (bodyCoarse()): each boundary slot's free body (-1: none), computed
+  // once per step, and per aggregate and body the terms scale W and V (4 float4; kernels/dfsph_coarse.cl,
+  // dfsph_coarse_bodies) for up to cbody_count_ bodies.
+  cl::Buffer csbody_, ccwv_;
+  std::size_t coarse_rows_ = 0;  // the most aggregates (coarseRows of the capacity)
+  uint32_t cbody_count_ = 0;
   // The assembled operator's solve kind (-1: none), step, dt (unit: s) and the travel summed to
   // then; the fastest particle's travel summed over the steps (unit: m) (fluid.dfsph.coarse_reuse).
   int coarse_k_kind_ = -1;

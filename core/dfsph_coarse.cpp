@@ -50,18 +50,38 @@ bool DfsphSolver::coarseCorrection(Kind kind, const SimParams& p, const DfsphFie
   // Each particle's aggregate cell (once per step: positions do not change within it).
   cl_int4 bd;
   for (int a = 0; a < 4; ++a) bd.s[a] = cbox_[static_cast<std::size_t>(a)];
+  // Free bodies in the coarse system (fluid.dfsph.body_coarse; kernels/dfsph_coarse.cl, above
+  // dfsph_coarse_slot_body): each boundary slot's free body, once per step.
+  const bool bc = bodyCoarse();
+  const uint32_t nb = bc ? f.n_bodies : 0u;
+  if (bc && (!csbody_() || cbody_count_ < nb)) {
+    if (!csbody_()) csbody_ = makeBuffer(std::max<std::size_t>(f.n_boundary, 1) * 4);
+    ccwv_ = makeBuffer(coarse_rows_ * nb * 64);
+    cbody_count_ = nb;
+  }
   if (coarse_cells_step_ != steps_) {
     kernels_.call("dfsph_coarse_cells", n, kLocal, p, bd, *f.pos, cagg_);
+    if (bc) {
+      clCall("clearing the slots' bodies",
+             [&] { return cl_.queue().enqueueFillBuffer(csbody_, cl_int(-1), 0, std::size_t(f.n_boundary) * 4); });
+      kernels_.call("dfsph_coarse_slot_body", f.n_moving, kLocal, f.n_moving, f.n_static, *f.body_of, *f.bslot,
+                    *f.body_data, csbody_);
+    }
     coarse_cells_step_ = steps_;
   }
   // The pressure accelerations of the current pressures (as iterate()'s first pass), then the
-  // residuals and the active set.
+  // residuals and the active set. Free bodies in the coarse system first take the acceleration of
+  // the current pressures, unrelaxed (their own equation then holds; the coarse system couples them).
   const int use_bp = extrapolated() ? 1 : 0;
   if (use_bp) boundaryPressure(kind, p, f, pressure);
+  if (bc) bodyAccel(kind, p, f, 1.0f, true);
   kernels_.call("dfsph_pressure_accel", n, kLocal, p, xt_, *f.phase, *f.density, pressure, *f.snbr, *f.snbr_count,
                 *f.bpos, *f.sbnbr, *f.sbnbr_count, wallFactor(), wallPressure(kind), use_bp, accel_, gwall_);
+  // (the slot map and bacc_ stand in for unused arguments without bodies)
+  const cl::Buffer& sbody = bc ? csbody_ : cagg_;
+  const cl::Buffer& bacc = bc ? bacc_ : accel_;
   kernels_.call("dfsph_coarse_residual", n, kLocal, p, *f.pos, accel_, source_, *f.snbr, *f.snbr_count,
-                *f.sbnbr_count, min_nbr, pressure, gwall_, 0, cres_, cact_);
+                *f.sbnbr_count, min_nbr, pressure, gwall_, 0, cres_, cact_, bc ? 1 : 0, sbody, *f.bpos, *f.sbnbr, bacc);
   // The aggregates (cells with at least 4 active particles) with P^T r, numbered in box order;
   // each particle's aggregate number.
   const uint32_t rows = static_cast<uint32_t>(coarseRows(n));
@@ -103,9 +123,19 @@ bool DfsphSolver::coarseCorrection(Kind kind, const SimParams& p, const DfsphFie
     coarse_k_dt_ = p.dt;
     coarse_k_travel_ = coarse_travel_;
   }
+  // The free bodies' terms per aggregate (every correction: the bodies move), at the operator's dt.
+  if (bc) {
+    const double dtk = reuse ? coarse_k_dt_ : p.dt;
+    const float wall = extrapolated() ? 2.0f : 1.0f;
+    kernels_.call("dfsph_coarse_bodies", rows, kLocal, p, bd, *f.cell_start, cmcount_, ccell_, cmem_, *f.pos, *f.phase,
+                  *f.density, *f.bpos, *f.sbnbr, *f.sbnbr_count, csbody_, *f.body_data, nb, wall,
+                  static_cast<float>(dtk * dtk * p.rest_volume), ccwv_);
+  }
   // K e = P^T r by BiCGStab (one work-group), prolonged: q = P e.
+  const cl::Buffer& cwv = bc ? ccwv_ : cb_;
+  const cl::Buffer& bdata = bc ? *f.body_data : cb_;
   kernels_.call("dfsph_coarse_bicgstab", kGroup, kGroup, cmcount_, ckval_, ckcol_, cb_, cx_, cr_, cph_, cp_, cv_, csh_, ct_,
-                kCoarseIterations, kCoarseTolerance);
+                kCoarseIterations, kCoarseTolerance, nb, cwv, bdata);
   kernels_.call("dfsph_coarse_prolong", n, kLocal, p, cmem_, cx_, e_scale, cdp_);
   // Line search: the step theta along q that makes the correction Galerkin-exact for the walls'
   // own operator (K's mirrored wall term is an approximation, and the wall pressure is projected
@@ -113,17 +143,24 @@ bool DfsphSolver::coarseCorrection(Kind kind, const SimParams& p, const DfsphFie
   // max(p + q, 0), their extrapolated wall pressure, accelerations and residual),
   // theta = -<q, r> / <q, dr> over the members, within [0, kCoarseThetaMax].
   kernels_.call("dfsph_coarse_trial", n, kLocal, p, *f.pos, *f.phase, *f.density, cdp_, pressure, ctrial_, xt_);
+  // (free bodies in the coarse system move with the trial pressures: the residual change counts it)
   if (use_bp) boundaryPressure(kind, p, f, ctrial_);
+  if (bc) bodyAccel(kind, p, f, 1.0f, true);
   kernels_.call("dfsph_pressure_accel", n, kLocal, p, xt_, *f.phase, *f.density, ctrial_, *f.snbr, *f.snbr_count,
                 *f.bpos, *f.sbnbr, *f.sbnbr_count, wallFactor(), wallPressure(kind), use_bp, accel_, gwall_);
   kernels_.call("dfsph_coarse_residual", n, kLocal, p, *f.pos, accel_, source_, *f.snbr, *f.snbr_count,
-                *f.sbnbr_count, min_nbr, ctrial_, gwall_, 1, ctres_, cact_);
+                *f.sbnbr_count, min_nbr, ctrial_, gwall_, 1, ctres_, cact_, bc ? 1 : 0, sbody, *f.bpos, *f.sbnbr, bacc);
   const uint32_t chunk = static_cast<uint32_t>((n + kChunks - 1) / kChunks);
   kernels_.call("dfsph_coarse_dots", kChunks, 0, static_cast<uint32_t>(n), chunk, kChunks, cmem_, cdp_, cres_, ctres_,
                 cpartial_);
   kernels_.call("dfsph_coarse_theta", 1, 0, kChunks, cpartial_, kCoarseThetaMax, ctheta_);
   // p <- max(p + theta q, 0), and the packed p / delta^2 for the next pass.
   kernels_.call("dfsph_coarse_apply", n, kLocal, p, *f.pos, *f.phase, *f.density, cdp_, ctheta_, pressure, xt_);
+  // Free bodies in the coarse system: the acceleration of the corrected pressures (unrelaxed).
+  if (bc) {
+    if (use_bp) boundaryPressure(kind, p, f, pressure);
+    bodyAccel(kind, p, f, 1.0f, true);
+  }
   return reuse;
 }
 

@@ -169,6 +169,11 @@ struct DfsphSpec {
   /// the one its current pressures give, |F / m - a| + R |I^-1 T - alpha| (R its reach; kernels/dfsph.cl,
   /// dfsph_body_accel), besides the average density error (unit: m/s^2)
   double body_error = 0.1;
+  /// with strong body coupling and the two-level solve: each free body's six degrees of freedom take part
+  /// in the coarse-grid correction (its Schur term in the coarse operator, kernels/dfsph_coarse.cl), so a
+  /// correction moves the body with the pressure it finds; false: a correction sees the bodies held and
+  /// is made only while the fluid's own error is above its bound (session 23) (session 25)
+  bool body_coarse = true;
   /// with strong cloth coupling, in steps the cloth takes in XPBD substeps: each wet free node (fluid
   /// within H) moves with an added mass C rho0 V_k (V_k the fluid volume its boundary particle stands
   /// for) in its own step, the reaction going to the fluid near it (Simulation::clothAddedMass); 1 by

@@ -544,6 +544,14 @@ std::vector<KeyDef> buildTable() {
                "R |I^-1 T - alpha| (R: the body's reach): the average density error alone stops before the pressure "
                "about a body has settled, and the body's force then swings from step to step (docs/forces.md, "
                "session 23)"));
+  add(field<InScene>("fluid.dfsph.body_coarse", [](auto& s) -> auto& { return s.fluid.dfsph.body_coarse; })
+          .doc("with body_coupling strong and the two-level solve (coarse_interval > 0): each free body's six "
+               "degrees of freedom take part in the coarse-grid correction (a rank-6 term per body in the coarse "
+               "operator: the aggregates' residual per unit body acceleration times the body's force per unit "
+               "aggregate pressure), so a correction moves the body with the pressure it finds and corrections "
+               "continue while a body's error is above body_error (kernels/dfsph_coarse.cl; docs/forces.md, session "
+               "25); false: corrections see the bodies held and run only while the fluid's own error is above its "
+               "bound"));
   add(field<InScene>("fluid.dfsph.cloth_added_mass", [](auto& s) -> auto& { return s.fluid.dfsph.cloth_added_mass; })
           .unit("1").atLeast(0).atMost(10)
           .doc("with strong cloth coupling, in a step the cloth takes in XPBD substeps (cloth[].max_time_step): "

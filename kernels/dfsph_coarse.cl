@@ -103,13 +103,18 @@ __kernel void dfsph_coarse_cells(const SimParams p, const int4 bd, __global cons
 /* The residual of the current pressures r_i = s_i + dt^2 V0 (sum_j (a_i - a_j) . gradW_ij + a_i . G_b)
  * (dfsph_jacobi's, for accel = a^p(p) from dfsph_pressure_accel) and whether particle i is in the
  * active set (act = 1): p_i > 0 or r_i > 0, and (divergence solve) enough neighbours. `trial` (the
- * line search's): the residual alone into res, no active set. */
+ * line search's): the residual alone into res, no active set. `bodies` (fluid.dfsph.body_coarse): the
+ * free bodies' particles' accelerations in the solve count too, - dt^2 V0 sum_b psi_b a_b . gradW_ib
+ * over the boundary particles b of a free body (sbody[b] >= 0; bacc, dfsph_body_slots), as in
+ * dfsph_jacobi; the cloth nodes' are left out (the correction does not move them). */
 __kernel void dfsph_coarse_residual(const SimParams p, __global const float4* pos, __global const float4* accel,
                                     __global const float* source, __global const uint* nbr,
                                     __global const uint* nbr_count, __global const uint* bnbr_count,
                                     const uint min_neighbours, __global const float* pressure,
                                     __global const float4* gwall, const int trial, __global float* res,
-                                    __global int* act) {
+                                    __global int* act, const int bodies, __global const int* sbody,
+                                    __global const float4* bpos, __global const uint* bnbr,
+                                    __global const float4* bacc) {
   const uint i = get_global_id(0);
   if (i >= p.n_fluid) return;
   const uint K = p.max_neighbours;
@@ -124,6 +129,17 @@ __kernel void dfsph_coarse_residual(const SimParams p, __global const float4* po
     Ap += sph_grad_factor(SPH_KERNEL, length(d), H) * dot(ai - accel[j].xyz, d);
   }
   Ap += dot(ai, gwall[i].xyz);
+  if (bodies) {
+    __global const uint* bl = bnbr + (size_t)i * K;
+    const uint nb = bnbr_count[i];
+    for (uint q = 0; q < nb; ++q) {
+      const uint b = bl[q];
+      if (sbody[b] < 0) continue;
+      const float4 bb = bpos[b];
+      const float3 d = xi - bb.xyz;
+      Ap -= bb.w * sph_grad_factor(SPH_KERNEL, length(d), H) * dot(bacc[b].xyz, d);
+    }
+  }
   const float r = source[i] + p.dt * p.dt * p.rest_volume * Ap;
   res[i] = r;
   if (trial) return;
@@ -338,9 +354,110 @@ __kernel void dfsph_coarse_assemble(const SimParams p, const int4 bd, __global c
   }
 }
 
-/* y = K v for this work-item's rows (k = l, l + WG, ...). */
+/* --- Free bodies in the coarse system (fluid.dfsph.body_coarse, with body_coupling strong) ---------
+ * The Jacobi residual counts the moving boundary particles (dfsph_jacobi): with a_b = A + alpha x
+ * (x_b - c) for a particle b of body B (c its centre),
+ *     dr_i = - dt^2 V0 sum_{b in B} psi_b a_b . gradW_ib = - dt^2 V0 w_i^B . (A, alpha),
+ *     w_i^B = sum_{b in B} psi_b [gradW_ib ; (x_b - c) x gradW_ib]   ((alpha x r) . g = alpha . (r x g)),
+ * and a pressure change q on the fluid changes the body's force and torque (dfsph_boundary_force, with
+ * the extrapolated wall pressure of a smooth field taken as the fluid's: weight `wall` = 2, single 1)
+ * by V^B^T q = sum_i (wall / delta_i^2) q_i w_i^B. The body then moves by M_B^-1 V^B^T q (M_B = diag(m,
+ * I)). A correction that leaves the bodies held (K e = P^T r) is the wrong coarse problem for a free
+ * body: with a light one (its added mass above its mass) the correction and the body's update in the
+ * iterations are a block Gauss-Seidel pair that converges only under relaxation (docs/forces.md, session
+ * 24). The coupled one, with the bodies at a = M^-1 F(p) before it (so the body's own equation holds):
+ *     P^T (r + A P e + U M^-1 V^T P e) = 0,   U_d^B = - dt^2 V0 sum_{i in d} w_i^B,
+ *     (K + sum_B dt^2 V0 W^B M_B^-1 V^B^T) e = P^T r,   W_d^B = sum_{i in d} w_i^B,  V_d^B = sum_{i in d} (wall / delta_i^2) w_i^B:
+ * a rank-6 term per body (the Schur complement of the bodies' block), added in the BiCGStab's product
+ * (dfsph_coarse_matvec): per body six group sums s = V^B^T v, then y_d += dt^2 V0 W_d^B . M_B^-1 s.
+ * (Gissler et al. 2019 couple the bodies to the fine pressure solve; this is the same coupling on the
+ * coarse level.) */
+
+/* Each boundary slot's free body (body_coupling strong, dfsph_body_accel's data: 1 / m > 0), -1 for the
+ * rest (filled by the host first): sbody[slot[n_static + k]] for each moving particle k. */
+__kernel void dfsph_coarse_slot_body(const uint n, const uint n_static, __global const uint* body,
+                                     __global const uint* slot, __global const float4* data, __global int* sbody) {
+  const uint k = get_global_id(0);
+  if (k >= n) return;
+  const uint b = body[k];
+  if (data[6 * b].w != 0.0f) sbody[slot[n_static + k]] = (int)b;
+}
+
+/* Per aggregate d and free body B: cwv[(d n_bodies + B) 4 + 0..3] = (scale W_d^B's translation and
+ * rotation parts, V_d^B's) of the comment above, scale = dt^2 V0: the residual per unit acceleration
+ * (unit: s^2/m, s^2) and the force and torque per unit pressure (unit: m^2, m^3); the members i of d in
+ * grid order, each one's boundary list in its order. */
+__kernel void dfsph_coarse_bodies(const SimParams p, const int4 bd, __global const uint* cell_start,
+                                  __global const uint* mcount, __global const uint* cell, __global const int* mem,
+                                  __global const float4* pos, __global const uint* phase,
+                                  __global const float* density, __global const float4* bpos,
+                                  __global const uint* bnbr, __global const uint* bnbr_count,
+                                  __global const int* sbody, __global const float4* data, const uint n_bodies,
+                                  const float wall, const float scale, __global float4* cwv) {
+  /* rows spread over the work-groups, as dfsph_coarse_assemble's */
+  const uint d = get_local_id(0) * get_num_groups(0) + get_group_id(0);
+  if (d >= mcount[0]) return;
+  const uint K = p.max_neighbours;
+  const float H = p.support;
+  const int3 cd = dfsph_coarse_coords(bd, cell[d]);
+  for (uint B = 0; B < n_bodies; ++B) {
+    const float4 c4 = data[6 * B];
+    float3 wf = (float3)(0.0f), wt = (float3)(0.0f), vf = (float3)(0.0f), vt = (float3)(0.0f);
+    if (c4.w != 0.0f) {
+      DFSPH_COARSE_FOR_ROWS(&p, cell_start, cd, 0.0f, begin, end)
+      for (uint k = begin; k < end; ++k) {
+        if (mem[k] != (int)d) continue;
+        const float3 xk = pos[k].xyz;
+        __global const uint* bl = bnbr + (size_t)k * K;
+        const uint nb = bnbr_count[k];
+        float3 gf = (float3)(0.0f), gt = (float3)(0.0f);
+        for (uint q = 0; q < nb; ++q) {
+          const uint b = bl[q];
+          if (sbody[b] != (int)B) continue;
+          const float4 bb = bpos[b];
+          const float3 dv = xk - bb.xyz;
+          const float3 g = (bb.w * sph_grad_factor(SPH_KERNEL, length(dv), H)) * dv;
+          gf += g;
+          gt += cross(bb.xyz - c4.xyz, g);
+        }
+        const float dk = density[k] / p.phase_mass[phase[k]];
+        const float v = wall / (dk * dk);
+        wf += gf;
+        wt += gt;
+        vf += v * gf;
+        vt += v * gt;
+      }
+      DFSPH_COARSE_END_ROWS
+    }
+    __global float4* o = cwv + ((size_t)d * n_bodies + B) * 4;
+    o[0] = (float4)(scale * wf, 0.0f);
+    o[1] = (float4)(scale * wt, 0.0f);
+    o[2] = (float4)(vf, 0.0f);
+    o[3] = (float4)(vt, 0.0f);
+  }
+}
+
+/* Sum of one float8 per work-item over the work-group, in a fixed tree (deterministic); every
+ * work-item gets the sum. */
+inline float8 dfsph_coarse_group_sum8(__local float8* red, const float8 v) {
+  const uint l = get_local_id(0);
+  red[l] = v;
+  barrier(CLK_LOCAL_MEM_FENCE);
+  for (uint s = DFSPH_COARSE_WG / 2; s > 0; s >>= 1) {
+    if (l < s) red[l] += red[l + s];
+    barrier(CLK_LOCAL_MEM_FENCE);
+  }
+  const float8 out = red[0];
+  barrier(CLK_LOCAL_MEM_FENCE);
+  return out;
+}
+
+/* y = K v for this work-item's rows (k = l, l + WG, ...), plus the free bodies' terms (n_bodies > 0,
+ * the comment above dfsph_coarse_slot_body): y_k += scale W_k^B . M_B^-1 (V^B^T v). Called by every
+ * work-item of the group (the bodies' sums are group sums). */
 inline void dfsph_coarse_matvec(const uint l, const uint m, __global const float* kval, __global const int* kcol,
-                                __global const float* v, __global float* y) {
+                                __global const float* v, __global float* y, const uint n_bodies,
+                                __global const float4* cwv, __global const float4* data, __local float8* red8) {
   for (uint k = l; k < m; k += DFSPH_COARSE_WG) {
     float s = 0.0f;
     for (int o = 0; o < 125; ++o) {
@@ -348,6 +465,24 @@ inline void dfsph_coarse_matvec(const uint l, const uint m, __global const float
       if (c >= 0) s += kval[(size_t)k * 125 + o] * v[c];
     }
     y[k] = s;
+  }
+  for (uint B = 0; B < n_bodies; ++B) {
+    float8 part = (float8)(0.0f);
+    for (uint k = l; k < m; k += DFSPH_COARSE_WG) {
+      __global const float4* o = cwv + ((size_t)k * n_bodies + B) * 4;
+      const float vk = v[k];
+      part.s012 += vk * o[2].xyz;
+      part.s345 += vk * o[3].xyz;
+    }
+    const float8 sv = dfsph_coarse_group_sum8(red8, part);
+    /* M_B^-1 (F, T): F / m and I^-1 T (dfsph_body_accel's data) */
+    const float3 af = data[6 * B].w * sv.s012;
+    const float3 sT = sv.s345;
+    const float3 aa = (float3)(dot(data[6 * B + 1].xyz, sT), dot(data[6 * B + 2].xyz, sT), dot(data[6 * B + 3].xyz, sT));
+    for (uint k = l; k < m; k += DFSPH_COARSE_WG) {
+      __global const float4* o = cwv + ((size_t)k * n_bodies + B) * 4;
+      y[k] += dot(o[0].xyz, af) + dot(o[1].xyz, aa);
+    }
   }
 }
 
@@ -361,8 +496,10 @@ __kernel __attribute__((reqd_work_group_size(DFSPH_COARSE_WG, 1, 1)))
 void dfsph_coarse_bicgstab(__global uint* mcount, __global const float* kval, __global const int* kcol,
                            __global const float* b, __global float* x, __global float* r, __global float* ph,
                            __global float* pv, __global float* v, __global float* sh, __global float* t,
-                           const int max_it, const float tol) {
+                           const int max_it, const float tol, const uint n_bodies, __global const float4* cwv,
+                           __global const float4* data) {
   __local float red[DFSPH_COARSE_WG];
+  __local float8 red8[DFSPH_COARSE_WG];
   const uint l = get_local_id(0);
   const uint m = mcount[0];
   float bb_l = 0.0f;
@@ -392,7 +529,7 @@ void dfsph_coarse_bicgstab(__global uint* mcount, __global const float* kval, __
     }
     barrier(CLK_GLOBAL_MEM_FENCE);
     /* v = K phat; alpha = rho / <r0hat, v>; s = r - alpha v (in r) */
-    dfsph_coarse_matvec(l, m, kval, kcol, ph, v);
+    dfsph_coarse_matvec(l, m, kval, kcol, ph, v, n_bodies, cwv, data, red8);
     barrier(CLK_GLOBAL_MEM_FENCE);
     l1 = 0.0f;
     for (uint k = l; k < m; k += DFSPH_COARSE_WG) l1 += b[k] * v[k];
@@ -411,7 +548,7 @@ void dfsph_coarse_bicgstab(__global uint* mcount, __global const float* kval, __
     barrier(CLK_GLOBAL_MEM_FENCE);
     if (!(rr > tol * tol * bb)) { ++it; break; }
     /* t = K shat; omega = <t, s> / <t, t>; x += omega shat; r = s - omega t */
-    dfsph_coarse_matvec(l, m, kval, kcol, sh, t);
+    dfsph_coarse_matvec(l, m, kval, kcol, sh, t, n_bodies, cwv, data, red8);
     barrier(CLK_GLOBAL_MEM_FENCE);
     float l2 = 0.0f;
     l1 = 0.0f;
