@@ -20,9 +20,11 @@ struct BodyWrench {
 class ExternalForceSource {
  public:
   virtual ~ExternalForceSource() = default;
-  /// Called once per time step, after the fluid forces of this step are known and before the
-  /// bodies are integrated: `time` is the step's start, `dt` its length (unit: s); `states` the
-  /// bodies in Model::bodies order. Writes one wrench per body into `out` (already sized, zeroed).
+  /// Called once per time step, at its start, before the fluid's solves (so that DFSPH's strong body
+  /// coupling moves the bodies inside them under this wrench; session 25): `time` is the step's start,
+  /// `dt` its length (unit: s); `states` the bodies in Model::bodies order, at the step's start (their
+  /// fluid forces are the last step's: a source reads only poses and velocities). Writes one wrench
+  /// per body into `out` (already sized, zeroed).
   virtual void apply(double time, double dt, const std::vector<rigid::RigidBody>& bodies,
                      const std::vector<rigid::BodyState>& states, std::vector<BodyWrench>& out) = 0;
 };

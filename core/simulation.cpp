@@ -252,6 +252,11 @@ void Simulation::step(double dt) {
 
   if (on(Stage::Inflow)) emitInflow(dt);  // new particles enter at the nozzles
   params_.n_fluid = static_cast<sph_uint>(n_);
+  // A grabbed body's coupling spring, from the bodies' state at the step's start (they move after the
+  // fluid): before the solves, so that DFSPH's strong body coupling moves a body inside them under the
+  // external force it is then integrated with, not the last step's (session 25; the wrench is the same
+  // as when it was computed after the solves: it reads only the time and the bodies' poses and velocities).
+  if (on(Stage::Haptics) && external_) applyExternalForces(dt);
   if (n_ > 0) {
     if (on(Stage::RigidCoupling)) placeBodyParticles(); // moving bodies' particles at their pose
     if (on(Stage::ClothCoupling)) placeClothParticles(); // cloth nodes as boundary particles
@@ -274,7 +279,6 @@ void Simulation::step(double dt) {
     if (on(Stage::RigidCoupling)) gatherBodyForces();  // fluid -> bodies: 6 numbers per body to the host
     if (on(Stage::ClothCoupling)) gatherClothForces(); // fluid -> cloth: one force per node, on the device
   }
-  if (on(Stage::Haptics) && external_) applyExternalForces(dt);  // a grabbed body's coupling spring
   if (n_ > 0) {
     if (on(Stage::RigidCoupling) && on(Stage::RigidDynamics))
       addedMassReaction(dt);                           // DFSPH: bodies' fictitious mass, its reaction to the fluid
@@ -1171,8 +1175,9 @@ bool Simulation::strongBodies() const {
 void Simulation::bodyResponse() {
   // Per moving body, what the solves need to move it with the pressure (kernels/dfsph.cl,
   // dfsph_body_accel): (c, 1 / m), I^-1 in the world frame, and its acceleration without the fluid's
-  // pressure: gravity, and the last step's contact and external forces (a body resting on the floor
-  // is held there by its contacts; a haptic grab's spring changes little in one step). A body that
+  // pressure: gravity, this step's external forces (a haptic grab's spring: applyExternalForces runs
+  // first) and the last step's contact forces (a body resting on the floor is held there by its
+  // contacts). A body that
   // does not move in the solves (held, kinematic) has 1 / m = 0.
   StageTimer timer(*this, Stage::RigidCoupling);
   const Eigen::Vector3d g = gravityAt(model_.spec.simulation, time_);
