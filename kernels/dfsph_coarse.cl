@@ -166,20 +166,23 @@ __kernel void dfsph_coarse_aggregate(const SimParams p, const int4 bd, __global 
   box_b[c] = s;
 }
 
-/* Sum of one value per work-item over the work-group, in a fixed tree (deterministic). Every
- * work-item gets the sum. */
-inline float dfsph_coarse_group_sum(__local float* red, const float v) {
-  const uint l = get_local_id(0);
-  red[l] = v;
-  barrier(CLK_LOCAL_MEM_FENCE);
-  for (uint s = DFSPH_COARSE_WG / 2; s > 0; s >>= 1) {
-    if (l < s) red[l] += red[l + s];
-    barrier(CLK_LOCAL_MEM_FENCE);
+/* Sum of one value (T: float, or float8 for the bodies' six sums) per work-item over the work-group,
+ * in a fixed tree (deterministic). Every work-item gets the sum. */
+#define DFSPH_COARSE_GROUP_SUM(NAME, T)        \
+  inline T NAME(__local T* red, const T v) {   \
+    const uint l = get_local_id(0);            \
+    red[l] = v;                                \
+    barrier(CLK_LOCAL_MEM_FENCE);              \
+    for (uint s = DFSPH_COARSE_WG / 2; s > 0; s >>= 1) { \
+      if (l < s) red[l] += red[l + s];         \
+      barrier(CLK_LOCAL_MEM_FENCE);            \
+    }                                          \
+    const T out = red[0];                      \
+    barrier(CLK_LOCAL_MEM_FENCE);              \
+    return out;                                \
   }
-  const float out = red[0];
-  barrier(CLK_LOCAL_MEM_FENCE);
-  return out;
-}
+DFSPH_COARSE_GROUP_SUM(dfsph_coarse_group_sum, float)
+DFSPH_COARSE_GROUP_SUM(dfsph_coarse_group_sum8, float8)
 
 /* Number the aggregates in box order (one work-group; a prefix sum per block of cells in local
  * memory): num[c] = the aggregate's number of box cell c, -1 where c is no aggregate; cell[k] the
@@ -435,21 +438,6 @@ __kernel void dfsph_coarse_bodies(const SimParams p, const int4 bd, __global con
     o[2] = (float4)(vf, 0.0f);
     o[3] = (float4)(vt, 0.0f);
   }
-}
-
-/* Sum of one float8 per work-item over the work-group, in a fixed tree (deterministic); every
- * work-item gets the sum. */
-inline float8 dfsph_coarse_group_sum8(__local float8* red, const float8 v) {
-  const uint l = get_local_id(0);
-  red[l] = v;
-  barrier(CLK_LOCAL_MEM_FENCE);
-  for (uint s = DFSPH_COARSE_WG / 2; s > 0; s >>= 1) {
-    if (l < s) red[l] += red[l + s];
-    barrier(CLK_LOCAL_MEM_FENCE);
-  }
-  const float8 out = red[0];
-  barrier(CLK_LOCAL_MEM_FENCE);
-  return out;
 }
 
 /* y = K v for this work-item's rows (k = l, l + WG, ...), plus the free bodies' terms (n_bodies > 0,
