@@ -4,7 +4,8 @@
 // numbering, the Galerkin operator K (a 125-point stencil per aggregate, assembled per row in a
 // fixed order), its solve (BiCGStab in one work-group), the prolongation and the line
 // search; no host transfer and no host solve. Every sum runs in a fixed order: bitwise
-// deterministic.
+// deterministic. With the strong body coupling (fluid.dfsph.body_coarse) each free body's six degrees
+// of freedom are in the coarse system too, a rank-6 term per body in the BiCGStab's product (session 25).
 //
 // Session 9's version summed K on the host in particle order and factorized it by sparse LU: 2.8x
 // plain Jacobi's CPU time on the slab dam break and 5.2x at 50k (each correction read back n x 864 B
