@@ -530,14 +530,14 @@ TEST_CASE("DFSPH strong body coupling: a light block floating free feels its wei
   // 1.52 N standard deviation for 4.24 N over 0.22-0.6 s; held still, the same block feels 0.33 N,
   // 8 %, the fluid's own noise). The limit: 10 % of the weight, a free body no noisier than a held
   // one; the mean within 3 % (the heave left from the start, the block placed at its draft).
-  // Measured: strong 0.025 N (0.6 %), mean 4.22 N; staggered 1.45 N (34 %), which the contrast checks
+  // Measured: strong 0.020 N (0.5 %), mean 4.21 N; staggered 1.45 N (34 %), which the contrast checks
   // (a mutation: the strong coupling off). The per-body stop (fluid.dfsph.body_error) is what calms it:
   // with the average density error alone the strong coupling's solves stopped at ~6 iterations and the
   // force swung with period 2 steps, 3.3 N (docs/forces.md, session 23).
   // The bodies in the coarse correction (fluid.dfsph.body_coarse, session 25; kernels/dfsph_coarse.cl):
   // without them the per-body stop waited for plain Jacobi's slow smooth mode about the block (18
   // density iterations per step, 0.18 N); with each body's six degrees of freedom in the coarse system
-  // the same stop is met in ~4 (measured 0.025 N). Checked: fewer than half the iterations, and a
+  // the same stop is met in ~5 (measured 4.8, 0.020 N). Checked: fewer than half the iterations, and a
   // force no noisier. Mutation (the bodies' term left out of the BiCGStab's product, the rest kept):
   // see docs/forces.md, session 25.
   const BlockForce strong = freeBlockForce("strong");
