@@ -137,8 +137,9 @@ int main(int argc, char** argv) {
   cmd_bench->add_flag("!--no-forces", bench.forces, "Skip the force checks");
   cmd_bench->add_option("--force-solvers", bench.force_solvers,
                         "fluid.solver values for the force checks (wcsph, dfsph; dfsph-ghost: dfsph with "
-                        "fluid.boundary_velocity ghost; dfsph-strong: dfsph with fluid.dfsph.body_coupling strong)")
-      ->check(CLI::IsMember({"wcsph", "dfsph", "dfsph-ghost", "dfsph-strong"}))
+                        "fluid.boundary_velocity ghost; dfsph-strong: dfsph with fluid.dfsph.body_coupling strong, "
+                        "the default; dfsph-staggered: with body_coupling staggered)")
+      ->check(CLI::IsMember({"wcsph", "dfsph", "dfsph-ghost", "dfsph-strong", "dfsph-staggered"}))
       ->capture_default_str();
   cmd_bench->add_option("--force-checks", bench.force_checks,
                         "Only these groups of force checks (default: all): added-mass, free-held, release, stokes, "

@@ -73,7 +73,7 @@ struct DfsphFields {
   const cl::Buffer* bsrc = nullptr;       ///< boundary particles in source order (n_boundary x float4) (unit: m)
   const cl::Buffer* body_of = nullptr;    ///< (n_moving) each moving particle's body
   const cl::Buffer* body_range = nullptr; ///< (2 n_bodies) each body's first particle and count
-  const cl::Buffer* body_data = nullptr;  ///< (6 n_bodies x float4) dfsph_body_accel's body data (unit: m, 1/kg, 1/(kg m^2), m/s^2, 1/s^2)
+  const cl::Buffer* body_data = nullptr;  ///< (DFSPH_BODY_STRIDE n_bodies x float4) the bodies' centres, mobilities and dry accelerations (kernels/shared/body_response.h)
   cl::Buffer* body_force = nullptr;       ///< (n_moving x float4) scratch for the particles' forces (unit: N)
 };
 

@@ -11,10 +11,15 @@
 
 namespace sph {
 
-/// A force through the centre of mass and a torque about it, world frame.
+/// A force through the centre of mass and a torque about it, world frame, and how they answer the
+/// body's own motion in the step: at the step's end the wrench is (force, torque) - damping (u' - u),
+/// u = (v, w) the body's velocities, which the body's integration takes implicitly
+/// (rigid::BodyState::external_damping; a stiff spring-damper on a light body is then stable at any
+/// step). Zero damping: an explicit wrench.
 struct BodyWrench {
   Eigen::Vector3d force = Eigen::Vector3d::Zero();   ///< (unit: N)
   Eigen::Vector3d torque = Eigen::Vector3d::Zero();  ///< (unit: N m)
+  rigid::Matrix6d damping = rigid::Matrix6d::Zero(); ///< symmetric, positive semi-definite (unit: N s/m, N s, N m s)
 };
 
 class ExternalForceSource {

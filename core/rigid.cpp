@@ -2,6 +2,8 @@
 
 #include "core/errors.h"
 
+#include <Eigen/Cholesky>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -284,9 +286,68 @@ Eigen::Quaterniond rotated(const Eigen::Quaterniond& q, const Eigen::Vector3d& t
 }
 }  // namespace
 
+namespace {
+/// Whether the external wrench answers the body's motion implicitly (BodyState::external_damping).
+bool damped(const BodyState& s, double dt) { return dt > 0.0 && !s.external_damping.isZero(0.0); }
+}  // namespace
+
+Vector6d velocityChange(const RigidBody& body, const BodyState& s, const Eigen::Vector3d& g, double dt,
+                        double fictitious_mass) {
+  Vector6d du = Vector6d::Zero();
+  if (body.kind != BodyKind::Dynamic) return du;
+  const double m = body.mass, M = fictitious_mass;
+  const Eigen::Vector3d force = m * g + s.fluid_force + s.external_force;
+  const Eigen::Vector3d torque = s.fluid_torque + s.external_torque;
+  if (!damped(s, dt)) {
+    // integrateVelocity's explicit update (its comment), as velocities.
+    du.head<3>() = dt * (force + M * s.accel) / (m + M);
+    du.tail<3>() = worldInverseInertia(body, s.q) * (dt * (torque + fictitiousTorque(body, s, M)));
+    return du;
+  }
+  // (diag((m + M) 1, (1 + M / m) I_w) + dt D) du = dt (F + M a_{n-1}, T + (M / m) tau_{n-1}): the
+  // fictitious mass and inertia (Baek & Karniadakis 2012, eq. 9, and its rotational twin) with the
+  // external wrench's damping implicit. Symmetric positive definite (D is semi-definite).
+  const Eigen::Matrix3d R = s.q.toRotationMatrix();
+  Matrix6d A = dt * s.external_damping;
+  A.topLeftCorner<3, 3>() += (m + M) * Eigen::Matrix3d::Identity();
+  A.bottomRightCorner<3, 3>() += (1.0 + M / m) * (R * body.inertia * R.transpose());
+  Vector6d rhs;
+  rhs.head<3>() = dt * (force + M * s.accel);
+  rhs.tail<3>() = dt * (torque + (M / m) * s.torque_rate);
+  return A.ldlt().solve(rhs);
+}
+
+Matrix6d mobility(const RigidBody& body, const BodyState& s, double dt) {
+  Matrix6d N = Matrix6d::Zero();
+  if (body.kind != BodyKind::Dynamic || !(body.mass > 0.0)) return N;
+  if (!damped(s, dt)) {
+    N.topLeftCorner<3, 3>() = Eigen::Matrix3d::Identity() / body.mass;
+    N.bottomRightCorner<3, 3>() = worldInverseInertia(body, s.q);
+    return N;
+  }
+  const Eigen::Matrix3d R = s.q.toRotationMatrix();
+  Matrix6d A = dt * s.external_damping;
+  A.topLeftCorner<3, 3>() += body.mass * Eigen::Matrix3d::Identity();
+  A.bottomRightCorner<3, 3>() += R * body.inertia * R.transpose();
+  return A.ldlt().solve(Matrix6d::Identity());
+}
+
 void integrateVelocity(const RigidBody& body, BodyState& s, const Eigen::Vector3d& g, double dt,
                        double fictitious_mass) {
   if (body.kind != BodyKind::Dynamic) return;
+  if (damped(s, dt)) {
+    // The external wrench implicit in the body's motion (BodyState::external_damping): one 6x6
+    // solve; L takes I_w dw (L = I_w w at this orientation), and the state keeps the wrench that acted.
+    const Vector6d du = velocityChange(body, s, g, dt, fictitious_mass);
+    const Eigen::Matrix3d R = s.q.toRotationMatrix();
+    s.v += du.head<3>();
+    s.L += R * body.inertia * R.transpose() * du.tail<3>();
+    s.w = worldInverseInertia(body, s.q) * s.L;
+    const Vector6d acted = -(s.external_damping * du);
+    s.external_force += acted.head<3>();
+    s.external_torque += acted.tail<3>();
+    return;
+  }
   // Forces at the start of the step. (Contact acts by impulses, core/contact.h; contact_force only
   // records them.)
   const Eigen::Vector3d force = body.mass * g + s.fluid_force + s.external_force;
@@ -299,15 +360,24 @@ void integrateVelocity(const RigidBody& body, BodyState& s, const Eigen::Vector3
 }
 
 Eigen::Vector3d fictitiousForce(const RigidBody& body, const BodyState& s, const Eigen::Vector3d& g,
-                                double fictitious_mass) {
+                                double fictitious_mass, double dt) {
   if (body.kind != BodyKind::Dynamic || fictitious_mass == 0.0) return Eigen::Vector3d::Zero();
+  // With an external damping: M (a_{n-1} - a_n), a_n the implicit update's.
+  if (damped(s, dt)) return fictitious_mass * (s.accel - velocityChange(body, s, g, dt, fictitious_mass).head<3>() / dt);
   // The same forces as integrateVelocity; M (a_{n-1} - a_n) with its a_n (Baek & Karniadakis 2012, eq. 9).
   const Eigen::Vector3d force = body.mass * g + s.fluid_force + s.external_force;
   return fictitious_mass * (body.mass * s.accel - force) / (body.mass + fictitious_mass);
 }
 
-Eigen::Vector3d fictitiousTorque(const RigidBody& body, const BodyState& s, double fictitious_mass) {
+Eigen::Vector3d fictitiousTorque(const RigidBody& body, const BodyState& s, double fictitious_mass,
+                                 const Eigen::Vector3d& g, double dt) {
   if (body.kind != BodyKind::Dynamic || fictitious_mass == 0.0) return Eigen::Vector3d::Zero();
+  if (damped(s, dt)) {
+    // (M / m) (tau_{n-1} - I_w alpha_n), alpha_n the implicit update's.
+    const Eigen::Matrix3d R = s.q.toRotationMatrix();
+    const Eigen::Vector3d dw = velocityChange(body, s, g, dt, fictitious_mass).tail<3>();
+    return (fictitious_mass / body.mass) * (s.torque_rate - R * body.inertia * R.transpose() * dw / dt);
+  }
   const Eigen::Vector3d torque = s.fluid_torque + s.external_torque;
   return fictitious_mass * (s.torque_rate - torque) / (body.mass + fictitious_mass);
 }

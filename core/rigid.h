@@ -23,6 +23,10 @@
 
 namespace sph::rigid {
 
+/// A body's generalised velocity (v, w) or wrench (F, T), and matrices on them.
+using Vector6d = Eigen::Matrix<double, 6, 1>;
+using Matrix6d = Eigen::Matrix<double, 6, 6>;
+
 // --- Shapes ----------------------------------------------------------------------------------
 
 /// A surface of revolution about the z axis from a profile of (r, z) points (r >= 0). The profile
@@ -103,6 +107,13 @@ struct BodyState {
   Eigen::Vector3d contact_torque = Eigen::Vector3d::Zero();///< (unit: N m)
   Eigen::Vector3d external_force = Eigen::Vector3d::Zero(); ///< from outside (a haptic grab), this step (unit: N)
   Eigen::Vector3d external_torque = Eigen::Vector3d::Zero();///< about the centre of mass (unit: N m)
+  /// How the external wrench answers the body's own motion in this step: the wrench at the step's
+  /// end is (external_force, external_torque) - D (u' - u), u = (v, w), so that integrateVelocity takes
+  /// it implicitly, (M + dt D) du = dt W (a haptic grab's spring-damper, haptics/grab.h: stable at any
+  /// step for any stiffness). Symmetric positive semi-definite; zero (the default): the wrench is
+  /// explicit. Once the body has moved, external_force and external_torque hold the wrench that acted,
+  /// W - D du (unit: blocks N s/m, N s, N s, N m s).
+  Matrix6d external_damping = Matrix6d::Zero();
   /// the centre's acceleration over the last step from the forces, (v after - v before) / dt before
   /// the contact impulses (the fictitious mass's own a_n: at rest on a floor it tends to the
   /// forces' F / m, so the fictitious force fades there); zero while held (the fictitious mass of
@@ -150,22 +161,36 @@ Eigen::Matrix3d worldInverseInertia(const RigidBody& body, const Eigen::Quaterni
 ///     (m + M) a_n = F_n + M a_{n-1},   v += dt a_n,   a_{n-1} = s.accel (the last step's),
 /// the same motion as v += dt F / m wherever the acceleration is steady, but stable for a body
 /// lighter than the liquid's lagged reaction (the added-mass instability of a staggered coupling).
+/// With an external damping D (BodyState::external_damping) the whole update is one 6x6 solve,
+///     (diag((m + M) 1, (1 + M / m) I_w) + dt D) du = dt (F_n + M a_{n-1}, T_n + (M / m) tau_{n-1}),
+/// (velocityChange; with D = 0 the same as above), and the external wrench that acted is kept.
 void integrateVelocity(const RigidBody& body, BodyState& s, const Eigen::Vector3d& g, double dt,
                        double fictitious_mass = 0.0);
+/// The change du = (dv, dw) of a dynamic body's velocities that integrateVelocity makes (zero for the
+/// others), before the contacts' impulses.
+Vector6d velocityChange(const RigidBody& body, const BodyState& s, const Eigen::Vector3d& g, double dt,
+                        double fictitious_mass = 0.0);
+/// A body's mobility over a step of dt: N = (M + dt D)^-1, M = diag(m 1, I_w), D its external damping
+/// ((a, alpha) = N (F, T) for a wrench (F, T); N = diag(1 / m, I_w^-1) without damping). What DFSPH's
+/// strong coupling moves the body with inside the solves (Simulation::bodyResponse).
+Matrix6d mobility(const RigidBody& body, const BodyState& s, double dt);
 /// The fictitious mass's own force on a dynamic body this step (zero for the others, and for M = 0):
 ///     F_M = M (a_{n-1} - a_n) = M (m a_{n-1} - F_n) / (m + M),
 /// a_n = (F_n + M a_{n-1}) / (m + M) as integrateVelocity moves it, F_n = m g + fluid_force +
 /// external_force. integrateVelocity's update is v += dt (F_n + F_M) / m, so the fluid must take
 /// -F_M dt for the total momentum to be conserved (Simulation::addedMassReaction) (unit: N).
+/// With an external damping, a_n is velocityChange's (dt: the step, needed then).
 Eigen::Vector3d fictitiousForce(const RigidBody& body, const BodyState& s, const Eigen::Vector3d& g,
-                                double fictitious_mass);
+                                double fictitious_mass, double dt = 0.0);
 /// The rotational twin (session 16): a fictitious inertia J = (M / m) I, the body's own inertia
 /// tensor scaled as M scales m (the inertia the body would have at the density C rho0), so that
 ///     (I + J) alpha_n = T_n + J alpha_{n-1}  <=>  dL = dt (m T_n + M tau_{n-1}) / (m + M),
 /// tau_{n-1} = s.torque_rate = I alpha_{n-1}, T_n = fluid_torque + external_torque. Without it a
 /// light body turning in the fluid (a wooden spoon held by its end) swings with period 2 and grows,
 /// as the translation did. Its torque T_J = M (tau_{n-1} - T_n) / (m + M) (unit: N m).
-Eigen::Vector3d fictitiousTorque(const RigidBody& body, const BodyState& s, double fictitious_mass);
+/// With an external damping, T_J = (M / m) (tau_{n-1} - I_w dw / dt), dw velocityChange's.
+Eigen::Vector3d fictitiousTorque(const RigidBody& body, const BodyState& s, double fictitious_mass,
+                                 const Eigen::Vector3d& g = Eigen::Vector3d::Zero(), double dt = 0.0);
 /// integratePosition: the pose from the velocities. With `walls` (the domain; null = none), a
 /// dynamic body left inside a closed wall (by rounding or unresolved contacts) is moved out along
 /// the wall's normal, velocities untouched.

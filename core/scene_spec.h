@@ -161,10 +161,11 @@ struct DfsphSpec {
   /// step's worth); 0.5, a sphere's added mass, by default; 0 = off (unit: 1)
   double body_added_mass = 0.5;
   DfsphCoupling cloth_coupling = DfsphCoupling::Strong;  ///< see DfsphCoupling
-  /// dynamic rigid bodies: staggered (the default for now: the force checks of docs/forces.md were
-  /// measured with it) or strong, each free dynamic body's velocity inside the solves' iterations
-  /// (Gissler et al. 2019's interlinked coupling; then without the fictitious mass); see DfsphCoupling
-  DfsphCoupling body_coupling = DfsphCoupling::Staggered;
+  /// dynamic rigid bodies: strong (the default since session 26), each free dynamic body's velocity
+  /// inside the solves' iterations (Gissler et al. 2019's interlinked coupling; then without the
+  /// fictitious mass), or staggered, the body's step after the solves with the fictitious mass (the
+  /// default before: cheaper, and a floating body's force swings 20x more); see DfsphCoupling
+  DfsphCoupling body_coupling = DfsphCoupling::Strong;
   /// with strong body coupling: a solve goes on until each free body's acceleration is within this of
   /// the one its current pressures give, |F / m - a| + R |I^-1 T - alpha| (R its reach; kernels/dfsph.cl,
   /// dfsph_body_accel), besides the average density error (unit: m/s^2)

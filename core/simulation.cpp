@@ -1,6 +1,7 @@
 #include "core/simulation.h"
 
 #include "core/errors.h"
+#include "kernels/shared/body_response.h"
 
 #include <algorithm>
 #include <cmath>
@@ -267,7 +268,7 @@ void Simulation::step(double dt) {
     computeDensity();                                  // number density, rho, p (S&P 2008, Akinci 2012)
     if (on(Stage::Probes) && probes_->due(time_)) sampleProbes();  // gauges read the state at the step's start
     if (strongCloth()) clothResponse(dt);              // DFSPH: how each cloth node answers a force this step
-    if (strongBodies()) bodyResponse();                // DFSPH: how each body answers a force this step
+    if (strongBodies()) bodyResponse(dt);              // DFSPH: how each body answers a force this step
     if (on(Stage::DivergenceSolve)) divergenceSolve(); // DFSPH: factors, divergence-free velocities (B&K 2017 Alg. 2)
     if (on(Stage::Viscosity) && model_.ghost_velocity_mode)
       ghostVelocities();                               // no-slip wall velocities 2 v_w - v~ (Adami 2012 eq. 22-23)
@@ -939,6 +940,7 @@ void Simulation::applyExternalForces(double dt) {
   for (std::size_t b = 0; b < bodies_.size(); ++b) {
     bodies_[b].external_force = wrenches_[b].force;
     bodies_[b].external_torque = wrenches_[b].torque;
+    bodies_[b].external_damping = wrenches_[b].damping;
   }
 }
 
@@ -994,7 +996,7 @@ void Simulation::addedMassReaction(double dt) {
     s.added_mass_force.setZero();
     if (model_.bodies[b].kind != rigid::BodyKind::Dynamic || heldBody(b) || !(S[m] > 0.0f)) continue;
     added_mass_[b] = c_rho * model_.bodies[b].volume;
-    s.added_mass_force = rigid::fictitiousForce(model_.bodies[b], s, g, added_mass_[b]);
+    s.added_mass_force = rigid::fictitiousForce(model_.bodies[b], s, g, added_mass_[b], dt);
     share[m].head<3>() = (-dt * s.added_mass_force / static_cast<double>(S[m])).cast<float>();
     // The per-step force log (gatherBodyForces recorded this step's bodies last, in this order).
     if (record_forces_ && first_record + m < step_forces_.size()) step_forces_[first_record + m].force += s.added_mass_force;
@@ -1028,7 +1030,7 @@ void Simulation::integrateBodies(double dt) {
     v_before[b] = s.v;
     const Eigen::Vector3d L_before = s.L;
     const double M = b < added_mass_.size() ? added_mass_[b] : 0.0;
-    s.added_mass_torque = rigid::fictitiousTorque(model_.bodies[b], s, M);
+    s.added_mass_torque = rigid::fictitiousTorque(model_.bodies[b], s, M, g, dt);
     if (!heldBody(b)) rigid::integrateVelocity(model_.bodies[b], s, g, dt, M);
     s.accel = heldBody(b) ? Eigen::Vector3d::Zero() : Eigen::Vector3d((s.v - v_before[b]) / dt);
     s.torque_rate = heldBody(b) ? Eigen::Vector3d::Zero() : Eigen::Vector3d((s.L - L_before) / dt);
@@ -1162,38 +1164,49 @@ bool Simulation::strongCloth() const {
 bool Simulation::strongBodies() const {
   // DFSPH's strong body coupling (fluid.dfsph.body_coupling: strong): the free dynamic bodies move
   // under the pressure inside the solves' iterations (kernels/dfsph.cl, dfsph_body_accel). Not with
-  // mirrored walls (as the cloth's), and not while the bodies are held (the settle before t = 0).
-  // Kinematic bodies alone (a prescribed motion) have nothing to move in the solves: no extra passes.
+  // mirrored walls (as the cloth's), and not while every dynamic body is held (hold_until: the settle
+  // before a release), when nothing moves in the solves and the step is the staggered coupling's,
+  // bitwise (before session 26 the held steps ran the strong path with no body free; on
+  // scenes/tests/sink_ball.yaml's rough start-up, 60 density iterations per step, that path blew up
+  // at 0.105 s with body_coarse, the staggered one did not). Kinematic bodies alone (a prescribed
+  // motion) have nothing to move in the solves: no extra passes.
   if (!dfsph_ || n_moving_ == 0 || !on(Stage::RigidCoupling) || !on(Stage::RigidDynamics) ||
       model_.spec.fluid.dfsph.body_coupling != DfsphCoupling::Strong || model_.spec.fluid.dfsph.walls == DfsphWalls::Mirrored)
     return false;
   for (std::size_t b : moving_)
-    if (model_.bodies[b].kind == rigid::BodyKind::Dynamic) return true;
+    if (model_.bodies[b].kind == rigid::BodyKind::Dynamic && !heldBody(b)) return true;
   return false;
 }
 
-void Simulation::bodyResponse() {
-  // Per moving body, what the solves need to move it with the pressure (kernels/dfsph.cl,
-  // dfsph_body_accel): (c, 1 / m), I^-1 in the world frame, and its acceleration without the fluid's
-  // pressure: gravity, this step's external forces (a haptic grab's spring: applyExternalForces runs
-  // first) and the last step's contact forces (a body resting on the floor is held there by its
-  // contacts). A body that
-  // does not move in the solves (held, kinematic) has 1 / m = 0.
+void Simulation::bodyResponse(double dt) {
+  // Per moving body, what the solves need to move it with the pressure (kernels/shared/body_response.h):
+  // its centre, its mobility N over this step (rigid::mobility: diag(1 / m, I_w^-1), or with a haptic
+  // grab's spring-damper implicit in it), and its acceleration without the fluid's pressure, N times
+  // gravity's force, this step's external wrench (applyExternalForces runs first) and the last step's
+  // contact forces (a body resting on the floor is held there by its contacts). A body that does not
+  // move in the solves (held, kinematic) is marked so (free = 0).
   StageTimer timer(*this, Stage::RigidCoupling);
   const Eigen::Vector3d g = gravityAt(model_.spec.simulation, time_);
-  std::vector<Eigen::Vector4f> data(6 * moving_.size(), Eigen::Vector4f::Zero());
+  constexpr std::size_t S = DFSPH_BODY_STRIDE;
+  std::vector<Eigen::Vector4f> data(S * moving_.size(), Eigen::Vector4f::Zero());
   for (std::size_t m = 0; m < moving_.size(); ++m) {
     const std::size_t b = moving_[m];
     const rigid::RigidBody& body = model_.bodies[b];
     const rigid::BodyState& s = bodies_[b];
-    data[6 * m].head<3>() = s.x.cast<float>();
+    data[S * m].head<3>() = s.x.cast<float>();
     if (body.kind != rigid::BodyKind::Dynamic || heldBody(b) || !(body.mass > 0.0)) continue;
-    const Eigen::Matrix3d Iinv = rigid::worldInverseInertia(body, s.q);
-    data[6 * m].w() = static_cast<float>(1.0 / body.mass);
-    for (int r = 0; r < 3; ++r) data[6 * m + 1 + r].head<3>() = Iinv.row(r).transpose().cast<float>();
-    data[6 * m + 1].w() = static_cast<float>(moving_reach_[m]);  // the body's reach (its error's rotation part)
-    data[6 * m + 4].head<3>() = (g + (s.contact_force + s.external_force) / body.mass).cast<float>();
-    data[6 * m + 5].head<3>() = (Iinv * (s.contact_torque + s.external_torque)).cast<float>();
+    const rigid::Matrix6d N = rigid::mobility(body, s, dt);
+    rigid::Vector6d dry;
+    dry.head<3>() = body.mass * g + s.contact_force + s.external_force;
+    dry.tail<3>() = s.contact_torque + s.external_torque;
+    const rigid::Vector6d a_dry = N * dry;
+    data[S * m].w() = 1.0f;
+    data[S * m + 1] << a_dry.head<3>().cast<float>(), static_cast<float>(moving_reach_[m]);  // w: the body's reach (its error's rotation part)
+    data[S * m + 2].head<3>() = a_dry.tail<3>().cast<float>();
+    for (int r = 0; r < 6; ++r) {
+      data[S * m + 3 + 2 * r].head<3>() = N.block<1, 3>(r, 0).transpose().cast<float>();
+      data[S * m + 4 + 2 * r].head<3>() = N.block<1, 3>(r, 3).transpose().cast<float>();
+    }
   }
   if (!bdata_()) bdata_ = makeBuffer(data.size() * 16);
   clCall("uploading the bodies' responses",

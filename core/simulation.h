@@ -245,7 +245,7 @@ class Simulation {
   bool strongCloth() const;
   void clothResponse(double dt);
   bool strongBodies() const;
-  void bodyResponse();
+  void bodyResponse(double dt);
   void clothAddedMass();
   /// The balls the cloth meets (rigid spheres, at their pose and velocity now) and their body indices.
   std::vector<cloth::SphereCollider> clothSpheres(std::vector<std::size_t>* which) const;
@@ -291,7 +291,7 @@ class Simulation {
   uint32_t n_cloth_ = 0;
   cl::Buffer node_share_;  // DFSPH's added mass of wet cloth nodes: per node J_k / s_k (clothAddedMass)
   cl::Buffer cloth_volume_, cloth_force_;  // per node: V_b / V0 (Akinci 2012), fluid force (unit: N)
-  cl::Buffer bdata_;          // DFSPH strong body coupling: per moving body 6 float4 (kernels/dfsph.cl, dfsph_body_accel)
+  cl::Buffer bdata_;          // DFSPH strong body coupling: per moving body DFSPH_BODY_STRIDE float4 (kernels/shared/body_response.h)
   cl::Buffer node_response_;  // DFSPH strong coupling: per node M^-1 of this step (3 float4, unit: 1/kg)
   cl::Buffer node_dv_;        // DFSPH strong coupling: per node the step's velocity change without the fluid (unit: m/s)
   double body_speed_ = 0.0;               // fastest moving body particle this step (unit: m/s)

@@ -93,7 +93,7 @@ void BridgeSession::check() {
   throw DeviceError(failure_);
 }
 
-void BridgeSession::apply(double, double, const std::vector<rigid::RigidBody>&, const std::vector<rigid::BodyState>& states,
+void BridgeSession::apply(double, double dt, const std::vector<rigid::RigidBody>&, const std::vector<rigid::BodyState>& states,
                           std::vector<BodyWrench>& out) {
   DeviceState s;
   uint64_t tick = 0;
@@ -103,7 +103,7 @@ void BridgeSession::apply(double, double, const std::vector<rigid::RigidBody>&, 
     tick = latest_.header.sequence;
   }
   noteStep(tick, states);
-  grab_.update(s, states, out);
+  grab_.update(s, states, out, dt);
   held_body_.store(grab_.grabbed(), std::memory_order_relaxed);
 }
 

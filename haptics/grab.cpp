@@ -20,7 +20,7 @@ void GrabController::setMapping(const Mapping& m) {
 }
 
 void GrabController::update(const DeviceState& device, const std::vector<rigid::BodyState>& states,
-                            std::vector<BodyWrench>& out) {
+                            std::vector<BodyWrench>& out, double dt) {
   // The device target in the scene.
   device_x_ = device.position;
   target_ = mapping_.toScene(device.position);
@@ -50,7 +50,11 @@ void GrabController::update(const DeviceState& device, const std::vector<rigid::
   coupling_.setZero();
   if (held_ < 0) return;
 
-  // Coupling spring and damper between the target and the grasp point, acting at the grasp point.
+  // Coupling spring and damper between the target and the grasp point, acting at the grasp point,
+  // implicit in the body's motion over the step (the top of grab.h): the force at the step's end if
+  // the grasp point kept its velocity, K_s (p_t - p_g') + (K_s dt + B_s) (v_t - v_g), and its rate
+  // with the body's velocities u = (v, w), c J^T J, c = K_s dt + B_s, J u = v - [r]x w the grasp
+  // point's velocity.
   const Grabbable& g = candidates_[static_cast<std::size_t>(held_)];
   const rigid::BodyState& s = states[g.body];
   const Eigen::Vector3d r = s.q * grasp_;
@@ -58,10 +62,18 @@ void GrabController::update(const DeviceState& device, const std::vector<rigid::
   const Eigen::Vector3d vg = s.v + s.w.cross(r);
   const double ks = bodyStiffness();
   const double bs = 2.0 * settings_.damping_ratio * std::sqrt(ks * g.mass);
-  const Eigen::Vector3d f = ks * (target_ - pg) + bs * (target_v - vg);
+  const double c = ks * dt + bs;  // (unit: N s/m)
+  const Eigen::Vector3d f = ks * (target_ - pg) + c * (target_v - vg);
   coupling_ = f;
-  out[g.body].force += f;
-  out[g.body].torque += r.cross(f);
+  BodyWrench& w = out[g.body];
+  w.force += f;
+  w.torque += r.cross(f);
+  Eigen::Matrix3d rx;  // [r]x, rx v = r x v
+  rx << 0.0, -r.z(), r.y(), r.z(), 0.0, -r.x(), -r.y(), r.x(), 0.0;
+  w.damping.topLeftCorner<3, 3>() += c * Eigen::Matrix3d::Identity();
+  w.damping.topRightCorner<3, 3>() -= c * rx;
+  w.damping.bottomLeftCorner<3, 3>() += c * rx;
+  w.damping.bottomRightCorner<3, 3>() -= c * rx * rx;
 
   // Orientation hold: an angular spring-damper towards the orientation at the grab, as stiff and as
   // damped as the linear coupling on every axis (tau = I_w (w_n^2 theta_e - 2 zeta w_n w)).
@@ -73,7 +85,11 @@ void GrabController::update(const DeviceState& device, const std::vector<rigid::
     const Eigen::Matrix3d R = s.q.toRotationMatrix();
     const Eigen::Matrix3d inertia_world = R * g.inertia * R.transpose();
     const double wn = std::sqrt(ks / g.mass);
-    out[g.body].torque += inertia_world * (wn * wn * theta - 2.0 * settings_.damping_ratio * wn * s.w);
+    // Implicit as the force: at the step's end theta_e has turned by -dt w', so the rate is
+    // c_w I_w, c_w = w_n^2 dt + 2 zeta w_n.
+    const double cw = wn * wn * dt + 2.0 * settings_.damping_ratio * wn;  // (unit: 1/s)
+    w.torque += inertia_world * (wn * wn * theta - cw * s.w);
+    w.damping.bottomRightCorner<3, 3>() += cw * inertia_world;
   }
 }
 
@@ -93,8 +109,10 @@ LocalModel GrabController::localModel(double stamp, const std::vector<rigid::Bod
   m.anchor = mapping_.toDevice(s.x + r + rest_);
   m.anchor_velocity = mapping_.velocityToDevice(s.v + s.w.cross(r));
   if (settings_.force_as_feed_forward) {
-    // Felt force = -g x (the coupling force on the body), in the device frame.
-    m.feed_forward = -settings_.gain * (mapping_.rotation.transpose() * coupling_);
+    // Felt force = -g x (the coupling force on the body), in the device frame: the force that acted
+    // over the last step (the state's, core/rigid.h BodyState::external_force), or the last update's.
+    const Eigen::Vector3d& acted = s.external_damping.isZero(0.0) ? coupling_ : s.external_force;
+    m.feed_forward = -settings_.gain * (mapping_.rotation.transpose() * acted);
     m.coupled = false;
   }
   return m;

@@ -20,6 +20,24 @@
 // frequency and zeta its damping ratio: every axis turns back as quickly as the grasp point follows
 // the target, and as stably (the same w_n dt). The torque acts on the body only; the hand does not
 // feel it (no torque is rendered, and the felt force is unchanged).
+//
+// Implicit in the body's motion (session 26). The body integrates the wrench over the simulation
+// step dt. Held at a point r off its centre it answers a force there with the mobility
+// Mob = (1/m) 1 + [r]x^T I_w^-1 [r]x (the grasp point's velocity change per unit impulse), up to 4/m
+// for a thin rod held at its end, so an explicit spring-damper's rates (B_s dt Mob, K_s dt^2 Mob) are
+// up to four times those at the centre: at DFSPH's ~5 ms steps a 12 g wooden spoon held at its top had
+// B_s dt Mob = 4.7 and swung with period 2 steps, growing ~5x a step (docs/forces.md, session 25; the
+// staggered coupling's fictitious inertia had hidden it). So the wrench is handed over with its rate
+// (BodyWrench::damping): the force at the step's end if the grasp point kept its velocity,
+//     F_e = K_s (p_t - p_g') + (K_s dt + B_s) (v_t - v_g),
+// and D = (K_s dt + B_s) J^T J, J u = v_g, so that the body's step solves (M + dt D) du = dt (F_o + J^T F_e)
+// with every other force F_o of the step in it (core/rigid.h, integrateVelocity): backward Euler for
+// the coupling, stable at any dt and K_s, with the grasp point's acceleration from the fluid and gravity
+// in it, so the steady state is the explicit one's (at rest F_s = K_s (p_t - p_g') = -F_o) and the
+// explicit force as dt -> 0. The force that acted, F_e - c J du, is the state's external_force after
+// the step. The orientation hold alike: c_w = w_n^2 dt + 2 zeta w_n in the explicit torque and
+// c_w I_w in D. DFSPH's strong coupling moves the held body inside its solves with this same
+// mobility (M + dt D)^-1 (kernels/shared/body_response.h).
 #pragma once
 
 #include "core/external_force.h"
@@ -73,7 +91,10 @@ class GrabController {
   GrabController(Mapping mapping, GrabSettings settings, std::vector<Grabbable> candidates);
   /// Once per simulation step: the device reading, the bodies; writes the coupling wrench of the
   /// held body into `out` (sized as `states`). Grabs on a press of button 0, releases on its release.
-  void update(const DeviceState& device, const std::vector<rigid::BodyState>& states, std::vector<BodyWrench>& out);
+  /// `dt`: the step the wrench acts over (unit: s), for its implicit part (the top of this file); 0
+  /// gives the explicit spring-damper (its damping is then the rate of a step of length 0).
+  void update(const DeviceState& device, const std::vector<rigid::BodyState>& states, std::vector<BodyWrench>& out,
+              double dt = 0.0);
   /// The local model for the servo at `stamp` (servo clock), from the current states.
   LocalModel localModel(double stamp, const std::vector<rigid::BodyState>& states) const;
   /// Index of the held body in Model::bodies, or -1.

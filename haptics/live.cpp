@@ -307,7 +307,7 @@ void LiveSession::loop() {
   }
 }
 
-void LiveSession::apply(double, double, const std::vector<rigid::RigidBody>&, const std::vector<rigid::BodyState>& states,
+void LiveSession::apply(double, double dt, const std::vector<rigid::RigidBody>&, const std::vector<rigid::BodyState>& states,
                         std::vector<BodyWrench>& out) {
   DeviceState s;
   uint64_t tick = 0;
@@ -317,7 +317,7 @@ void LiveSession::apply(double, double, const std::vector<rigid::RigidBody>&, co
     tick = latest_tick_;
   }
   noteStep(tick, states);
-  grab_.update(s, states, out);
+  grab_.update(s, states, out, dt);
   held_body_.store(grab_.grabbed(), std::memory_order_relaxed);
 }
 

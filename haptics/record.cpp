@@ -180,7 +180,7 @@ Recording readRecording(const std::string& path) {
 ReplaySource::ReplaySource(std::vector<DeviceState> steps, std::vector<uint64_t> step_hashes, GrabController grab)
     : steps_(std::move(steps)), step_hashes_(std::move(step_hashes)), grab_(std::move(grab)) {}
 
-void ReplaySource::apply(double, double, const std::vector<rigid::RigidBody>&, const std::vector<rigid::BodyState>& states,
+void ReplaySource::apply(double, double dt, const std::vector<rigid::RigidBody>&, const std::vector<rigid::BodyState>& states,
                          std::vector<BodyWrench>& out) {
   // The reading of this step (the last one again if the recording ran out: the replay then differs
   // and the hash check says so).
@@ -189,7 +189,7 @@ void ReplaySource::apply(double, double, const std::vector<rigid::RigidBody>&, c
     first_diff_ = next_ + 1;
   const DeviceState& s = steps_[std::min(next_, steps_.size() - 1)];
   ++next_;
-  grab_.update(s, states, out);
+  grab_.update(s, states, out, dt);
 }
 
 }  // namespace sph::haptics

@@ -28,10 +28,10 @@ void BatchSession::runServoTo(double time) {
   }
 }
 
-void BatchSession::apply(double time, double, const std::vector<rigid::RigidBody>&,
+void BatchSession::apply(double time, double dt, const std::vector<rigid::RigidBody>&,
                          const std::vector<rigid::BodyState>& states, std::vector<BodyWrench>& out) {
   runServoTo(time);
-  grab_.update(last_, states, out);
+  grab_.update(last_, states, out, dt);
 }
 
 void BatchSession::publish(double time, const std::vector<rigid::BodyState>& states) {

@@ -528,14 +528,16 @@ std::vector<KeyDef> buildTable() {
                "(scenes/balls_on_cloth.yaml at 0.043 s; docs/dfsph.md, session 17). Walls: mirrored is always "
                "staggered"));
   add(field<InScene>("fluid.dfsph.body_coupling", [](auto& s) -> auto& { return s.fluid.dfsph.body_coupling; })
-          .doc("staggered (the default for now): a dynamic body answers the solves' pressure in its own step "
-               "after them, with the fictitious mass body_added_mass against the added-mass instability. strong: "
+          .doc("strong (the default since session 26) or staggered. staggered: a dynamic body answers the solves' "
+               "pressure in its own step after them, with the fictitious mass body_added_mass against the added-mass "
+               "instability (cheaper per step; a light floating body's force swings ~20x more). strong: "
                "each free dynamic body moves under the current pressures inside every iteration of both solves "
                "(its force and torque summed on the device, its acceleration relaxed by 1/2 between iterations), "
                "and every fluid particle's residual counts that motion (Gissler et al. 2019, interlinked rigid-fluid "
                "coupling), so body and fluid meet the density constraint together and body_added_mass is not used; "
                "the density solve sees the body move under gravity and the last step's contact and external "
-               "forces too. A light flat body floating free swings with the staggered coupling at long steps "
+               "forces too; a body held by the haptic grab moves with the grab's spring-damper implicit (haptics/grab.h). "
+               "A light flat body floating free swings with the staggered coupling at long steps "
                "(docs/forces.md, session 23). Walls: mirrored is always staggered"));
   add(field<InScene>("fluid.dfsph.body_error", [](auto& s) -> auto& { return s.fluid.dfsph.body_error; })
           .unit("m/s^2").atLeast(1e-6).atMost(100)

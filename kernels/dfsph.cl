@@ -1035,11 +1035,10 @@ __kernel void dfsph_node_rate(const SimParams p, __global const float4* pos, __g
  * the acceleration relaxed by 1/2 against the last iteration's (a body lighter than the water
  * around it answers a pressure more than one fluid layer does, and the plain update would
  * overshoot; the fixed point is the same); (c) dfsph_body_slots, each particle's slot. The gyroscopic
- * term w x I w is left to the body's own step. body data, 6 float4 per moving body (from the host,
- * Simulation::bodyResponse): (c, 1 / m) (1 / m = 0: a body that does not move in the solves: held,
- * kinematic), the three rows of I^-1 in the world frame (w of the first: the body's reach R), the centre's acceleration without the
- * fluid's pressure (gravity, the last step's contact and external forces / m), and the same for
- * the rotation (I^-1 times their torques). */
+ * term w x I w is left to the body's own step. body data: DFSPH_BODY_STRIDE float4 per moving body
+ * (kernels/shared/body_response.h): the centre, whether it moves in the solves, its acceleration
+ * without the fluid's pressure, and its mobility N ((a, alpha) = N (F, T); diag(1 / m, I_w^-1) for
+ * a free body, a held one's with its grab implicit). */
 
 /* (a) The pressure force of the current pressures on moving particle k (unit: N). */
 __kernel void dfsph_body_force(const SimParams p, const uint n, const uint n_static, __global const float4* bsrc,
@@ -1054,8 +1053,8 @@ __kernel void dfsph_body_force(const SimParams p, const uint n, const uint n_sta
 }
 
 /* (b) Per body b (particles range[2b] .. range[2b] + range[2b+1] - 1): acc[2b] = a, acc[2b+1] = alpha
- * (unit: m/s^2, 1/s^2), relaxed: acc <- relax (F / m, I^-1 T) + (1 - relax) acc; and the body's error
- * err[b] = |F / m - a| + R |I^-1 T - alpha| (R: the body's reach, data[6b+1].w) (unit: m/s^2): how far
+ * (unit: m/s^2, 1/s^2), relaxed: acc <- relax N (F, T) + (1 - relax) acc; and the body's error
+ * err[b] = |N_a (F, T) - a| + R |N_alpha (F, T) - alpha| (N the mobility, R the body's reach) (unit: m/s^2): how far
  * the acceleration the fluid saw is from the one its pressures give. The solve goes on while a body's
  * error is above fluid.dfsph.body_error: the average density error alone stops before the smooth
  * pressure mode about a body has converged (a floating block's force swung with period 2 steps,
@@ -1067,7 +1066,7 @@ __kernel void dfsph_body_accel(const uint n_bodies, const uint n_static, __globa
                                __global float* err) {
   const uint b = get_global_id(0);
   if (b >= n_bodies) return;
-  const float4 c4 = data[6 * b];
+  const float4 c4 = data[DFSPH_BODY_STRIDE * b];
   if (c4.w == 0.0f) {
     acc[2 * b] = acc[2 * b + 1] = (float4)(0.0f);
     err[b] = 0.0f;
@@ -1080,9 +1079,9 @@ __kernel void dfsph_body_accel(const uint n_bodies, const uint n_static, __globa
     F += f;
     T += cross(bsrc[n_static + k].xyz - c4.xyz, f);
   }
-  const float3 a = c4.w * F;
-  const float3 al = (float3)(dot(data[6 * b + 1].xyz, T), dot(data[6 * b + 2].xyz, T), dot(data[6 * b + 3].xyz, T));
-  err[b] = length(a - acc[2 * b].xyz) + data[6 * b + 1].w * length(al - acc[2 * b + 1].xyz);
+  float3 a, al;
+  dfsph_body_mobility(data, b, F, T, &a, &al);
+  err[b] = length(a - acc[2 * b].xyz) + data[DFSPH_BODY_STRIDE * b + 1].w * length(al - acc[2 * b + 1].xyz);
   acc[2 * b] = (float4)(relax * a + (1.0f - relax) * acc[2 * b].xyz, 0.0f);
   acc[2 * b + 1] = (float4)(relax * al + (1.0f - relax) * acc[2 * b + 1].xyz, 0.0f);
 }
@@ -1096,14 +1095,14 @@ __kernel void dfsph_body_slots(const uint n, const uint n_static, __global const
   const uint k = get_global_id(0);
   if (k >= n) return;
   const uint b = body[k];
-  const float4 c4 = data[6 * b];
+  const float4 c4 = data[DFSPH_BODY_STRIDE * b];
   const uint s = slot[n_static + k];
   if (c4.w == 0.0f) {
     bacc[s] = (float4)(0.0f);
     return;
   }
   float3 a = acc[2 * b].xyz, al = acc[2 * b + 1].xyz;
-  if (dry) a += data[6 * b + 4].xyz, al += data[6 * b + 5].xyz;
+  if (dry) a += data[DFSPH_BODY_STRIDE * b + 1].xyz, al += data[DFSPH_BODY_STRIDE * b + 2].xyz;
   bacc[s] = (float4)(a + cross(al, bsrc[n_static + k].xyz - c4.xyz), 1.0f);
 }
 

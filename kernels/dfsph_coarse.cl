@@ -376,14 +376,14 @@ __kernel void dfsph_coarse_assemble(const SimParams p, const int4 bd, __global c
  * (Gissler et al. 2019 couple the bodies to the fine pressure solve; this is the same coupling on the
  * coarse level.) */
 
-/* Each boundary slot's free body (body_coupling strong, dfsph_body_accel's data: 1 / m > 0), -1 for the
+/* Each boundary slot's free body (body_coupling strong, kernels/shared/body_response.h: free), -1 for the
  * rest (filled by the host first): sbody[slot[n_static + k]] for each moving particle k. */
 __kernel void dfsph_coarse_slot_body(const uint n, const uint n_static, __global const uint* body,
                                      __global const uint* slot, __global const float4* data, __global int* sbody) {
   const uint k = get_global_id(0);
   if (k >= n) return;
   const uint b = body[k];
-  if (data[6 * b].w != 0.0f) sbody[slot[n_static + k]] = (int)b;
+  if (data[DFSPH_BODY_STRIDE * b].w != 0.0f) sbody[slot[n_static + k]] = (int)b;
 }
 
 /* Per aggregate d and free body B: cwv[(d n_bodies + B) 4 + 0..3] = (scale W_d^B's translation and
@@ -404,7 +404,7 @@ __kernel void dfsph_coarse_bodies(const SimParams p, const int4 bd, __global con
   const float H = p.support;
   const int3 cd = dfsph_coarse_coords(bd, cell[d]);
   for (uint B = 0; B < n_bodies; ++B) {
-    const float4 c4 = data[6 * B];
+    const float4 c4 = data[DFSPH_BODY_STRIDE * B];
     float3 wf = (float3)(0.0f), wt = (float3)(0.0f), vf = (float3)(0.0f), vt = (float3)(0.0f);
     if (c4.w != 0.0f) {
       DFSPH_COARSE_FOR_ROWS(&p, cell_start, cd, 0.0f, begin, end)
@@ -463,10 +463,9 @@ inline void dfsph_coarse_matvec(const uint l, const uint m, __global const float
       part.s345 += vk * o[3].xyz;
     }
     const float8 sv = dfsph_coarse_group_sum8(red8, part);
-    /* M_B^-1 (F, T): F / m and I^-1 T (dfsph_body_accel's data) */
-    const float3 af = data[6 * B].w * sv.s012;
-    const float3 sT = sv.s345;
-    const float3 aa = (float3)(dot(data[6 * B + 1].xyz, sT), dot(data[6 * B + 2].xyz, sT), dot(data[6 * B + 3].xyz, sT));
+    /* M_B^-1 (F, T): the body's mobility (kernels/shared/body_response.h) */
+    float3 af, aa;
+    dfsph_body_mobility(data, B, sv.s012, sv.s345, &af, &aa);
     for (uint k = l; k < m; k += DFSPH_COARSE_WG) {
       __global const float4* o = cwv + ((size_t)k * n_bodies + B) * 4;
       y[k] += dot(o[0].xyz, af) + dot(o[1].xyz, aa);

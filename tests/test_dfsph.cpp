@@ -457,7 +457,7 @@ TEST_CASE("DFSPH coupling: with the fictitious body mass, a light ball pushed in
   // M (a_0 - a_N) dt: 0.0045 and 0.0027 kg m/s, fails.
   const std::string density = GENERATE(std::string("500"), std::string("1000"));
   INFO("ball density " << density << " kg/m^3");
-  const BlobMomentum b = pushBlobMomentum({"fluid.solver=dfsph", "fluid.dfsph.body_added_mass=0.5",
+  const BlobMomentum b = pushBlobMomentum({"fluid.solver=dfsph", "fluid.dfsph.body_coupling=staggered", "fluid.dfsph.body_added_mass=0.5",
                                           "rigid_bodies[0].density=" + density});
   REQUIRE(b.exit_code == 0);
   const Eigen::Vector3d p0 = b.p0;

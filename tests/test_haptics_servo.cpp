@@ -1,12 +1,17 @@
 // The servo on a virtual clock (haptics/servo.h): limits, ramp, watchdog, the sampled-data
 // stiffness limit with and without passivity control, and the lag of the two smoothing modes.
 // Each test steps a VirtualClock at the servo period; no thread, no wall clock.
+#include "core/rigid.h"
 #include "haptics/backends.h"
+#include "haptics/grab.h"
 #include "haptics/servo.h"
 #include "haptics/session.h"
 
 #include <catch2/catch.hpp>
 
+#include <Eigen/Geometry>
+
+#include <algorithm>
 #include <cmath>
 #include <functional>
 #include <vector>
@@ -348,8 +353,9 @@ LoopResult closedLoop(double rate) {
         if (r.time >= 1.0 && r.time < 2.0) res.force_early = std::max(res.force_early, r.force.norm());
         if (r.time >= 3.0 && r.time < 4.0) res.force_late = std::max(res.force_late, r.force.norm());
       }
-      // The body: coupling + viscous drag, semi-implicit Euler.
-      states[0].v += dt * (out[0].force - drag * states[0].v) / mass;
+      // The body: coupling + viscous drag, semi-implicit Euler with both dampers implicit (the
+      // wrench's rate, BodyWrench::damping: c 1 for a grasp at the centre).
+      states[0].v += dt * (out[0].force - drag * states[0].v) / (mass + dt * (out[0].damping(0, 0) + drag));
       states[0].x += dt * states[0].v;
     }
     const double t = static_cast<double>(k + 1) / rate;
@@ -385,4 +391,66 @@ TEST_CASE("Servo: closed loop at 30, 60 and 120 frames/s with dropped frames sta
     CHECK(r.force_late < 1.5 * r.force_early);
     CHECK(r.stretch_late < 1.5 * r.stretch_early);
   }
+}
+
+TEST_CASE("Grab: a light rod held at its end at a long step settles where a short step does (the coupling "
+          "implicit in the body's motion)",
+          "[haptics][rigid][stability]") {
+  // A 12 g rod (0.2 m, 4 mm radius; the wooden spoon of scenes/haptic_stir.yaml) is grabbed at one
+  // end with the default coupling (K_s = 250 N/m, zeta 0.9, orientation held) and gravity comes on.
+  // Held at its end it answers a force there with the mobility 1/m + (L/2)^2 / I = 4/m, so at a 5 ms
+  // step (DFSPH's) the explicit rates are B_s dt 4/m = 5.2 and K_s dt^2 4/m = 2.1, past the explicit
+  // Euler bound (B dt Mob < 2): the explicit coupling rings and grows (checked below as the control).
+  // Implicit (haptics/grab.h, core/rigid.h integrateVelocity) it must settle where the statics put it:
+  // the grasp force m g up (the only force holding the rod) and, with torque balance about the
+  // centre, the rod tipped by theta = m g (L/2) / (I_w w_n^2) = 0.014 rad; and the same as a 0.1 ms
+  // step (explicit rates 50x smaller, stable either way) gives.
+  sph::rigid::RigidBody rod;
+  rod.kind = sph::rigid::BodyKind::Dynamic;
+  const double m = 0.012, L = 0.2, rad = 0.004, g = 9.81;  // kg, m, m, m/s^2
+  rod.mass = m;
+  rod.inertia = Eigen::Vector3d(m * rad * rad / 2, m * (3 * rad * rad + L * L) / 12, m * (3 * rad * rad + L * L) / 12).asDiagonal();
+  rod.inv_inertia = rod.inertia.inverse();
+  const Eigen::Vector3d end(-L / 2, 0, 0), gravity(0, 0, -g);
+  struct Run {
+    double force_error = 0, tilt = 0, largest_w = 0;
+  };
+  auto run = [&](double dt, bool implicit) {
+    GrabController grab(Mapping{}, GrabSettings{}, {{0, m, [&](const Eigen::Vector3d&) { return end; }, rod.inertia}});
+    std::vector<sph::rigid::BodyState> states(1);
+    DeviceState hand;
+    hand.position = end;  // the grasp point, the body at the origin
+    hand.buttons = 1;
+    Run r;
+    const int steps = static_cast<int>(std::lround(1.0 / dt));
+    for (int n = 0; n < steps; ++n) {
+      std::vector<sph::BodyWrench> out(1);
+      grab.update(hand, states, out, dt);
+      sph::rigid::BodyState& s = states[0];
+      s.external_force = out[0].force;
+      s.external_torque = out[0].torque;
+      s.external_damping = implicit ? out[0].damping : sph::rigid::Matrix6d::Zero();
+      sph::rigid::integrateVelocity(rod, s, gravity, dt);
+      sph::rigid::integratePosition(rod, s, dt);
+      r.largest_w = std::max(r.largest_w, std::isfinite(s.w.norm()) ? s.w.norm() : 1e30);
+    }
+    const sph::rigid::BodyState& s = states[0];
+    r.force_error = (s.external_force - Eigen::Vector3d(0, 0, m * g)).norm() / (m * g);
+    r.tilt = Eigen::AngleAxisd(s.q).angle();
+    return r;
+  };
+  const double wn = std::sqrt(250.0 / m), theta = m * g * (L / 2) / (rod.inertia(1, 1) * wn * wn);
+  const Run fine = run(1e-4, false), fine_implicit = run(1e-4, true), coarse = run(5e-3, true);
+  INFO("fine explicit: force error " << fine.force_error << ", tilt " << fine.tilt << " rad; fine implicit "
+       << fine_implicit.force_error << ", " << fine_implicit.tilt << "; 5 ms implicit " << coarse.force_error << ", "
+       << coarse.tilt << " rad, largest |w| " << coarse.largest_w << " rad/s; statics: tilt " << theta << " rad");
+  // The statics (a 1 % force error: the last of the settling after 1 s, 150 natural periods).
+  CHECK(coarse.force_error < 0.01);
+  CHECK(std::abs(coarse.tilt - theta) < 0.05 * theta);
+  CHECK(std::abs(fine.tilt - theta) < 0.05 * theta);
+  CHECK(std::abs(fine_implicit.tilt - fine.tilt) < 0.01 * theta);
+  // No ringing: a damped step response turns no faster than its amplitude times w_n.
+  CHECK(coarse.largest_w < theta * wn);
+  // The control: the same 5 ms step with the wrench explicit grows without bound.
+  CHECK(run(5e-3, false).largest_w > 100 * theta * wn);
 }
