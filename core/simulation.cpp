@@ -493,11 +493,19 @@ FrameReport Simulation::advanceFrame() {
     rep.unconverged_steps = dfsph_frame_.unconverged_steps;
     rep.density_error = dfsph_frame_.density_error;
     rep.divergence_error = dfsph_frame_.divergence_error;
+    rep.unconverged_body_error = dfsph_frame_.unconverged_body_error;
     if (rep.unconverged_steps > 0) {
+      // What kept them going: the fluid's average density error, or (strong body coupling) a free
+      // body's error, or both.
+      const DfsphSpec& d = model_.spec.fluid.dfsph;
+      const bool fluid = rep.density_error > d.density_error, body = rep.unconverged_body_error > d.body_error;
       std::ostringstream s;
-      s << rep.unconverged_steps << " step(s) stopped at fluid.dfsph.max_iterations = "
-        << model_.spec.fluid.dfsph.max_iterations << " with the average density error above "
-        << model_.spec.fluid.dfsph.density_error << " (largest " << rep.density_error << ")";
+      s << rep.unconverged_steps << " step(s) stopped at fluid.dfsph.max_iterations = " << d.max_iterations << " with ";
+      if (fluid || !body) s << "the average density error above " << d.density_error << " (largest " << rep.density_error << ")";
+      if (fluid && body) s << " and ";
+      if (body)
+        s << "a free body's error above fluid.dfsph.body_error = " << d.body_error << " m/s^2 (largest "
+          << rep.unconverged_body_error << " m/s^2; the density error " << rep.density_error << ")";
       pending_messages_.push_back(s.str());
     }
     rep.messages = std::move(pending_messages_);
@@ -798,7 +806,10 @@ void Simulation::densitySolve() {
   dfsph_->finish(params_, f);
   dfsph_frame_.density_iterations += r.iterations;
   dfsph_frame_.density_error = std::max(dfsph_frame_.density_error, r.error);
-  if (!r.converged) ++dfsph_frame_.unconverged_steps, ++profile_.unconverged_steps;
+  if (!r.converged) {
+    ++dfsph_frame_.unconverged_steps, ++profile_.unconverged_steps;
+    dfsph_frame_.unconverged_body_error = std::max(dfsph_frame_.unconverged_body_error, r.body_error);
+  }
   // fluid.dfsph.step_iterations: a solve that worked hard shortens the next steps, an easy one lets
   // them grow back (the CFL, viscous and largest-step bounds still apply).
   const DfsphSpec& d = model_.spec.fluid.dfsph;

@@ -111,6 +111,9 @@ struct FrameReport {
   int unconverged_steps = 0;     ///< steps whose density solve stopped at max_iterations above the bound (a warning)
   double density_error = 0;      ///< largest average density error at a step's end (unit: 1)
   double divergence_error = 0;   ///< largest average divergence error at a step's end (unit: 1)
+  /// largest free body's error at the end of a density solve that stopped at max_iterations (strong
+  /// body coupling: fluid.dfsph.body_error) (unit: m/s^2)
+  double unconverged_body_error = 0;
   std::size_t particles = 0;     ///< fluid particles at frame end
   std::vector<std::string> messages;  ///< one-off notices (particle budget reached, ...)
   bool clean() const { return nonfinite == 0 && cfl_violations == 0 && wall_crossings == 0; }

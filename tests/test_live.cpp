@@ -68,7 +68,7 @@ TEST_CASE("Mouse device: the cursor maps to the plane facing the camera at its d
   CHECK(back.z() == Approx(depth).margin(1e-12));
 }
 
-TEST_CASE("Mouse device: events apply at their time and in order; the wheel moves the plane", "[live][haptics]") {
+TEST_CASE("Mouse device: events apply at their time and in order, and the wheel moves the plane", "[live][haptics]") {
   auto input = std::make_shared<haptics::MouseInput>();
   haptics::VirtualClock clock;
   haptics::Mapping mapping;

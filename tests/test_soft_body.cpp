@@ -149,7 +149,7 @@ TEST_CASE("Soft body: a free-standing column compresses under its own weight by 
   }
 }
 
-TEST_CASE("Soft body: corner, face and node anchors pin their lattice nodes; keyframed corners carry the body", "[soft]") {
+TEST_CASE("Soft body: corner, face and node anchors pin their lattice nodes, and keyframed corners carry the body", "[soft]") {
   // A 4 x 3 x 2 cm box at 1 cm: 5 x 4 x 3 lattice nodes, indices (i, j, k). corners pins the 8 with
   // i in {0, 4}, j in {0, 3}, k in {0, 2}; edge z_min the 20 with k = 0 (z_max: k = 2); node
   // (2, 1, 1) that node alone.
