@@ -98,7 +98,13 @@ void H5PartWriter::writeStep(const ParticleFrame& frame) {
 
   // The step group, then its fields; on any failure the half-written group is removed again so
   // that the file keeps only complete, consecutive steps.
-  Handle group(H5Gcreate2(file, step_name.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose);
+  // No creation and modification times in the objects' headers (HDF5 records them by default): the
+  // same particles give the same bytes, whenever they are written.
+  Handle gcpl(H5Pcreate(H5P_GROUP_CREATE), H5Pclose);
+  Handle dcpl(H5Pcreate(H5P_DATASET_CREATE), H5Pclose);
+  if (!gcpl.ok() || !dcpl.ok() || H5Pset_obj_track_times(gcpl.get(), 0) < 0 || H5Pset_obj_track_times(dcpl.get(), 0) < 0)
+    fail("cannot set up the object creation properties (" + hdf5Reason() + ")");
+  Handle group(H5Gcreate2(file, step_name.c_str(), H5P_DEFAULT, gcpl.get(), H5P_DEFAULT), H5Gclose);
   if (!group.ok()) fail("cannot create the group (" + hdf5Reason() + ")");
   try {
     // TimeValue: simulated time of the frame (unit: s), a scalar native double.
@@ -115,7 +121,7 @@ void H5PartWriter::writeStep(const ParticleFrame& frame) {
     Handle space(H5Screate_simple(1, dims, nullptr), H5Sclose);
     if (!space.ok()) fail("cannot create a dataspace of " + std::to_string(n) + " particles (" + hdf5Reason() + ")");
     auto column = [&](const char* name, hid_t file_type, hid_t memory_type, const void* data) {
-      Handle dataset(H5Dcreate2(group.get(), name, file_type, space.get(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
+      Handle dataset(H5Dcreate2(group.get(), name, file_type, space.get(), H5P_DEFAULT, dcpl.get(), H5P_DEFAULT),
                      H5Dclose);
       if (!dataset.ok()) fail(std::string("cannot create dataset '") + name + "' (" + hdf5Reason() + ")");
       if (n > 0 && H5Dwrite(dataset.get(), memory_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data) < 0)
