@@ -1175,17 +1175,18 @@ bool Simulation::strongCloth() const {
 bool Simulation::strongBodies() const {
   // DFSPH's strong body coupling (fluid.dfsph.body_coupling: strong): the free dynamic bodies move
   // under the pressure inside the solves' iterations (kernels/dfsph.cl, dfsph_body_accel). Not with
-  // mirrored walls (as the cloth's), and not while every dynamic body is held (hold_until: the settle
-  // before a release), when nothing moves in the solves and the step is the staggered coupling's,
-  // bitwise (before session 26 the held steps ran the strong path with no body free; on
-  // scenes/tests/sink_ball.yaml's rough start-up, 60 density iterations per step, that path blew up
-  // at 0.105 s with body_coarse, the staggered one did not). Kinematic bodies alone (a prescribed
-  // motion) have nothing to move in the solves: no extra passes.
+  // mirrored walls (as the cloth's). While every dynamic body is held (hold_until: the settle before a
+  // release) nothing moves in the solves, but they keep the strong path's stop (at least
+  // kBodyStopGap iterations after a coarse correction, core/dfsph.cpp): the tank a body is released
+  // into is then settled as well as the run after the release solves it, and a held reference run
+  // is solved as the free one (session 26 tried the staggered path for held steps: the force checks'
+  // held-subtracted drag C_d at R/dx 4 went from 0.73 to 1.36, band top 0.91; docs/forces.md).
+  // Kinematic bodies alone (a prescribed motion) have nothing to move in the solves: no extra passes.
   if (!dfsph_ || n_moving_ == 0 || !on(Stage::RigidCoupling) || !on(Stage::RigidDynamics) ||
       model_.spec.fluid.dfsph.body_coupling != DfsphCoupling::Strong || model_.spec.fluid.dfsph.walls == DfsphWalls::Mirrored)
     return false;
   for (std::size_t b : moving_)
-    if (model_.bodies[b].kind == rigid::BodyKind::Dynamic && !heldBody(b)) return true;
+    if (model_.bodies[b].kind == rigid::BodyKind::Dynamic) return true;
   return false;
 }
 
