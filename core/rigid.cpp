@@ -289,6 +289,17 @@ Eigen::Quaterniond rotated(const Eigen::Quaterniond& q, const Eigen::Vector3d& t
 namespace {
 /// Whether the external wrench answers the body's motion implicitly (BodyState::external_damping).
 bool damped(const BodyState& s, double dt) { return dt > 0.0 && !s.external_damping.isZero(0.0); }
+
+/// The step's mass matrix with the external damping implicit, diag((m + M) 1, (1 + M / m) I_w) + dt D
+/// (M the fictitious mass; symmetric positive definite, D being semi-definite).
+Matrix6d implicitMass(const RigidBody& body, const BodyState& s, double dt, double fictitious_mass) {
+  const Eigen::Matrix3d R = s.q.toRotationMatrix();
+  const double M = fictitious_mass;
+  Matrix6d A = dt * s.external_damping;
+  A.topLeftCorner<3, 3>() += (body.mass + M) * Eigen::Matrix3d::Identity();
+  A.bottomRightCorner<3, 3>() += (1.0 + M / body.mass) * (R * body.inertia * R.transpose());
+  return A;
+}
 }  // namespace
 
 Vector6d velocityChange(const RigidBody& body, const BodyState& s, const Eigen::Vector3d& g, double dt,
@@ -306,15 +317,11 @@ Vector6d velocityChange(const RigidBody& body, const BodyState& s, const Eigen::
   }
   // (diag((m + M) 1, (1 + M / m) I_w) + dt D) du = dt (F + M a_{n-1}, T + (M / m) tau_{n-1}): the
   // fictitious mass and inertia (Baek & Karniadakis 2012, eq. 9, and its rotational twin) with the
-  // external wrench's damping implicit. Symmetric positive definite (D is semi-definite).
-  const Eigen::Matrix3d R = s.q.toRotationMatrix();
-  Matrix6d A = dt * s.external_damping;
-  A.topLeftCorner<3, 3>() += (m + M) * Eigen::Matrix3d::Identity();
-  A.bottomRightCorner<3, 3>() += (1.0 + M / m) * (R * body.inertia * R.transpose());
+  // external wrench's damping implicit.
   Vector6d rhs;
   rhs.head<3>() = dt * (force + M * s.accel);
   rhs.tail<3>() = dt * (torque + (M / m) * s.torque_rate);
-  return A.ldlt().solve(rhs);
+  return implicitMass(body, s, dt, M).ldlt().solve(rhs);
 }
 
 Matrix6d mobility(const RigidBody& body, const BodyState& s, double dt) {
@@ -325,11 +332,7 @@ Matrix6d mobility(const RigidBody& body, const BodyState& s, double dt) {
     N.bottomRightCorner<3, 3>() = worldInverseInertia(body, s.q);
     return N;
   }
-  const Eigen::Matrix3d R = s.q.toRotationMatrix();
-  Matrix6d A = dt * s.external_damping;
-  A.topLeftCorner<3, 3>() += body.mass * Eigen::Matrix3d::Identity();
-  A.bottomRightCorner<3, 3>() += R * body.inertia * R.transpose();
-  return A.ldlt().solve(Matrix6d::Identity());
+  return implicitMass(body, s, dt, 0.0).ldlt().solve(Matrix6d::Identity());
 }
 
 void integrateVelocity(const RigidBody& body, BodyState& s, const Eigen::Vector3d& g, double dt,
