@@ -7,7 +7,12 @@
 #include <openvdb/tools/LevelSetRebuild.h>
 
 #include <algorithm>
+#include <cctype>
+#include <cstdint>
+#include <cstdio>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <mutex>
 #include <stdexcept>
 #include <system_error>
@@ -40,6 +45,40 @@ openvdb::FloatGrid::Ptr toSparse(const DenseGrid& g, const std::vector<float>& v
   openvdb::tools::copyFromDense(dense, *grid, tolerance);
   grid->setTransform(worldTransform(g));
   return grid;
+}
+
+// OpenVDB's io::Archive writes a random UUID into every file's header (the magic number, the file
+// and library versions and a flag first: 21 bytes, then 36 characters, 8-4-4-4-12 hex digits), so
+// two runs of one scene gave files that differed in those bytes. Replace it with a UUID derived from
+// the rest of the file (two 64-bit FNV-1a hashes, RFC 9562's version 8, "custom"): the same grids
+// give the same bytes, different ones a different UUID, as readers that cache by UUID expect. A header
+// not of that shape (another OpenVDB's layout) is left as written.
+void deterministicUuid(const std::string& path) {
+  constexpr std::size_t kAt = 21, kLen = 36;
+  std::fstream f(path, std::ios::in | std::ios::out | std::ios::binary);
+  if (!f) throw std::runtime_error("cannot reopen " + path);
+  const std::string bytes((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  if (bytes.size() < kAt + kLen) return;
+  for (std::size_t i = 0; i < kLen; ++i) {
+    const char c = bytes[kAt + i];
+    const bool dash = i == 8 || i == 13 || i == 18 || i == 23;
+    if (dash ? c != '-' : !std::isxdigit(static_cast<unsigned char>(c))) return;
+  }
+  auto fnv = [&](uint64_t h) {
+    for (std::size_t i = kAt + kLen; i < bytes.size(); ++i) h = (h ^ static_cast<unsigned char>(bytes[i])) * 0x100000001b3ull;
+    return h;
+  };
+  uint64_t hi = fnv(0xcbf29ce484222325ull), lo = fnv(0x84222325cbf29ce4ull);
+  hi = (hi & ~0xf000ull) | 0x8000ull;                   // version 8 (the 13th hex digit)
+  lo = (lo & ~(3ull << 62)) | (2ull << 62);              // variant 10 (RFC 9562)
+  char uuid[kLen + 1];
+  std::snprintf(uuid, sizeof uuid, "%08x-%04x-%04x-%04x-%012llx", static_cast<unsigned>(hi >> 32),
+                static_cast<unsigned>((hi >> 16) & 0xffff), static_cast<unsigned>(hi & 0xffff),
+                static_cast<unsigned>(lo >> 48), static_cast<unsigned long long>(lo & 0xffffffffffffull));
+  f.clear();
+  f.seekp(static_cast<std::streamoff>(kAt));
+  f.write(uuid, static_cast<std::streamsize>(kLen));
+  if (!f) throw std::runtime_error("cannot write " + path);
 }
 
 void initialiseOnce() {
@@ -133,6 +172,7 @@ void writeVdb(const std::string& path, const std::vector<NamedGrid>& grids, cons
     openvdb::io::File file(tmp);
     file.write(out);
     file.close();
+    deterministicUuid(tmp);
   } catch (const std::exception& e) {
     std::error_code ec;
     std::filesystem::remove(tmp, ec);
