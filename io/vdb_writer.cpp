@@ -12,10 +12,10 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
-#include <iterator>
 #include <mutex>
 #include <stdexcept>
 #include <system_error>
+#include <vector>
 
 namespace sph::io {
 
@@ -57,20 +57,27 @@ void deterministicUuid(const std::string& path) {
   constexpr std::size_t kAt = 21, kLen = 36;
   std::fstream f(path, std::ios::in | std::ios::out | std::ios::binary);
   if (!f) throw std::runtime_error("cannot reopen " + path);
-  const std::string bytes((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
-  if (bytes.size() < kAt + kLen) return;
+  char head[kAt + kLen];
+  if (!f.read(head, sizeof head)) return;  // shorter than a header: leave it
   for (std::size_t i = 0; i < kLen; ++i) {
-    const char c = bytes[kAt + i];
+    const char c = head[kAt + i];
     const bool dash = i == 8 || i == 13 || i == 18 || i == 23;
     if (dash ? c != '-' : !std::isxdigit(static_cast<unsigned char>(c))) return;
   }
-  auto fnv = [&](uint64_t h) {
-    for (std::size_t i = kAt + kLen; i < bytes.size(); ++i) h = (h ^ static_cast<unsigned char>(bytes[i])) * 0x100000001b3ull;
-    return h;
-  };
-  uint64_t hi = fnv(0xcbf29ce484222325ull), lo = fnv(0x84222325cbf29ce4ull);
-  hi = (hi & ~0xf000ull) | 0x8000ull;                   // version 8 (the 13th hex digit)
-  lo = (lo & ~(3ull << 62)) | (2ull << 62);              // variant 10 (RFC 9562)
+  // The rest of the file, streamed (a frame's file can be large).
+  uint64_t hi = 0xcbf29ce484222325ull, lo = 0x84222325cbf29ce4ull;
+  std::vector<char> buf(1 << 20);
+  while (f) {
+    f.read(buf.data(), static_cast<std::streamsize>(buf.size()));
+    const std::streamsize got = f.gcount();
+    for (std::streamsize i = 0; i < got; ++i) {
+      const auto b = static_cast<unsigned char>(buf[static_cast<std::size_t>(i)]);
+      hi = (hi ^ b) * 0x100000001b3ull;
+      lo = (lo ^ b) * 0x100000001b3ull;
+    }
+  }
+  hi = (hi & ~0xf000ull) | 0x8000ull;       // version 8 (the 13th hex digit)
+  lo = (lo & ~(3ull << 62)) | (2ull << 62);  // variant 10 (RFC 9562)
   char uuid[kLen + 1];
   std::snprintf(uuid, sizeof uuid, "%08x-%04x-%04x-%04x-%012llx", static_cast<unsigned>(hi >> 32),
                 static_cast<unsigned>((hi >> 16) & 0xffff), static_cast<unsigned>(hi & 0xffff),
