@@ -6,6 +6,7 @@
 #include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <string>
 
 namespace sph::testing {
@@ -32,5 +33,11 @@ struct TempDir {
     return p;
   }
 };
+
+/// A file's bytes (binary), for tests that compare outputs byte for byte.
+inline std::string fileBytes(const std::filesystem::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), {});
+}
 
 }  // namespace sph::testing

@@ -2,6 +2,7 @@
 // needs (shared/clients.md): consecutive Step#0..Step#K-1, a scalar native double TimeValue, and
 // equal-length datasets with the values that were written (float32, int32 phase, int64 id).
 #include "io/h5part_writer.h"
+#include "temp_dir.h"
 
 #include <catch2/catch.hpp>
 // sphaptics_io keeps HDF5's include folder private; Debian installs the serial headers under
@@ -15,8 +16,6 @@
 #include <chrono>
 #include <cstdint>
 #include <filesystem>
-#include <fstream>
-#include <iterator>
 #include <string>
 #include <thread>
 #include <vector>
@@ -208,11 +207,7 @@ TEST_CASE("H5PartWriter: the same frames give the same bytes whenever they are w
   write(a);
   std::this_thread::sleep_for(std::chrono::milliseconds(1100));
   write(b);
-  auto bytes = [](const fs::path& path) {
-    std::ifstream in(path, std::ios::binary);
-    return std::string(std::istreambuf_iterator<char>(in), {});
-  };
-  const std::string da = bytes(a), db = bytes(b);
+  const std::string da = sph::testing::fileBytes(a), db = sph::testing::fileBytes(b);
   CHECK(da.size() > 1000);
   REQUIRE(da.size() == db.size());
   std::size_t differ = 0;

@@ -6,10 +6,9 @@
 
 #include <cctype>
 #include <cmath>
-#include <fstream>
-#include <iterator>
 
 using namespace sph;
+using sph::testing::fileBytes;
 using sph::testing::TempDir;
 
 namespace {
@@ -92,13 +91,6 @@ TEST_CASE("VDB writer reports unwritable paths and bad grids", "[vdb]") {
   CHECK_THROWS(io::writeVdb((dir.path / "bad.vdb").string(), {{"density", &bad}}));
   CHECK_THROWS_WITH(io::readVdbInfo((dir.path / "missing.vdb").string()), Catch::Contains("missing.vdb"));
 }
-
-namespace {
-std::string fileBytes(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-}
-}  // namespace
 
 TEST_CASE("VDB files of the same grids are the same bytes, and their UUID tells different grids apart", "[vdb]") {
   // OpenVDB writes a random UUID into every file's header (io::Archive), so two runs of one scene

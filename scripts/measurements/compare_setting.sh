@@ -12,8 +12,7 @@ top=$(cd "$(dirname "$0")/../.." && pwd)
 sph=${SPHAPTICS:-$top/build/cli/sphaptics}
 key=$1 a=$2 b=$3
 shift 3
-out=$(mktemp -d)
-if [ "${1:-}" != "--" ]; then out=$1; shift; fi
+if [ "${1:-}" != "--" ]; then out=$1; shift; else out=$(mktemp -d); fi
 [ "${1:-}" = "--" ] && shift
 scenes=("$@")
 runs=${RUNS:-3}
@@ -50,6 +49,7 @@ for scene in dict.fromkeys(r['scene'] for r in rows):
         med[v] = statistics.median(ok) if ok else float('nan')
         print(f"{scene:<22} {v:<10} {med[v]:>13.2f} {rs[-1]['steps']:>6} {float(rs[-1]['density_iterations_per_step']):>12.2f}  "
               + " ".join(f"{r['wall_s']}({r['exit']})" for r in rs))
-    print(f"{scene:<22} {a} / {b}: {med[a] / med[b]:.2f}x")
+    ratio = f"{med[a] / med[b]:.2f}x" if med[b] > 0 else "n/a (no timed run of " + b + ")"
+    print(f"{scene:<22} {a} / {b}: {ratio}")
 PY
 echo "csv: $csv"
