@@ -212,6 +212,15 @@ void DfsphSolver::source(Kind kind, const SimParams& p, const DfsphFields& f, cl
   // The divergence solve's density rate may be in source_ already (factors(), with the factor pass).
   const int rate_in_source = div && rate_in_source_ ? 1 : 0;
   rate_in_source_ = false;
+  // The density solve's warm start filtered (kernels/dfsph.cl, dfsph_warm_filter): the last pressure
+  // less beta of its particle-scale part. scratch_b_ is free here (a reorder target only).
+  if (!div && spec_.warm_start && spec_.warm_smoothing > 0.0 && p.n_fluid > 0) {
+    kernels_.call("dfsph_warm_filter", p.n_fluid, kLocal, p, *f.pos, *f.phase, *f.snbr, *f.snbr_count, pressure,
+                  static_cast<float>(spec_.warm_smoothing), scratch_b_);
+    clCall("copying the filtered warm start", [&] {
+      return cl_.queue().enqueueCopyBuffer(scratch_b_, pressure, 0, 0, std::size_t(p.n_fluid) * 4);
+    });
+  }
   kernels_.call("dfsph_source", p.n_fluid, kLocal, p, *f.pos, *f.vel, *f.phase, *f.density, *f.snbr, *f.snbr_count,
                 *f.bpos, *f.bvel, *f.sbnbr, *f.sbnbr_count, div ? 0 : 1, div ? min_neighbours_ : 0u,
                 static_cast<float>(warm), extrapolated() ? 1 : 0, source_, pressure, xt_, gwall_, rate_in_source);

@@ -452,6 +452,16 @@ std::vector<KeyDef> buildTable() {
                "within what the density bound cannot see: docs/dfsph.md)"));
   add(field<InScene>("fluid.dfsph.warm_start", [](auto& s) -> auto& { return s.fluid.dfsph.warm_start; })
           .doc("start each solve from the pressure of the previous step (where the flow compresses)"));
+  add(field<InScene>("fluid.dfsph.warm_smoothing", [](auto& s) -> auto& { return s.fluid.dfsph.warm_smoothing; })
+          .unit("1").atLeast(0).atMost(1)
+          .doc("the density solve's warm start (walls single or extrapolated) takes the last pressure with its "
+               "particle-scale part, its deviation from the neighbours' Shepard average (the hydrostatic part kept "
+               "exactly), scaled by 1 - beta. Restarted in full (0, the default), that part pushes each particle "
+               "with the last step's error a step late: a calm shallow tub with little viscosity kept moving at 7x "
+               "the iterations, and 0.5 calms it (the live stirring tub 2.3x faster). But it lowers the step at "
+               "which a deep column at rest rings, dt sqrt(max p / rho) / dx ~0.9 -> ~0.4 (the run summary's "
+               "pressure ratio): for shallow scenes only (docs/dfsph.md, session 28)"));
+
   add(field<InScene>("fluid.dfsph.relaxation", [](auto& s) -> auto& { return s.fluid.dfsph.relaxation; })
           .unit("1").greaterThan(0).atMost(1)
           .doc("Jacobi relaxation omega of the pressure updates (the reference implementation's 0.5)"));

@@ -283,6 +283,59 @@ __kernel void dfsph_source(const SimParams p, __global const float4* pos, __glob
   xt[i] = (float4)(pos[i].xyz, p0 / (delta * delta)); /* position and p / delta^2 (dfsph_force) */
 }
 
+/* Filtered warm start of the density solve (fluid.dfsph.warm_smoothing = beta > 0; session 28):
+ *     p_i <- max(p_i + beta sum_j W_ij (p_j - p_i - rho_ij g . (x_j - x_i)) / sum_j W_ij, 0),
+ * j over i's fluid neighbours and i itself (W(0), a zero term), rho_ij = (rho0_i + rho0_j) / 2 the
+ * phases' rest densities. It is a Shepard average (a partition of unity: constants kept exactly) of
+ * the last pressure minus its hydrostatic part rho0 g . x, which is added back: a resting column's
+ * pressure rho0 g (H - z) passes unchanged, in the bulk, at walls and at the surface alike, and so
+ * does the smooth part of any pressure. What it takes out is the particle-scale part: the pressure
+ * a step left at one particle and not its neighbours, where the lattice has moved since. Restarted
+ * from in full, that part pushes each particle with the last step's error, a step late, and a calm
+ * tub with little viscosity kept moving (6 cm of water at rest: fastest particle 0.06-0.08 m/s and
+ * 15 density iterations per step over 2 s, against 0.01-0.02 m/s and 2 with beta = 0.5). The same
+ * part also stiffens the lattice against the pressure's own particle-scale modes, which the step
+ * integrates explicitly: with beta = 0.5 a 20 cm column at rest rings from dt sqrt(p / rho) / dx
+ * ~0.4 (0.9 without), so it is off by default (docs/dfsph.md, session 28). Reads the neighbours'
+ * pressures, writes `out` (not `pressure`). */
+__kernel void dfsph_warm_filter(const SimParams p, __global const float4* pos, __global const uint* phase,
+                                __global const uint* nbr, __global const uint* nbr_count,
+                                __global const float* pressure, const float beta, __global float* out) {
+  const uint i = get_global_id(0);
+  if (i >= p.n_fluid) return;
+  const float H = p.support;
+  const float3 xi = pos[i].xyz;
+  const float3 g = (float3)(p.gravity[0], p.gravity[1], p.gravity[2]);
+  const float half_inv_v = 0.5f / p.rest_volume; /* rho0 = phase mass / V0 */
+  const float ri = p.phase_mass[phase[i]] * half_inv_v;
+  const float pi = pressure[i];
+  const SphList list = sph_list(&p, nbr, i);
+  const uint nf = nbr_count[i];
+  /* neighbours eight at a time (shared/pair_loops.h), lanes summed in a fixed order, then the rest */
+  float8 sw = (float8)(0.0f), sq = sw;
+  uint k = 0;
+  for (; k + 8 <= nf; k += 8) {
+    const uint8 j = sph_list8(list, k);
+    SPH_LOAD8(x, pos, j);
+    const float8 dx = SPH_LANES8(x, x) - xi.x, dy = SPH_LANES8(x, y) - xi.y, dz = SPH_LANES8(x, z) - xi.z;
+    const float8 w = sph_w8(sqrt(dx * dx + dy * dy + dz * dz), H);
+    const float8 rj = (float8)(p.phase_mass[phase[j.s0]], p.phase_mass[phase[j.s1]], p.phase_mass[phase[j.s2]],
+                               p.phase_mass[phase[j.s3]], p.phase_mass[phase[j.s4]], p.phase_mass[phase[j.s5]],
+                               p.phase_mass[phase[j.s6]], p.phase_mass[phase[j.s7]]) * half_inv_v;
+    sw += w;
+    sq += w * (SPH_GATHER8(pressure, j) - pi - (ri + rj) * (g.x * dx + g.y * dy + g.z * dz));
+  }
+  float wsum = sph_hsum8(sw) + sph_w(SPH_KERNEL, 0.0f, H), qsum = sph_hsum8(sq);
+  for (; k < nf; ++k) {
+    const uint j = sph_list1(list, k);
+    const float3 d = pos[j].xyz - xi;
+    const float w = sph_w(SPH_KERNEL, length(d), H);
+    wsum += w;
+    qsum += w * (pressure[j] - pi - (ri + p.phase_mass[phase[j]] * half_inv_v) * dot(g, d));
+  }
+  out[i] = fmax(pi + beta * qsum / wsum, 0.0f);
+}
+
 /* The pressure force of the top of this file on particle i (unit: N), for the pressures `pr`.
  * Performance: the fluid neighbours' positions and p_j / delta_j^2 come packed in one float4 each,
  * xt_j = (x_j, p_j / delta_j^2) (written with the pressures by dfsph_source and dfsph_jacobi), one

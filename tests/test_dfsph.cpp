@@ -21,6 +21,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <sstream>
 
 using namespace sph;
 
@@ -389,6 +390,11 @@ TEST_CASE("DFSPH settings: bad values are reported at file:line:col", "[dfsph]")
   CHECK(testing::hasIssue(issues, 8, {"max_iterations", "min_iterations"}));
   issues = testing::issuesOf(dir, head + "    divergence_min_iterations: 4\n    divergence_max_iterations: 2\n");
   CHECK(testing::hasIssue(issues, 8, {"divergence_max_iterations"}));
+  // a warm-start filter outside [0, 1]
+  issues = testing::issuesOf(dir, head + "    warm_smoothing: 1.5\n");
+  CHECK(testing::hasIssue(issues, 7, {"warm_smoothing"}));
+  issues = testing::issuesOf(dir, head + "    warm_smoothing: -0.1\n");
+  CHECK(testing::hasIssue(issues, 7, {"warm_smoothing"}));
   // an unknown solver
   issues = testing::issuesOf(dir, "domain: {min: [0, 0, 0], max: [0.1, 0.1, 0.1]}\nfluid:\n  solver: iisph\n");
   CHECK(testing::hasIssue(issues, 3, {"iisph"}));
@@ -1231,6 +1237,70 @@ TEST_CASE("DFSPH: the pressure step bound (pressure_cfl 0.7) keeps a deep column
   CHECK(d.run.profile.steps_over_pressure_scale == 0);
   WARN("deep column with pressure_cfl 0.7: probe mean " << d.mean << ", deviation " << d.sd << ", " << d.run.profile.steps
                                                         << " steps, " << by_pressure << " set by the pressure bound");
+}
+
+/// The tub of scenes/tests/dfsph_tub_rest.yaml run with `sets`: each frame's fastest particle and
+/// root-mean-square speed, the fastest of all, and the run.
+struct TubAtRest {
+  app::RunResult run;
+  double fastest = 0;                            // (unit: m/s)
+  std::vector<double> frame_fastest, frame_rms;  // per frame (unit: m/s)
+  int frames = 0;
+};
+
+TubAtRest tubAtRest(std::vector<std::string> sets) {
+  TubAtRest t;
+  t.run = app::runScene(quietRun("dfsph_tub_rest.yaml", std::move(sets)), [&](Simulation& sim, const FrameReport&) {
+    const ParticleFrame f = sim.readFrame();
+    double fastest = 0, frame_v2 = 0;
+    for (std::size_t i = 0; i < f.size(); ++i) {
+      const double v2 = double(f.vx[i]) * f.vx[i] + double(f.vy[i]) * f.vy[i] + double(f.vz[i]) * f.vz[i];
+      fastest = std::max(fastest, std::sqrt(v2));
+      frame_v2 += v2;
+    }
+    t.fastest = std::max(t.fastest, fastest);
+    t.frame_fastest.push_back(fastest);
+    t.frame_rms.push_back(f.size() ? std::sqrt(frame_v2 / double(f.size())) : 0.0);
+    ++t.frames;
+  });
+  return t;
+}
+
+TEST_CASE("DFSPH filtered warm start: a settled tub of nearly inviscid water stays calm, in few iterations per step", "[dfsph][stability]") {
+  // scenes/tests/dfsph_tub_rest.yaml: the live stirring scene's tub (6 cm of water, dx = 1 cm, the
+  // artificial viscosity of haptic_stir_live.yaml) without its spoon, settled for 1 s before t = 0
+  // with its velocities then set to 0, and run 2 s at 5 ms steps with fluid.dfsph.warm_smoothing 0.5
+  // (the filtered warm start, kernels/dfsph.cl dfsph_warm_filter). Nothing drives it: its kinetic
+  // energy can only fall (viscosity takes it), so the mean square speed over the last half second is
+  // at most that over the first. No particle moves at a fifth of sqrt(g dx) = 0.31 m/s, the speed of
+  // the shortest surface wave the lattice carries (0.063 m/s). And the density solve at rest,
+  // warm-started from a pressure that already holds the column, has little to do: at most 4
+  // iterations per step on average (its minimum is 2). Measured: rms speed 0.0055 -> 0.0034 m/s
+  // from the first half second to the last, fastest 0.052 m/s (one frame; 0.015-0.03 in most), 2.04
+  // iterations per step. Mutation: the full last pressure as warm start (warm_smoothing 0, the
+  // default): rms 0.018 -> 0.019 m/s (it grows), fastest 0.099 m/s, 15.8 iterations per step: fails
+  // all three (docs/dfsph.md, session 28).
+  const TubAtRest t = tubAtRest({});
+  INFO(t.run.message);
+  REQUIRE(t.run.exit_code == 0);
+  REQUIRE(t.frames == 60);
+  const double its = double(t.run.profile.density_iterations) / double(t.run.profile.steps);
+  auto meanSquare = [&](std::size_t from, std::size_t to) {
+    double s2 = 0;
+    for (std::size_t k = from; k < to; ++k) s2 += t.frame_rms[k] * t.frame_rms[k];
+    return s2 / double(to - from);
+  };
+  const double first = meanSquare(0, 15), last = meanSquare(45, 60);
+  std::ostringstream series;
+  for (std::size_t k = 0; k < t.frame_fastest.size(); ++k) series << t.frame_fastest[k] << "/" << t.frame_rms[k] << " ";
+  INFO("rms speed over the first half second " << std::sqrt(first) << " m/s, over the last " << std::sqrt(last)
+       << " m/s; fastest particle " << t.fastest << " m/s; " << its << " density iterations per step over "
+       << t.run.profile.steps << " steps; per frame, fastest / rms (m/s): " << series.str());
+  CHECK(last <= first);
+  CHECK(t.fastest < 0.2 * std::sqrt(9.81 * 0.01));
+  CHECK(its <= 4.0);
+  WARN("dfsph tub at rest: rms speed " << std::sqrt(first) << " -> " << std::sqrt(last) << " m/s, fastest " << t.fastest << " m/s, " << its
+                                     << " density iterations per step");
 }
 
 TEST_CASE("DFSPH: a flow faster than twice its speed of sound stops at once with the reason (exit 4)", "[dfsph][stability]") {
