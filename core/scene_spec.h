@@ -139,9 +139,9 @@ struct DfsphSpec {
   /// the density solve's warm start filtered: the last pressure's particle-scale part (its deviation from
   /// the neighbours' Shepard average, hydrostatic part exact) scaled by 1 - beta. A calm shallow tub with
   /// little viscosity, restarted from the full pressure (0), kept moving at 7x the iterations; 0.5 calms
-  /// it, but lowers the step at which a deep column at rest rings (dt sqrt(p / rho) / dx ~0.9 -> ~0.4),
-  /// so 0 = off by default (kernels/dfsph.cl, dfsph_warm_filter; docs/dfsph.md, session 28); walls
-  /// single or extrapolated (unit: 1)
+  /// it, but a narrow column at rest can swing with it and a deep tank with a sinking ball blew up, so
+  /// 0 = off by default (kernels/dfsph.cl, dfsph_warm_filter; docs/dfsph.md, session 28); walls single or
+  /// extrapolated (unit: 1)
   double warm_smoothing = 0.0;
   double relaxation = 0.5;           ///< Jacobi relaxation omega of both solves' pressure increments (unit: 1)
   int coarse_interval = 4;           ///< two-level solve: a coarse-grid correction after the first iteration of the density solve at rest (and every n iterations after from coarse_rest_start while above its bound), and every n Jacobi iterations of a stalled solve from coarse_start (if > 0); 0 = off, plain Jacobi (kernels/dfsph_coarse.cl) (unit: 1)

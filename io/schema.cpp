@@ -458,10 +458,9 @@ std::vector<KeyDef> buildTable() {
                "particle-scale part, its deviation from the neighbours' Shepard average (the hydrostatic part kept "
                "exactly), scaled by 1 - beta. Restarted in full (0, the default), that part pushes each particle "
                "with the last step's error a step late: a calm shallow tub with little viscosity kept moving at 7x "
-               "the iterations, and 0.5 calms it (the live stirring tub 2.3x faster). But it lowers the step at "
-               "which a deep column at rest rings, dt sqrt(max p / rho) / dx ~0.9 -> ~0.4 (the run summary's "
-               "pressure ratio): for shallow scenes only (docs/dfsph.md, session 28)"));
-
+               "the iterations, and 0.5 calms it (the live stirring tub 1.7x faster, 2.1x with plain Jacobi). But "
+               "a narrow column at rest can swing with it (a tank 6 cm wide and 20 cm deep at 3.33 ms steps), and a "
+               "28 cm deep tank with a sinking ball blew up: for wide, shallow scenes only (docs/dfsph.md, session 28)"));
   add(field<InScene>("fluid.dfsph.relaxation", [](auto& s) -> auto& { return s.fluid.dfsph.relaxation; })
           .unit("1").greaterThan(0).atMost(1)
           .doc("Jacobi relaxation omega of the pressure updates (the reference implementation's 0.5)"));

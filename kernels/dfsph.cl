@@ -294,10 +294,11 @@ __kernel void dfsph_source(const SimParams p, __global const float4* pos, __glob
  * from in full, that part pushes each particle with the last step's error, a step late, and a calm
  * tub with little viscosity kept moving (6 cm of water at rest: fastest particle 0.06-0.08 m/s and
  * 15 density iterations per step over 2 s, against 0.01-0.02 m/s and 2 with beta = 0.5). The same
- * part also stiffens the lattice against the pressure's own particle-scale modes, which the step
- * integrates explicitly: with beta = 0.5 a 20 cm column at rest rings from dt sqrt(p / rho) / dx
- * ~0.4 (0.9 without), so it is off by default (docs/dfsph.md, session 28). Reads the neighbours'
- * pressures, writes `out` (not `pressure`). */
+ * part also holds something near close walls, most likely the lattice against the pressure's own
+ * particle-scale modes, which the step integrates explicitly: with beta = 0.5 a tank 6 cm wide and
+ * 20 cm deep swings at rest at 3.33 ms steps (calm at 2 ms, and calm 16 cm wide), and a 28 cm deep
+ * tank with a sinking ball blew up, so it is off by default (docs/dfsph.md, session 28). Reads the
+ * neighbours' pressures, writes `out` (not `pressure`). */
 __kernel void dfsph_warm_filter(const SimParams p, __global const float4* pos, __global const uint* phase,
                                 __global const uint* nbr, __global const uint* nbr_count,
                                 __global const float* pressure, const float beta, __global float* out) {
