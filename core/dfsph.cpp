@@ -62,6 +62,10 @@ DfsphSolver::DfsphSolver(ClContext& cl, KernelSet& kernels, std::size_t capacity
   pdens_ = makeBuffer(capacity * 4);
   scratch_a_ = makeBuffer(capacity * 4);
   scratch_b_ = makeBuffer(capacity * 4);
+  // The last density pressure, for a warm start averaged over two steps (warm_average > 0).
+  const std::size_t np = spec.warm_average > 0.0 ? capacity : 0;
+  previous_ = makeBuffer(np * 4);
+  previous_out_ = makeBuffer(np * 4);
   vel_before_ = makeBuffer(capacity * 16);
   // Extrapolated walls: each solve's wall pressures (the other variants need none).
   const std::size_t nb = spec.walls == DfsphWalls::Extrapolated ? boundary : 0;
@@ -118,6 +122,10 @@ void DfsphSolver::reorder(std::size_t n, const cl::Buffer& sorted) {
   kernels_.call("dfsph_reorder", n, kLocal, static_cast<uint32_t>(n), sorted, pdiv_, pdens_, scratch_a_, scratch_b_);
   std::swap(pdiv_, scratch_a_);
   std::swap(pdens_, scratch_b_);
+  if (have_previous_) {
+    kernels_.call("dfsph_reorder_one", n, kLocal, static_cast<uint32_t>(n), sorted, previous_, previous_out_);
+    std::swap(previous_, previous_out_);
+  }
 }
 
 const cl::Buffer& DfsphSolver::stepPressure(std::size_t n) {
@@ -212,6 +220,20 @@ void DfsphSolver::source(Kind kind, const SimParams& p, const DfsphFields& f, cl
   // The divergence solve's density rate may be in source_ already (factors(), with the factor pass).
   const int rate_in_source = div && rate_in_source_ ? 1 : 0;
   rate_in_source_ = false;
+  // The density solve's warm start averaged over the last two steps (kernels/dfsph.cl,
+  // dfsph_warm_average): p <- p + gamma (p_prev - p), and p_prev <- the unaveraged p for the next step.
+  if (!div && spec_.warm_start && spec_.warm_average > 0.0 && p.n_fluid > 0) {
+    const std::size_t bytes = std::size_t(p.n_fluid) * 4;
+    clCall("keeping the last density pressure", [&] {
+      auto& q = cl_.queue();
+      if (!have_previous_) q.enqueueCopyBuffer(pressure, previous_, 0, 0, bytes);  // the first step: p itself
+      return q.enqueueCopyBuffer(pressure, previous_out_, 0, 0, bytes);
+    });
+    have_previous_ = true;
+    kernels_.call("dfsph_warm_average", p.n_fluid, kLocal, static_cast<uint32_t>(p.n_fluid), pressure, previous_,
+                  static_cast<float>(spec_.warm_average));
+    std::swap(previous_, previous_out_);
+  }
   // The density solve's warm start filtered (kernels/dfsph.cl, dfsph_warm_filter): the last pressure
   // less beta of its particle-scale part. scratch_b_ is free here (a reorder target only).
   if (!div && spec_.warm_start && spec_.warm_smoothing > 0.0 && p.n_fluid > 0) {

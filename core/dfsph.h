@@ -217,6 +217,10 @@ class DfsphSolver {
   cl::Buffer wall_weight_, wall_sum_;
   uint32_t n_wall_active_ = 0;
   cl::Buffer scratch_a_, scratch_b_;       // reorder targets (swapped with pdiv_, pdens_); mirrored: a holds the previous pressure in a warm start
+  // warm_average > 0: the last step's density pressure before its averaged warm start (n), and its
+  // reorder / copy target; set once the first density solve has run.
+  cl::Buffer previous_, previous_out_;
+  bool have_previous_ = false;
   // Coarse-grid correction (coarse_interval > 0; kernels/dfsph_coarse.cl), all on the device. Per
   // particle (n): its aggregate cell, active flag, residual and the trial's (unit: 1), its
   // aggregate number (-1: none), per aggregate slot F and R (n x 27 x 2 float4) with their

@@ -139,10 +139,17 @@ struct DfsphSpec {
   /// the density solve's warm start filtered: the last pressure's particle-scale part (its deviation from
   /// the neighbours' Shepard average, hydrostatic part exact) scaled by 1 - beta. A calm shallow tub with
   /// little viscosity, restarted from the full pressure (0), kept moving at 7x the iterations; 0.5 calms
-  /// it, but a narrow column at rest can swing with it and a deep tank with a sinking ball blew up, so
-  /// 0 = off by default (kernels/dfsph.cl, dfsph_warm_filter; docs/dfsph.md, session 28); walls single or
-  /// extrapolated (unit: 1)
+  /// it, but alone a narrow column at rest can swing with it and a deep tank with a sinking ball blew up
+  /// (with warm_average 0.5 both stay stable); neighbours of the same phase only. 0 = off by default: it
+  /// costs iterations at tight density bounds (kernels/dfsph.cl, dfsph_warm_filter; docs/dfsph.md, sessions
+  /// 28 and 29); walls single or extrapolated (unit: 1)
   double warm_smoothing = 0.0;
+  /// the density solve's warm start averaged over two steps: p + gamma (p_prev - p), p the last step's
+  /// pressure and p_prev the one before. The part the last solve added for its own step's error, which a
+  /// full restart applies twice, enters at 1 - gamma; what every step needs (a column's weight, a body at
+  /// rest) is in both. 0 = the last pressure alone (kernels/dfsph.cl, dfsph_warm_average; docs/dfsph.md,
+  /// session 29); walls single or extrapolated (unit: 1)
+  double warm_average = 0.0;
   double relaxation = 0.5;           ///< Jacobi relaxation omega of both solves' pressure increments (unit: 1)
   int coarse_interval = 4;           ///< two-level solve: a coarse-grid correction after the first iteration of the density solve at rest (and every n iterations after from coarse_rest_start while above its bound), and every n Jacobi iterations of a stalled solve from coarse_start (if > 0); 0 = off, plain Jacobi (kernels/dfsph_coarse.cl) (unit: 1)
   int coarse_start = 0;              ///< two-level solve: a solve still above its bound after k0 iterations takes a correction then and every coarse_interval after; 0 = never (unit: 1)

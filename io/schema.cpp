@@ -458,9 +458,19 @@ std::vector<KeyDef> buildTable() {
                "particle-scale part, its deviation from the neighbours' Shepard average (the hydrostatic part kept "
                "exactly), scaled by 1 - beta. Restarted in full (0, the default), that part pushes each particle "
                "with the last step's error a step late: a calm shallow tub with little viscosity kept moving at 7x "
-               "the iterations, and 0.5 calms it (the live stirring tub 1.7x faster, 2.1x with plain Jacobi). But "
-               "a narrow column at rest can swing with it (a tank 6 cm wide and 20 cm deep at 3.33 ms steps), and a "
-               "28 cm deep tank with a sinking ball blew up: for wide, shallow scenes only (docs/dfsph.md, session 28)"));
+               "the iterations, and 0.5 calms it (the live stirring tub 1.7x faster, 2.1x with plain Jacobi). Alone "
+               "it let a narrow column at rest swing (a tank 6 cm wide and 20 cm deep at 3.33 ms steps) and a 28 cm "
+               "deep tank with a sinking ball blow up at the ball's landing; with warm_average 0.5 both stay stable. "
+               "Neighbours of the same phase only. Off by default: at tight density bounds it costs iterations "
+               "(docs/dfsph.md, sessions 28 and 29)"));
+  add(field<InScene>("fluid.dfsph.warm_average", [](auto& s) -> auto& { return s.fluid.dfsph.warm_average; })
+          .unit("1").atLeast(0).atMost(1)
+          .doc("the density solve's warm start (walls single or extrapolated) averaged over the last two steps: "
+               "p + gamma (p_prev - p). What the last solve added for its own step's error, which a full restart "
+               "applies a second time, enters at 1 - gamma; what every step needs (a column's weight, a body at "
+               "rest) is in both steps. With warm_smoothing 0.5 it keeps the narrow tank and the sinking ball's "
+               "landing stable where warm_smoothing alone did not (docs/dfsph.md, session 29); 0 = the last "
+               "pressure alone"));
   add(field<InScene>("fluid.dfsph.relaxation", [](auto& s) -> auto& { return s.fluid.dfsph.relaxation; })
           .unit("1").greaterThan(0).atMost(1)
           .doc("Jacobi relaxation omega of the pressure updates (the reference implementation's 0.5)"));

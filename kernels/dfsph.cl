@@ -285,8 +285,8 @@ __kernel void dfsph_source(const SimParams p, __global const float4* pos, __glob
 
 /* Filtered warm start of the density solve (fluid.dfsph.warm_smoothing = beta > 0; session 28):
  *     p_i <- max(p_i + beta sum_j W_ij (p_j - p_i - rho_ij g . (x_j - x_i)) / sum_j W_ij, 0),
- * j over i's fluid neighbours and i itself (W(0), a zero term), rho_ij = (rho0_i + rho0_j) / 2 the
- * phases' rest densities. It is a Shepard average (a partition of unity: constants kept exactly) of
+ * j over i's fluid neighbours of i's own phase and i itself (W(0), a zero term; across an interface
+ * the mean density below would not give the hydrostatic jump), rho_ij = (rho0_i + rho0_j) / 2. It is a Shepard average (a partition of unity: constants kept exactly) of
  * the last pressure minus its hydrostatic part rho0 g . x, which is added back: a resting column's
  * pressure rho0 g (H - z) passes unchanged, in the bulk, at walls and at the surface alike, and so
  * does the smooth part of any pressure. What it takes out is the particle-scale part: the pressure
@@ -297,8 +297,10 @@ __kernel void dfsph_source(const SimParams p, __global const float4* pos, __glob
  * part also holds something near close walls, most likely the lattice against the pressure's own
  * particle-scale modes, which the step integrates explicitly: with beta = 0.5 a tank 6 cm wide and
  * 20 cm deep swings at rest at 3.33 ms steps (calm at 2 ms, and calm 16 cm wide), and a 28 cm deep
- * tank with a sinking ball blew up, so it is off by default (docs/dfsph.md, session 28). Reads the
- * neighbours' pressures, writes `out` (not `pressure`). */
+ * tank with a sinking ball blew up (docs/dfsph.md, session 28). With the warm start averaged over two
+ * steps first (dfsph_warm_average, warm_average 0.5) both stay stable (session 29). Off by default:
+ * at tight density bounds the pair costs iterations. Reads the neighbours' pressures, writes `out`
+ * (not `pressure`). */
 __kernel void dfsph_warm_filter(const SimParams p, __global const float4* pos, __global const uint* phase,
                                 __global const uint* nbr, __global const uint* nbr_count,
                                 __global const float* pressure, const float beta, __global float* out) {
@@ -323,16 +325,18 @@ __kernel void dfsph_warm_filter(const SimParams p, __global const float4* pos, _
     const float8 rj = (float8)(p.phase_mass[phase[j.s0]], p.phase_mass[phase[j.s1]], p.phase_mass[phase[j.s2]],
                                p.phase_mass[phase[j.s3]], p.phase_mass[phase[j.s4]], p.phase_mass[phase[j.s5]],
                                p.phase_mass[phase[j.s6]], p.phase_mass[phase[j.s7]]) * half_inv_v;
-    sw += w;
-    sq += w * (SPH_GATHER8(pressure, j) - pi - (ri + rj) * (g.x * dx + g.y * dy + g.z * dz));
+    const float8 ws = select((float8)(0.0f), w, isequal(rj, (float8)(ri)));
+    sw += ws;
+    sq += ws * (SPH_GATHER8(pressure, j) - pi - (ri + rj) * (g.x * dx + g.y * dy + g.z * dz));
   }
   float wsum = sph_hsum8(sw) + sph_w(SPH_KERNEL, 0.0f, H), qsum = sph_hsum8(sq);
   for (; k < nf; ++k) {
     const uint j = sph_list1(list, k);
     const float3 d = pos[j].xyz - xi;
-    const float w = sph_w(SPH_KERNEL, length(d), H);
+    const float rj = p.phase_mass[phase[j]] * half_inv_v;
+    const float w = rj == ri ? sph_w(SPH_KERNEL, length(d), H) : 0.0f;
     wsum += w;
-    qsum += w * (pressure[j] - pi - (ri + p.phase_mass[phase[j]] * half_inv_v) * dot(g, d));
+    qsum += w * (pressure[j] - pi - (ri + rj) * dot(g, d));
   }
   out[i] = fmax(pi + beta * qsum / wsum, 0.0f);
 }
@@ -709,6 +713,26 @@ __kernel void dfsph_reorder(const uint n, __global const uint* sorted, __global 
   const uint j = sorted[s];
   a_out[s] = a[j];
   b_out[s] = b[j];
+}
+
+/* One buffer's values follow their particles (the last density pressure of warm_average). */
+__kernel void dfsph_reorder_one(const uint n, __global const uint* sorted, __global const float* a,
+                                __global float* a_out) {
+  const uint s = get_global_id(0);
+  if (s >= n) return;
+  a_out[s] = a[sorted[s]];
+}
+
+/* The density solve's warm start averaged over the last two steps (fluid.dfsph.warm_average,
+ * docs/dfsph.md session 29): p_i <- p_i + gamma (p_prev_i - p_i), p the last step's pressure and
+ * p_prev the one before. What the last solve added to correct that step's own error, a push that
+ * restarted in full is applied twice, enters at 1 - gamma; what the column's weight or a body
+ * resting on the water needs in every step is in both and passes unchanged. */
+__kernel void dfsph_warm_average(const uint n, __global float* pressure, __global const float* previous,
+                                 const float gamma) {
+  const uint i = get_global_id(0);
+  if (i >= n) return;
+  pressure[i] += gamma * (previous[i] - pressure[i]);
 }
 
 /* Extrapolated walls: the wall pressures of the two solves add up (both are linear in the fluid's
