@@ -100,6 +100,10 @@ DfsphSolver::DfsphSolver(ClContext& cl, KernelSet& kernels, std::size_t capacity
     auto& q = cl_.queue();
     for (cl::Buffer* b : {&pdiv_, &pdens_, &scratch_a_, &scratch_b_})
       q.enqueueFillBuffer(*b, 0.0f, 0, std::max<std::size_t>(capacity, 4) * 4);
+    // warm_average's last pressures too: a particle an inflow emits later averages with 0, not with
+    // whatever the buffer held (a bowl filled by an inflow blew up at 0.03 s before this; session 29)
+    if (spec.warm_average > 0.0)
+      for (cl::Buffer* b : {&previous_, &previous_out_}) q.enqueueFillBuffer(*b, 0.0f, 0, std::max<std::size_t>(capacity, 4) * 4);
     return q.finish();
   });
 }
