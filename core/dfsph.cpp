@@ -23,6 +23,19 @@ static constexpr std::size_t kLocal = 64;
 // closed walls' non-penetration contact below (kWallGap) holds those.
 static constexpr float kWallContactStiffness = 0.3f;  ///< dt^2 k_w / dx (unit: 1)
 static constexpr float kWallContactRange = 0.75f;     ///< r0 / dx (unit: 1)
+// Static rigid bodies (session 30). Their surface is one sampled layer of particles, irregular
+// (rigid::sampleSurface), with points of the surface up to ~0.75 dx from every particle. With the
+// walls' contact (r0 = 0.75 dx) and nothing else, water at rest in scenes/demo_painting.yaml crept
+// through such a hole into the tray's wall (a static box 2 cm thick) from t = 0.11 s, 1 cm deep by
+// 0.19 s and 9 particles by 0.5 s; the density solve then diverged about them (their factor 20x their
+// neighbours'), and the run blew up at 0.544 s (session 29 had blamed the brush's spin-up there). So
+// the contact reaches dx at a body's particles, as WCSPH's does at walls and static bodies
+// (shared/pair_loops.h), and after the density solve the body's surface is a unilateral contact as
+// the closed walls are (dfsph_surface_impulse, the gap below). With the wider contact alone the run
+// went on but the stirring still pushed 3 particles through by 1.1 s. The lattice walls keep 0.75 dx
+// (a fluid at rest sits dx from them, and dx there moved the calm tank's probes, above).
+static constexpr float kSampledContactRange = 1.0f;   ///< r0 / dx at a static body's particles (unit: 1)
+static constexpr float kSurfaceGap = 0.25f;           ///< gap / dx from a static body's surface (unit: 1), as kWallGap
 // Extrapolated walls' non-penetration (kernels/dfsph.cl, dfsph_wall_impulse): no particle centre
 // comes closer than this to a closed domain wall's plane. A quarter spacing: the first layer of a
 // fluid at rest sits dx/2 from the plane (its centre dx from the wall particles), so the contact
@@ -507,8 +520,9 @@ DfsphSolveResult DfsphSolver::densitySolve(const SimParams& p, const DfsphFields
   // v* = v + dt a; with extrapolated walls a takes the contact with the walls for the particles
   // the solve leaves without pressure first (kernels/dfsph.cl, dfsph_wall_contact_accel).
   const int contact = extrapolated() && f.n_boundary > 0 ? 1 : 0;
-  kernels_.call("dfsph_predict", p.n_fluid, kLocal, p, *f.vel, *f.acc, contact, *f.pos, *f.bpos, *f.bvel, *f.sbnbr,
-                *f.sbnbr_count, kWallContactStiffness, kWallContactRange);
+  kernels_.call("dfsph_predict", p.n_fluid, kLocal, p, *f.vel, *f.acc, contact, *f.pos, *f.bpos, *f.bvel, *f.bnormal,
+                *f.sbnbr, *f.sbnbr_count, kWallContactStiffness, kWallContactRange, kSampledContactRange,
+                f.n_sampled > 0 ? 1 : 0);
   // Cloth nodes: the density solve must see them move as the step will move them, as it sees the
   // fluid at v* (kernels/dfsph.cl, dfsph_node_rate): its density rate takes the walls' part from
   // gwall.w (factors()), which gains dt sum_b psi_b a_b . gradW_ib, a_b the divergence solve's
@@ -539,6 +553,10 @@ DfsphSolveResult DfsphSolver::densitySolve(const SimParams& p, const DfsphFields
   // closed wall's plane (kernels/dfsph.cl, dfsph_wall_impulse: an inelastic contact).
   if (extrapolated() && p.closed_mask != 0)
     kernels_.call("dfsph_wall_impulse", p.n_fluid, kLocal, p, *f.pos, *f.vel, static_cast<float>(kWallGap * dx_));
+  // and no closer than the gap to a static body's surface (dfsph_surface_impulse)
+  if (extrapolated() && f.n_sampled > 0)
+    kernels_.call("dfsph_surface_impulse", p.n_fluid, kLocal, p, *f.pos, *f.vel, *f.bpos, *f.bnormal, *f.sbnbr,
+                  *f.sbnbr_count, static_cast<float>(kSurfaceGap * dx_));
   return r;
 }
 

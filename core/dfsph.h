@@ -42,6 +42,8 @@ struct DfsphFields {
   const cl::Buffer* snbr_count = nullptr;
   const cl::Buffer* bpos = nullptr;       ///< boundary particles: xyz (unit: m), w = V_b / V0
   const cl::Buffer* bvel = nullptr;       ///< boundary particles' velocities (unit: m/s)
+  const cl::Buffer* bnormal = nullptr;    ///< boundary particles: a static body's outward normal, w = 1; else 0 (Model::boundary_normal)
+  uint32_t n_sampled = 0;                 ///< static boundary particles on a body's sampled layer (bnormal.w = 1)
   const cl::Buffer* sbnbr = nullptr;      ///< this step's boundary neighbours within H
   const cl::Buffer* sbnbr_count = nullptr;
   cl::Buffer* pressure = nullptr;         ///< (n) written by finish: density-solve pressure (unit: Pa)

@@ -602,6 +602,7 @@ Compiled compile(const SceneSpec& spec, const ResourceLimits& limits) {
     std::vector<Eigen::Vector3f> normals;
     body.particles = rigid::sampleSurface(body.mesh, m.dx, &normals);
     for (std::size_t i = 0; i < body.particles.size(); ++i) body.particles[i] -= 0.5f * static_cast<float>(m.dx) * normals[i];
+    body.normals = std::move(normals);
     // Akinci et al. 2012 eq. 4 over the body's own particles: a single sampled layer gets the
     // volume of the missing ones; scaled so that a flat face weighs what a domain wall weighs
     // (bodyVolumeScale: 1 / 1.41 for the cubic spline at H = 2 dx).
@@ -858,6 +859,7 @@ Compiled compile(const SceneSpec& spec, const ResourceLimits& limits) {
     const bool complete = layers >= static_cast<int>(std::ceil(sim.support_ratio - 1e-9));
     std::vector<float> vol = complete ? std::vector<float>(pts.size(), static_cast<float>(V0))
                                       : akinciVolumes(pts, static_cast<float>(m.support), kernel);
+    std::vector<Eigen::Vector4f> normal(pts.size(), Eigen::Vector4f::Zero());  // none on the lattice
     if (!complete)
       m.notes.push_back("boundary: " + std::to_string(layers) + " layer(s) for a support of " +
                         fmt(sim.support_ratio) + " dx: Akinci volumes compensate the missing layers");
@@ -869,6 +871,8 @@ Compiled compile(const SceneSpec& spec, const ResourceLimits& limits) {
       for (std::size_t i = 0; i < body.particles.size(); ++i) {
         pts.push_back(s0.toWorld(body.particles[i].cast<double>()).cast<float>());
         vol.push_back(static_cast<float>(body.volumes[i] * V0));
+        const Eigen::Vector3f nw = (s0.q * body.normals[i].cast<double>()).cast<float>();
+        normal.emplace_back(nw.x(), nw.y(), nw.z(), 1.0f);
       }
     }
     // Sort by cell (stable: ties keep lattice order) and build the cell start table.
@@ -882,9 +886,11 @@ Compiled compile(const SceneSpec& spec, const ResourceLimits& limits) {
     const std::size_t num_cells = static_cast<std::size_t>(cells);
     std::vector<uint32_t> count(num_cells + 1, 0);
     m.boundary.reserve(pts.size());
+    m.boundary_normal.reserve(pts.size());
     for (auto& [cell, i] : keyed) {
       const Eigen::Vector3f& p = pts[i];
       m.boundary.emplace_back(p.x(), p.y(), p.z(), static_cast<float>(vol[i] / V0));
+      m.boundary_normal.push_back(normal[i]);
       ++count[cell];
     }
     m.boundary_cell_start.assign(num_cells + 1, 0);

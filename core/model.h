@@ -65,6 +65,10 @@ struct Model {
   /// Static boundary particles (closed walls and static rigid bodies), sorted by grid cell: xyz (unit: m), w = V_b / V0 (Akinci 2012 volume).
   std::vector<Eigen::Vector4f> boundary;
   std::vector<uint32_t> boundary_cell_start;  ///< num_cells + 1 entries
+  /// Per `boundary` particle: on a static rigid body's sampled surface (one irregular layer) its
+  /// outward unit normal, w = 1 (DFSPH's contact and non-penetration there: kernels/dfsph.cl,
+  /// dfsph_wall_contact_accel and dfsph_surface_impulse); zero on the closed walls' lattice.
+  std::vector<Eigen::Vector4f> boundary_normal;
 
   /// Rigid bodies (scene order). Static bodies' particles are also part of `boundary` above.
   std::vector<rigid::RigidBody> bodies;

@@ -91,6 +91,7 @@ struct RigidBody {
   Eigen::Matrix3d inv_inertia = Eigen::Matrix3d::Zero();  ///< its inverse (unit: 1/(kg m^2))
   Eigen::Vector3d origin_offset = Eigen::Vector3d::Zero(); ///< scene origin of the shape in the body frame (unit: m)
   std::vector<Eigen::Vector3f> particles; ///< boundary particles, body frame (unit: m)
+  std::vector<Eigen::Vector3f> normals;   ///< each particle's outward surface normal, body frame (unit: 1)
   std::vector<float> volumes;             ///< Akinci 2012 volume / dx^3 of each particle (unit: 1)
 };
 

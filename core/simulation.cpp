@@ -105,6 +105,11 @@ Simulation::Simulation(const Model& model, const HostParticles& initial, ClConte
   const std::size_t n_bnd = n_static_ + n_moving_ + n_cloth_;
   bpos_ = makeBuffer(n_bnd * 16);
   bvel_ = makeBuffer(n_bnd * 16);       // zero for static particles
+  // Static bodies' sampled layers: their outward normals (Model::boundary_normal), for DFSPH's contact
+  // and non-penetration there (kernels/dfsph.cl); a placeholder without any.
+  n_sampled_ = 0;
+  for (const Eigen::Vector4f& nrm : model_.boundary_normal) n_sampled_ += nrm.w() > 0.0f ? 1u : 0u;
+  bnormal_ = makeBuffer(n_sampled_ > 0 ? n_bnd * 16 : 16);
   bpressure_ = makeBuffer(n_bnd * 4);   // Adami 2012 wall pressure (pressure.cl)
   bmark_ = makeBuffer(n_bnd * 4);       // stamp of the last step a fluid particle saw it
   if (model_.ghost_velocity_mode) bghost_ = makeBuffer(n_bnd * 16);  // no-slip ghost velocities (viscosity.cl)
@@ -117,6 +122,7 @@ Simulation::Simulation(const Model& model, const HostParticles& initial, ClConte
 
   if (n_moving_ + n_cloth_ > 0) {
     bsrc_ = makeBuffer(n_bnd * 16);
+    if (n_sampled_ > 0) bnormal_src_ = makeBuffer(n_static_ * 16);  // the static particles' normals, source order
     blocal_ = makeBuffer(n_moving_ * 16);
     bbody_ = makeBuffer(n_moving_ * 4);
     bslot_ = makeBuffer(n_bnd * 4);
@@ -138,8 +144,15 @@ Simulation::Simulation(const Model& model, const HostParticles& initial, ClConte
       q.enqueueFillBuffer(bvel_, zero4, 0, n_bnd * 16);
       q.enqueueFillBuffer(bmark_, uint32_t(0), 0, n_bnd * 4);
     }
-    if (!model_.boundary.empty())
+    if (!model_.boundary.empty()) {
       q.enqueueWriteBuffer(bpos_, CL_TRUE, 0, model_.boundary.size() * 16, model_.boundary.data());
+      if (n_sampled_ > 0) {
+        q.enqueueFillBuffer(bnormal_, cl_float4{}, 0, n_bnd * 16);
+        q.enqueueWriteBuffer(bnormal_, CL_TRUE, 0, model_.boundary.size() * 16, model_.boundary_normal.data());
+        if (n_moving_ + n_cloth_ > 0)
+          q.enqueueWriteBuffer(bnormal_src_, CL_TRUE, 0, model_.boundary.size() * 16, model_.boundary_normal.data());
+      }
+    }
     q.enqueueWriteBuffer(bcell_start_, CL_TRUE, 0, (cells + 1) * 4, model_.boundary_cell_start.data());
     if (n_moving_ + n_cloth_ > 0) {
       // Until the first sort the moving particles sit unsorted after the static ones, outside
@@ -744,6 +757,8 @@ DfsphFields Simulation::dfsphFields() {
   f.snbr_count = &snbr_count_;
   f.bpos = &bpos_;
   f.bvel = &bvel_;
+  f.bnormal = &bnormal_;
+  f.n_sampled = n_sampled_;
   f.sbnbr = &sbnbr_;
   f.sbnbr_count = &sbnbr_count_;
   f.pressure = &pressure_;
@@ -912,6 +927,8 @@ void Simulation::sortBoundary() {
   // before issue 15 the velocities kept the old order for one step after each sort).
   kernels_.call("rigid_boundary_reorder", pb.n_fluid, kLocal, pb.n_fluid, n_static_, n_moving_, bsorted_, bsrc_, blocal_,
                 bbody_, bpose_, bpos_, bvel_, bslot_);
+  if (n_sampled_ > 0)  // the static bodies' normals in the new order (zero on every other particle)
+    kernels_.call("boundary_reorder_static", pb.n_fluid, kLocal, pb.n_fluid, n_static_, bsorted_, bnormal_src_, bnormal_);
   // The cloth nodes' velocities in the new order.
   if (on(Stage::ClothCoupling)) kernels_.call("cloth_to_boundary", n_cloth_, kLocal, n_cloth_, n_static_ + n_moving_, cloth_->positions(), cloth_->velocities(), cloth_volume_, bslot_, bsrc_, bpos_, bvel_, max_speed_);
 }

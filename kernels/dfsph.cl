@@ -601,31 +601,41 @@ __kernel void dfsph_reduce(const uint n, const uint chunk, __global const float*
  * on any particle closer than r0 to a wall particle (at rest none is: they sit dx away), whatever
  * its pressure. Walls only (bvel.w = 0; also cloth nodes, when cloth runs with DFSPH): bodies keep
  * the solver's coupling, so Newton's third law with the rigid coupling (rigid.cl) is unchanged.
+ * A static rigid body's sampled layer (bnormal.w = 1; read only when `sampled`: without static
+ * bodies bnormal is a placeholder) takes it too, over the wider `sampled_range`
+ * dx, as WCSPH's contact does (shared/pair_loops.h, sph_boundary_contact): that layer is one
+ * particle thick and sampled irregularly (rigid::sampleSurface), so points of its surface lie up to
+ * ~0.75 dx from every particle (core/dfsph.cpp, kSampledContactRange; dfsph_surface_impulse below
+ * says what went wrong there).
  * Added to the non-pressure accelerations in the prediction before the density solve (dfsph_predict,
  * `contact`: one pass fewer than a kernel of its own). */
 inline float3 dfsph_wall_contact_accel(const SimParams* p, const uint i, __global const float4* pos,
                                        __global const float4* bpos, __global const float4* bvel,
-                                       __global const uint* bnbr, __global const uint* bnbr_count,
-                                       const float stiffness, const float range) {
+                                       __global const float4* bnormal, __global const uint* bnbr,
+                                       __global const uint* bnbr_count, const float stiffness, const float range,
+                                       const float sampled_range, const int sampled) {
   /* no wall particle within H: no contact (and no cube root, which cost as much as the loop) */
   const uint nb = bnbr_count[i];
   if (nb == 0) return (float3)(0.0f);
   const float dx = cbrt(p->rest_volume); /* (unit: m) */
-  const float r0 = range * dx;                      /* (unit: m) */
+  const float r_wall = range * dx;                  /* (unit: m) */
+  const float r_sampled = sampled_range * dx;       /* (unit: m) */
   const float k = stiffness * dx / (p->dt * p->dt); /* (unit: m/s^2) */
   const float3 xi = pos[i].xyz;
   __global const uint* list = bnbr + (size_t)i * p->max_neighbours;
-  /* a squared distance just above r0^2 (the 1 % margin covers length()'s rounding) screens out
-   * the wall particles beyond r0 (most of those within H) before the square root and the body
-   * check; the pairs inside are computed as before */
-  const float r0_screen = 1.01f * 1.01f * r0 * r0; /* (unit: m^2) */
+  /* a squared distance just above the larger range's square (the 1 % margin covers length()'s
+   * rounding) screens out the boundary particles beyond it (most of those within H) before the
+   * square root and the kind check; the pairs inside are computed as before */
+  const float r_max = sampled ? fmax(r_wall, r_sampled) : r_wall;
+  const float r0_screen = 1.01f * 1.01f * r_max * r_max; /* (unit: m^2) */
   float3 a = (float3)(0.0f);
   for (uint m = 0; m < nb; ++m) {
     const uint b = list[m];
     const float4 bb = bpos[b];
     const float3 d = xi - bb.xyz;
     if (dot(d, d) >= r0_screen) continue;
-    if (bvel[b].w > 0.5f) continue; /* a body's particle */
+    if (bvel[b].w > 0.5f) continue; /* a moving body's particle */
+    const float r0 = sampled && bnormal[b].w > 0.0f ? r_sampled : r_wall;
     const float r = length(d);
     if (r < r0 && r > 1e-6f * dx) a += bb.w * k * (1.0f - r / r0) / r * d;
   }
@@ -637,13 +647,13 @@ inline float3 dfsph_wall_contact_accel(const SimParams* p, const uint i, __globa
  * nothing after the solve. */
 __kernel void dfsph_predict(const SimParams p, __global float4* vel, __global float4* acc, const int contact,
                             __global const float4* pos, __global const float4* bpos, __global const float4* bvel,
-                            __global const uint* bnbr, __global const uint* bnbr_count, const float stiffness,
-                            const float range) {
+                            __global const float4* bnormal, __global const uint* bnbr, __global const uint* bnbr_count,
+                            const float stiffness, const float range, const float sampled_range, const int sampled) {
   const uint i = get_global_id(0);
   if (i >= p.n_fluid) return;
   float4 a = acc[i];
   /* extrapolated walls (contact): the wall contact first (dfsph_wall_contact_accel, above) */
-  if (contact) a += (float4)(dfsph_wall_contact_accel(&p, i, pos, bpos, bvel, bnbr, bnbr_count, stiffness, range), 0.0f);
+  if (contact) a += (float4)(dfsph_wall_contact_accel(&p, i, pos, bpos, bvel, bnormal, bnbr, bnbr_count, stiffness, range, sampled_range, sampled), 0.0f);
   vel[i] += p.dt * a;
   acc[i] = (float4)(0.0f);
 }
@@ -681,6 +691,56 @@ __kernel void dfsph_wall_impulse(const SimParams p, __global const float4* pos, 
     if ((p.closed_mask >> (2 * a + 1)) & 1u) v[a] = fmin(v[a], fmax((p.domain_max[a] - gap - x[a]) / p.dt, 0.0f));
   }
   vel[i] = (float4)(v[0], v[1], v[2], v4.w);
+}
+
+/* Extrapolated walls: a static rigid body's surface as a unilateral contact, as dfsph_wall_impulse
+ * makes the closed walls one: the velocity the integrator moves a particle with never brings its
+ * centre closer than `gap` to the surface,
+ *     v_n >= min((gap - x_n) / dt, 0),   x_n = n_b . (x_i - x_b) - dx/2,
+ * with n_b the outward normal of the body's particle b nearest to i among those i is in front of
+ * (n_b . (x_i - x_b) >= 0; the sampled layer lies dx/2 inside the surface: core/model.cpp) and x_n the
+ * distance from the surface's plane there; the tangential velocity is kept. (In front only: in a body
+ * thinner than dx the two faces' layers cross, and the other face's particle would hold i back from
+ * leaving; a particle behind every layer, inside a body, is left alone.) Why: a body's one sampled layer has holes (points of its surface up to
+ * ~0.75 dx from every particle), and a particle that reached the layer's plane in one felt no push
+ * back (the pressure and contact forces of a layer are tangential in its own plane). In
+ * scenes/demo_painting.yaml with DFSPH, water at rest crept through the tray's wall face from
+ * t = 0.11 s; the density solve diverged about the particles inside (their factor 20x their
+ * neighbours'), and the run blew up at 0.544 s; with the wider contact alone (r0 = dx) the stirring
+ * still pushed 3 particles through by 1.1 s (core/dfsph.cpp, kSurfaceGap). The nearest particle's
+ * plane is the surface's within the sampling (exact on a flat face; on a curved one of radius R
+ * off by ~dx^2 / R); it never pushes a particle out, so it adds no energy. A static body does not
+ * move, so no reaction is owed. Moving bodies keep the solver's coupling
+ * (their momentum balance with the fluid is the rigid coupling's). */
+__kernel void dfsph_surface_impulse(const SimParams p, __global const float4* pos, __global float4* vel,
+                                    __global const float4* bpos, __global const float4* bnormal,
+                                    __global const uint* bnbr, __global const uint* bnbr_count, const float gap) {
+  const uint i = get_global_id(0);
+  if (i >= p.n_fluid) return;
+  const uint nb = bnbr_count[i];
+  if (nb == 0) return;
+  const float3 xi = pos[i].xyz;
+  __global const uint* list = bnbr + (size_t)i * p.max_neighbours;
+  float best = INFINITY;
+  uint nearest = 0;
+  for (uint m = 0; m < nb; ++m) {
+    const uint b = list[m];
+    const float4 nb4 = bnormal[b];
+    if (nb4.w == 0.0f) continue; /* not a static body's particle */
+    const float3 d = xi - bpos[b].xyz;
+    if (dot(nb4.xyz, d) < 0.0f) continue; /* i is behind this particle's layer */
+    const float r2 = dot(d, d);
+    if (r2 < best) best = r2, nearest = b;
+  }
+  if (best == INFINITY) return;
+  const float dx = cbrt(p.rest_volume); /* (unit: m) */
+  const float3 n = bnormal[nearest].xyz;
+  const float xn = dot(n, xi - bpos[nearest].xyz) - 0.5f * dx; /* (unit: m) */
+  float4 v = vel[i];
+  const float vn = dot(v.xyz, n);
+  const float vmin = fmin((gap - xn) / p.dt, 0.0f);
+  if (vn < vmin) v.xyz += (vmin - vn) * n;
+  vel[i] = v;
 }
 
 /* After both solves: the pressure to export and what the rigid coupling reads, both of all the

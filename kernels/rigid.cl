@@ -66,6 +66,17 @@ __kernel void rigid_boundary_reorder(const uint n, const uint n_static, const ui
   bvel[s] = v;
 }
 
+/* A per-particle float4 of the static boundary particles (source order, src[k], k < n_static) into
+ * the sorted order of rigid_boundary_reorder; zero on the moving particles and cloth nodes. Used for
+ * the static bodies' surface normals (Model::boundary_normal). */
+__kernel void boundary_reorder_static(const uint n, const uint n_static, __global const uint* sorted,
+                                      __global const float4* src, __global float4* out) {
+  const uint s = get_global_id(0);
+  if (s >= n) return;
+  const uint k = sorted[s];
+  out[s] = k < n_static ? src[k] : (float4)(0.0f);
+}
+
 /* (2) Force of the fluid on each moving particle: the opposite of the boundary terms of
  * pressure.cl (with `mirror`, of dfsph.cl: 2 psi_b p_i / delta_i^2 gradW, no contact term) that
  * this particle b contributes to each fluid neighbour i within H:

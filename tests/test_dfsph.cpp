@@ -1421,3 +1421,43 @@ TEST_CASE("DFSPH: one particle kicked past twice the speed of sound and slowed a
   INFO(r.message);
   CHECK(r.exit_code == 0);
 }
+
+TEST_CASE("DFSPH: water stays out of a static body's single sampled layer (the painting demo's tray wall)", "[dfsph][stability]") {
+  // scenes/demo_painting.yaml: paint 4 cm deep against the tray's right wall, a static box 2 cm thick
+  // (x 0.20-0.22 m, 6 cm high) whose surface is one irregularly sampled layer of particles. With the
+  // walls' contact alone (r0 = 0.75 dx) water at rest crept through a hole of that layer from
+  // t = 0.11 s, 1 cm into the box by 0.19 s; the density solve then diverged about the particles
+  // inside and the run blew up at 0.544 s, as the brush's stroke turned (exit 4; session 29 had
+  // blamed the brush). Now the contact reaches dx at a body's particles and its surface is a
+  // unilateral contact after the density solve (kernels/dfsph.cl, dfsph_surface_impulse), which keeps
+  // every particle centre at least dx/4 outside the surface. Checked over 0.7 s, past the turn: the
+  // run ends normally and no fluid particle centre is inside the box in any frame (fluid rests with its
+  // centres dx/2 = 4 mm outside; measured: none inside over the whole 3.4 s demo). Mutations: without
+  // the surface contact, 2 particles up to 0.8 mm inside at 0.3-0.5 s: fails; with neither change (the
+  // walls' 0.75 dx alone), exit 4 at 0.544 s: fails.
+  app::RunOptions o = quietRun("../demo_painting.yaml", {"fluid.solver=dfsph", "simulation.duration=0.7",
+                                                         "output.isosurface.enabled=false"});
+  double deepest = -1.0;  // (unit: m) the signed depth of the deepest centre (negative: outside)
+  std::size_t inside_frames = 0;
+  int frames = 0;
+  const app::RunResult r = app::runScene(o, [&](Simulation& sim, const FrameReport&) {
+    ++frames;
+    const RigidBodySpec& wall = sim.model().spec.rigid_bodies.at(0);
+    REQUIRE(wall.name == "wall");
+    const Eigen::Vector3d lo = wall.position - 0.5 * wall.size, hi = wall.position + 0.5 * wall.size;
+    const ParticleFrame f = sim.readFrame();
+    bool any = false;
+    for (std::size_t i = 0; i < f.size(); ++i) {
+      const Eigen::Vector3d x(f.x[i], f.y[i], f.z[i]);
+      // signed depth inside the box (negative outside; the fluid is beside the face x = lo.x)
+      const double depth = std::min({x.x() - lo.x(), hi.x() - x.x(), hi.z() - x.z(), x.z() - lo.z()});
+      deepest = std::max(deepest, depth);
+      any = any || depth > 0.0;
+    }
+    inside_frames += any ? 1 : 0;
+  });
+  INFO(r.message << "; " << frames << " frames; deepest centre " << deepest << " m into the wall (negative: outside), "
+                 << inside_frames << " frame(s) with a centre inside");
+  CHECK(r.exit_code == 0);
+  CHECK(inside_frames == 0);
+}
