@@ -781,6 +781,17 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
         rep = sim.advanceFrame();
       } catch (const Interrupted&) {
         break;  // a signal in the middle of a frame: reported below as interrupted, as between frames
+      } catch (const NumericalError&) {
+        // A run that fails keeps what its per-step files recorded in the failed frame, up to the
+        // failure (forces.csv, probes.csv): the steps that lead into a blow-up are the ones to read.
+        if (forces_csv) forces_csv->write(sim.takeStepForces(), model.bodies);
+        if (probes_csv) probes_csv->write(sim.takeProbeSamples());
+        // and run.json says how far it got: the steps and the profile up to the failure
+        res.loop_seconds = since(t_start);
+        res.wall_seconds = res.loop_seconds - res.output_seconds - res.iso_seconds;
+        res.profile = sim.profile();
+        info.particle_steps_per_second = sim.profile().particle_steps / std::max(res.wall_seconds, 1e-9);
+        throw;
       }
       if (live && !opt.record.empty()) {  // --record: the ticks this frame's steps used, and its hash
         const auto used = live->takeStepTicks();

@@ -338,6 +338,33 @@ TEST_CASE("Keyframes: a keyframed tool through water feels a drag opposite to it
   CHECK(rows == static_cast<int>(r.profile.steps));
 }
 
+TEST_CASE("A run that blows up keeps the per-step forces of the frame it failed in", "[kinematic][stability]") {
+  // The steps that lead into a blow-up are the ones a user reads. forces.csv is written a frame at a
+  // time; before session 30 a numerical failure in the middle of a frame dropped that frame's rows
+  // (the painting demo's DFSPH blow-up at 0.544 s left its last rows at 0.530 s). Here the resting tank
+  // with a ball (sink_ball_rest.yaml, 10 ms frames) is started at 40 m/s (c0 = 15 m/s): WCSPH fails at
+  // the end of its first frame, exit 4, and every step it took is in forces.csv (measured: 38 rows for
+  // 38 steps; 0 rows without the fix: fails). The run's step count (run.json "steps") is kept too; it
+  // read 0 for a failed run before.
+  testing::TempDir dir;
+  app::RunOptions o;
+  o.scene = (kSourceDir / "scenes" / "tests" / "sink_ball_rest.yaml").string();
+  o.out = (dir.path / "out").string();
+  o.quiet = true;
+  o.sets = {"fluid.blocks[0].velocity=[40, 0, 0]", "output.step_forces=true", "output.particles=false"};
+  const app::RunResult r = app::runScene(o);
+  INFO(r.message);
+  REQUIRE(r.exit_code == 4);
+  REQUIRE(r.frames == 0);
+  std::ifstream in(dir.path / "out" / "forces.csv");
+  int rows = 0;
+  for (std::string line; std::getline(in, line);)
+    if (!line.empty() && line[0] != '#' && line.rfind("time", 0) != 0) ++rows;
+  INFO(rows << " rows, " << r.profile.steps << " steps");
+  CHECK(rows > 0);
+  CHECK(rows == static_cast<int>(r.profile.steps));
+}
+
 // ---------------------------------------------------------------------------------------------
 // Smoothness of the tool force for haptics
 // ---------------------------------------------------------------------------------------------
