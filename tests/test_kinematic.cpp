@@ -302,6 +302,17 @@ TEST_CASE("Keyframes: the keys load with the body's orientation as default, and 
 // A keyframed tool through water
 // ---------------------------------------------------------------------------------------------
 
+namespace {
+// Data rows of a CSV with '#' comment lines and a header starting with "time".
+int dataRows(const std::filesystem::path& file) {
+  std::ifstream in(file);
+  int rows = 0;
+  for (std::string line; std::getline(in, line);)
+    if (!line.empty() && line[0] != '#' && line.rfind("time", 0) != 0) ++rows;
+  return rows;
+}
+}  // namespace
+
 TEST_CASE("Keyframes: a keyframed tool through water feels a drag opposite to its motion, logged every step", "[kinematic]") {
   // drag_blob.yaml with the ball driven by keys 5 cm apart every 50 ms (1 m/s between the inner
   // keys, starting and ending at rest) instead of a constant velocity; the per-step force log
@@ -331,10 +342,7 @@ TEST_CASE("Keyframes: a keyframed tool through water feels a drag opposite to it
   INFO("mean drag " << mean << " N over " << d.t.size() << " steps");
   CHECK(mean > 0.2);  // constant 1 m/s gives ~0.58 N (README); the keyframed run moves at 1 m/s here too
   // The log's velocity is the path's: 1 m/s along x between the inner keys.
-  std::ifstream in(dir.path / "out" / "forces.csv");
-  int rows = 0;
-  for (std::string line; std::getline(in, line);)
-    if (!line.empty() && line[0] != '#' && line.rfind("time", 0) != 0) ++rows;
+  const int rows = dataRows(dir.path / "out" / "forces.csv");
   CHECK(rows == static_cast<int>(r.profile.steps));
 }
 
@@ -356,10 +364,7 @@ TEST_CASE("A run that blows up keeps the per-step forces of the frame it failed 
   INFO(r.message);
   REQUIRE(r.exit_code == 4);
   REQUIRE(r.frames == 0);
-  std::ifstream in(dir.path / "out" / "forces.csv");
-  int rows = 0;
-  for (std::string line; std::getline(in, line);)
-    if (!line.empty() && line[0] != '#' && line.rfind("time", 0) != 0) ++rows;
+  const int rows = dataRows(dir.path / "out" / "forces.csv");
   INFO(rows << " rows, " << r.profile.steps << " steps");
   CHECK(rows > 0);
   CHECK(rows == static_cast<int>(r.profile.steps));
