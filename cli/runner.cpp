@@ -642,6 +642,14 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
       }
       opt.live_link->mailbox.publish(std::move(lf));
     };
+    // The loop's wall time and the simulation's profile into the result and run.json: at the end, or
+    // where a numerical failure ends the run.
+    auto take_profile = [&] {
+      res.loop_seconds = since(t_start);
+      res.wall_seconds = res.loop_seconds - res.output_seconds - res.iso_seconds;
+      res.profile = sim.profile();
+      info.particle_steps_per_second = sim.profile().particle_steps / std::max(res.wall_seconds, 1e-9);
+    };
     // The settle before t = 0 (simulation.settle_time): frame 0 is the settled state.
     bool settle_interrupted = false;
     if (spec.simulation.settle_time > 0.0 && sim.numFluid() > 0) {
@@ -786,11 +794,7 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
         // failure (forces.csv, probes.csv): the steps that lead into a blow-up are the ones to read.
         if (forces_csv) forces_csv->write(sim.takeStepForces(), model.bodies);
         if (probes_csv) probes_csv->write(sim.takeProbeSamples());
-        // and run.json says how far it got: the steps and the profile up to the failure
-        res.loop_seconds = since(t_start);
-        res.wall_seconds = res.loop_seconds - res.output_seconds - res.iso_seconds;
-        res.profile = sim.profile();
-        info.particle_steps_per_second = sim.profile().particle_steps / std::max(res.wall_seconds, 1e-9);
+        take_profile();  // and run.json says how far it got: the steps and the profile up to the failure
         throw;
       }
       if (live && !opt.record.empty()) {  // --record: the ticks this frame's steps used, and its hash
@@ -928,15 +932,12 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
           " steps (each with its bodies' hash) and " + std::to_string(recording.frames) + " frame hashes to " + opt.record);
     }
     if (tty) std::cerr << "\n";
-    res.loop_seconds = since(t_start);
-    res.wall_seconds = res.loop_seconds - res.output_seconds - res.iso_seconds;
-    res.profile = sim.profile();
+    take_profile();
     res.device_bytes = sim.deviceBytes();
     res.dispatch_counts = sim.dispatchCounts();
     res.kernel_seconds = sim.kernelSeconds();
     res.kernel_cpu_seconds = sim.kernelCpuSeconds();
     res.state_hash = sim.stateHash();
-    info.particle_steps_per_second = sim.profile().particle_steps / std::max(res.wall_seconds, 1e-9);
 
     if (res.stopped_by_window) {
       publish_live(res.frames, true);
