@@ -616,21 +616,28 @@ Compiled compile(const SceneSpec& spec, const ResourceLimits& limits) {
   if (!issues.empty()) throw InputError(issues);
   for (RigidBodySpec& b : m.spec.rigid_bodies) b.mesh_data = TriMesh{};  // the Model keeps body.mesh
 
-  // A buoyant body flush on a closed wall: a minimum gap of one spacing dx. Buoyancy is the fluid's
-  // pressure on the body's underside; with the body's surface on the wall no fluid particle fits
+  // Bodies and closed walls in water: a film of one spacing dx between them. Buoyancy is the fluid's
+  // pressure on a body's underside; with the body's surface on the wall no fluid particle fits
   // between the two boundary layers (each lies dx/2 behind its surface, and fluid rests dx from
-  // boundary particles), so the body would stay stuck however light it is (issue 15). In nature a
-  // film of water remains; the smallest film SPH resolves is one particle layer, dx thick. So a
-  // dynamic body lighter than the densest phase whose surface lies closer than dx to a closed wall
-  // is moved away from it to a gap of dx (a note says so). Heavier bodies rest on walls as placed,
-  // and so does every body of a scene without fluid.
+  // boundary particles), so a buoyant body placed flush on the floor stayed stuck however light it was
+  // (issue 15). In nature a film of water remains; the smallest film SPH resolves is one particle
+  // layer, dx thick. A heavy body that reaches the wall has the same conflict the other way: the
+  // water beneath it has nowhere to go within a step, and with the surfaces touching the last particle
+  // under it was held from below by the wall's contact and squeezed through a hole of the body's one
+  // sampled layer (session 31: scenes/floating_bodies.yaml's 4,000 kg/m^3 ball, landing at 1.3 m/s,
+  // swallowed one that stayed 2-3 cm inside it; forced out instead, it was a spring that kicked the
+  // ball off the floor at 110 N). So in a scene with fluid dynamic bodies touch the closed walls across
+  // a film of dx (Model::wall_film; the contact and the position update see the walls moved in by it,
+  // Simulation::integrateBodies), and a dynamic body whose surface lies closer than dx to a closed
+  // wall is moved away from it to that gap at compile time (a note says so). Body pairs touch as they
+  // are (their layers are dx apart at contact, where a particle does not fit anyway), and every body
+  // of a scene without fluid touches the walls directly.
   if (!fl.blocks.empty() || !fl.inflows.empty()) {
-    double densest = 0.0;
-    for (const PhaseSpec& p : fl.phases) densest = std::max(densest, p.rest_density);
-    const double min_gap = m.dx;
+    m.wall_film = m.dx;
+    const double min_gap = m.wall_film;
     for (std::size_t k = 0; k < m.bodies.size(); ++k) {
       rigid::RigidBody& body = m.bodies[k];
-      if (body.kind != rigid::BodyKind::Dynamic || !(body.mass < densest * body.volume)) continue;
+      if (body.kind != rigid::BodyKind::Dynamic) continue;
       const rigid::BodyState s0 = rigid::initialState(body);
       Eigen::Vector3d lo = Eigen::Vector3d::Constant(INFINITY), hi = Eigen::Vector3d::Constant(-INFINITY);
       for (const auto& v : body.mesh.positions) {
@@ -651,9 +658,9 @@ Compiled compile(const SceneSpec& spec, const ResourceLimits& limits) {
       body.spec.position += shift;
       m.spec.rigid_bodies[k].position += shift;
       std::ostringstream note;
-      note << "rigid body '" << body.spec.name << "' (lighter than the fluid) lay closer than one spacing dx = "
-           << fmt(m.dx) << " m to a closed wall: moved by [" << fmt(shift.x()) << ", " << fmt(shift.y()) << ", "
-           << fmt(shift.z()) << "] m, so that a layer of fluid lies beneath it and buoyancy can act";
+      note << "rigid body '" << body.spec.name << "' lay closer than one spacing dx = " << fmt(m.dx)
+           << " m to a closed wall: moved by [" << fmt(shift.x()) << ", " << fmt(shift.y()) << ", " << fmt(shift.z())
+           << "] m; in water, bodies touch the closed walls across a film of dx (one fluid layer; buoyancy acts through it)";
       m.notes.push_back(note.str());
     }
   }
@@ -730,7 +737,8 @@ Compiled compile(const SceneSpec& spec, const ResourceLimits& limits) {
     if (moving > 0 && (!fl.blocks.empty() || !fl.inflows.empty()))
       m.notes.push_back(std::to_string(moving) +
                         " moving rigid bod(ies): coupled to the fluid by pressure, viscosity and contact "
-                        "(Akinci et al. 2012); contact with the closed walls and between bodies");
+                        "(Akinci et al. 2012); contact with the closed walls (across a film of one spacing dx) and "
+                        "between bodies");
   }
 
   // Fluid placed where a cloth is: particles closer than dx to a cloth node (where the contact

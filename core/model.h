@@ -41,6 +41,9 @@ struct Emitter {
 struct Model {
   SceneSpec spec;
   double dx = 0;          ///< particle spacing (unit: m)
+  /// Scenes with fluid: dynamic bodies touch the closed walls across a film this thick, one spacing dx
+  /// (the thinnest water film SPH resolves; core/model.cpp says why); 0 without fluid (unit: m).
+  double wall_film = 0;
   double support = 0;     ///< kernel support radius H = support_ratio * dx (unit: m)
   double h = 0;           ///< smoothing length H / 2 (unit: m)
   double skin = 0;        ///< Verlet-list skin: lists hold neighbours within H + skin (unit: m)

@@ -1039,7 +1039,11 @@ void Simulation::integrateBodies(double dt) {
   StageTimer timer(*this, Stage::RigidDynamics);
   // Gravity at the start of the step, as the fluid sees it (in double: the host integrates in double).
   const Eigen::Vector3d g = gravityAt(model_.spec.simulation, time_);
-  const DomainSpec* walls = &model_.spec.domain;
+  // In water the bodies touch the closed walls across a film of one spacing (Model::wall_film,
+  // core/model.cpp says why): the contact and the position update see the walls moved in by it.
+  DomainSpec filmed = model_.spec.domain;
+  for (int a = 0; a < 3; ++a) filmed.min[a] += model_.wall_film, filmed.max[a] -= model_.wall_film;
+  const DomainSpec* walls = &filmed;
   // Momenta from gravity and the fluid; contact impulses between bodies and with the closed walls
   // (core/contact.h); poses (keyframed bodies: the pose at the end of the step from the path
   // itself, no drift); penetration removed by split impulses.
