@@ -1340,9 +1340,11 @@ TEST_CASE("DFSPH live-scene warm start (warm_smoothing with warm_average): a sin
   // film between it and the floor at ~0.7 m/s. With the filtered warm start alone (warm_smoothing 0.5)
   // the run blew up there (exit 4 at 0.96 s, a particle at 51 m/s; session 28, again in session 29).
   // With the two-step average as well it runs to the end, in fewer iterations than main (session 29:
-  // 18.5 per step against 27.6). Checked: exit 0, the ball came down to the floor (centre within dx of
-  // z = R) and rests there at the end, slower than a tenth of the ~0.72 m/s it landed with (measured:
-  // lowest centre 0.02999 m, 0.0056 m/s at 1 s). Mutation: warm_average 0: exit 4: fails.
+  // 18.5 per step against 27.6). Checked: exit 0, the ball came down to the floor (centre within dx/2
+  // of z = R + dx: since session 31 bodies in water touch the walls across a film of dx,
+  // Model::wall_film; before, it came to z = R, measured 0.02999 m) and rests there at the end, slower
+  // than a tenth of the ~0.72 m/s it landed with (measured: lowest centre 0.03997 m, 0.021 m/s at 1 s).
+  // Mutation: warm_average 0: exit 4: fails.
   app::RunOptions o = quietRun("sink_ball_rest.yaml", {"fluid.solver=dfsph", "simulation.duration=1.0",
                                                        "fluid.dfsph.warm_smoothing=0.5", "fluid.dfsph.warm_average=0.5"});
   double z_min = 1e9, v_last = 0;
@@ -1353,7 +1355,7 @@ TEST_CASE("DFSPH live-scene warm start (warm_smoothing with warm_average): a sin
   });
   INFO(r.message << "; lowest centre " << z_min << " m, last speed " << v_last << " m/s");
   CHECK(r.exit_code == 0);
-  CHECK(z_min < 0.03 + 0.01);
+  CHECK(z_min < 0.03 + 0.01 + 0.005);
   CHECK(v_last < 0.07);
 }
 
