@@ -153,7 +153,9 @@ class DfsphSolver {
   DfsphSolveResult solveMirrored(Kind kind, const SimParams& p, const DfsphFields& f);
   void sourceIncrements(Kind kind, const SimParams& p, const DfsphFields& f, bool warm);
   void applyIncrements(const SimParams& p, const DfsphFields& f, cl::Buffer& pacc);
-  double averageError(std::size_t n);
+  /// The average error of the last iteration; with `f` and `body_error`, also the bodies' largest
+  /// error (bodyError), read in the same wait for the device.
+  double averageError(std::size_t n, const DfsphFields* f = nullptr, double* body_error = nullptr);
   cl::Buffer makeBuffer(std::size_t bytes);
   /// Two-level solve (kernels/dfsph_coarse.cl, core/dfsph_coarse.cpp): the Galerkin coarse-grid
   /// correction of `pressure` on aggregates of one support H, projected to p >= 0.
