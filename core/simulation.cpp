@@ -191,6 +191,9 @@ Simulation::Simulation(const Model& model, const HostParticles& initial, ClConte
   next_id_ = static_cast<uint32_t>(n_);
   for (const rigid::RigidBody& body : model_.bodies) bodies_.push_back(rigid::initialState(body));
   if (on(Stage::RigidDynamics)) contacts_ = std::make_unique<rigid::ContactSolver>(model_.bodies, model_.dx);
+  body_walls_ = model_.spec.domain;
+  body_walls_.min.array() += model_.wall_film;
+  body_walls_.max.array() -= model_.wall_film;
   // DFSPH: the solver and its buffers exist only with solver dfsph (a wcsph scene enqueues none of its kernels).
   if (model_.spec.fluid.solver == FluidSolver::Dfsph && cap > 0) {
     bool one_mass = true;  // every phase's particle mass is the first's (bitwise)
@@ -1039,11 +1042,9 @@ void Simulation::integrateBodies(double dt) {
   StageTimer timer(*this, Stage::RigidDynamics);
   // Gravity at the start of the step, as the fluid sees it (in double: the host integrates in double).
   const Eigen::Vector3d g = gravityAt(model_.spec.simulation, time_);
-  // In water the bodies touch the closed walls across a film of one spacing (Model::wall_film,
-  // core/model.cpp says why): the contact and the position update see the walls moved in by it.
-  DomainSpec filmed = model_.spec.domain;
-  for (int a = 0; a < 3; ++a) filmed.min[a] += model_.wall_film, filmed.max[a] -= model_.wall_film;
-  const DomainSpec* walls = &filmed;
+  // In water the bodies touch the closed walls across a film of one spacing (body_walls_: the
+  // contact and the position update see the walls moved in by Model::wall_film).
+  const DomainSpec* walls = &body_walls_;
   // Momenta from gravity and the fluid; contact impulses between bodies and with the closed walls
   // (core/contact.h); poses (keyframed bodies: the pose at the end of the step from the path
   // itself, no drift); penetration removed by split impulses.

@@ -286,6 +286,9 @@ class Simulation {
   std::size_t device_bytes_ = 0;
   std::vector<rigid::BodyState> bodies_;  // one per model_.bodies
   std::unique_ptr<rigid::ContactSolver> contacts_;  // with moving bodies: contact between bodies and walls
+  // The closed walls as the bodies touch them: the domain moved in by Model::wall_film (in water, a
+  // film of one spacing; core/model.cpp says why). Set once, read by every step's integrateBodies.
+  DomainSpec body_walls_;
   // Moving (dynamic, kinematic) bodies as boundary particles after the static ones (kernels/rigid.cl).
   std::vector<std::size_t> moving_;       // indices into model_.bodies
   std::vector<double> moving_reach_;      // farthest particle from the centre of mass (unit: m)

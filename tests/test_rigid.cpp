@@ -950,8 +950,8 @@ TEST_CASE("Coupling: a heavy ball landing on the floor rests on a film of water 
   // surface dx above the floor (its centre at R + dx within dx/10: the contact's slop and one step's
   // travel are far smaller), not bouncing (vertical speed under 1 cm/s; it may roll with the water,
   // which still sloshes from the three balls' entry). Measured: deepest centre 0.27 mm outside,
-  // centre 0.03991 m at 0.5 s (at most 0.03997 after 0.3 s), rolling at 1.4 cm/s. Mutation: without the film, a particle 2.5 cm deep from 0.23 s and the centre
-  // at R: fails. (A non-penetration contact at the body's surface instead of the film kept the
+  // centre 0.03991 m at 0.5 s (at most 0.03997 after 0.3 s), rolling at 1.4 cm/s. Mutation: without
+  // the film, a particle up to 28.6 mm deep in 9 frames from 0.23 s and the centre at R: fails. (A non-penetration contact at the body's surface instead of the film kept the
   // particle out, but the squeezed particle was a spring that kicked the ball 1.9 cm up, at up to 110 N
   // of fluid force against 3.3 N of weight under water: it would fail the check after 0.3 s.)
   app::RunOptions o;
