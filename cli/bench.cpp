@@ -266,13 +266,16 @@ int forceChecks(const BenchOptions& opt) {
     // velocities (Adami, Hu & Adams 2012 eq. 22-23) at every wall and body, as WCSPH's laminar runs.
     // `dfsph-strong`: the bodies move inside the solves (fluid.dfsph.body_coupling strong, session 23; the
     // default since session 26, named here as well); `dfsph-staggered`: in their own step after them.
+    // `wcsph-subtract`: WCSPH with fluid.body_ambient_pressure subtract (session 32).
     const bool ghost = solver == "dfsph-ghost", strong = solver == "dfsph-strong", staggered = solver == "dfsph-staggered";
-    const std::string base = ghost || strong || staggered ? "dfsph" : solver;
+    const bool subtract = solver == "wcsph-subtract";
+    const std::string base = ghost || strong || staggered ? "dfsph" : subtract ? "wcsph" : solver;
     std::vector<std::string> sets = {"fluid.solver=" + base};
     if (base == "dfsph") sets.push_back("fluid.dfsph.walls=extrapolated");
     if (ghost) sets.push_back("fluid.boundary_velocity=ghost");
     if (strong) sets.push_back("fluid.dfsph.body_coupling=strong");
     if (staggered) sets.push_back("fluid.dfsph.body_coupling=staggered");
+    if (subtract) sets.push_back("fluid.body_ambient_pressure=subtract");
     for (double dx : {0.01, 0.0075, 0.006}) {
       if (!on("added-mass")) break;
       // Added mass: C_m between the unbounded 1/2 and Lamb's concentric-sphere value.

@@ -138,8 +138,9 @@ int main(int argc, char** argv) {
   cmd_bench->add_option("--force-solvers", bench.force_solvers,
                         "fluid.solver values for the force checks (wcsph, dfsph; dfsph-ghost: dfsph with "
                         "fluid.boundary_velocity ghost; dfsph-strong: dfsph with fluid.dfsph.body_coupling strong, "
-                        "the default; dfsph-staggered: with body_coupling staggered)")
-      ->check(CLI::IsMember({"wcsph", "dfsph", "dfsph-ghost", "dfsph-strong", "dfsph-staggered"}))
+                        "the default; dfsph-staggered: with body_coupling staggered; wcsph-subtract: wcsph with "
+                        "fluid.body_ambient_pressure subtract)")
+      ->check(CLI::IsMember({"wcsph", "wcsph-subtract", "dfsph", "dfsph-ghost", "dfsph-strong", "dfsph-staggered"}))
       ->capture_default_str();
   cmd_bench->add_option("--force-checks", bench.force_checks,
                         "Only these groups of force checks (default: all): added-mass, free-held, release, stokes, "

@@ -63,6 +63,15 @@ struct Model {
   /// kernels/viscosity.cl boundary_ghost_velocity): 0 none (the wall's own velocity), 1 all, 2 moving
   /// bodies' particles only.
   uint32_t ghost_velocity_mode = 0;
+  /// WCSPH with moving rigid bodies and fluid.body_ambient_pressure subtract (opt-in): each body's pressure force
+  /// leaves out the ambient pressure's share of its sampled surface's closure error (kernels/rigid.cl,
+  /// rigid_reduce; docs/forces.md, session 32).
+  bool body_ambient_subtract = false;
+  /// The running mean of each body particle's wall pressure that the reference pressure reads: long
+  /// beside WCSPH's acoustic noise at a body (a spacing's crossing at c0, ~1 ms; 250-550 Pa standard
+  /// deviation over a ball's particles), short beside a body's flow (a 6 cm ball sinking from rest
+  /// changes its pressures over ~50 ms) (unit: s).
+  static constexpr double kBodyAmbientTime = 0.01;
   std::string program_options;  ///< OpenCL build options (kernel choice, viscosity model)
 
   /// Static boundary particles (closed walls and static rigid bodies), sorted by grid cell: xyz (unit: m), w = V_b / V0 (Akinci 2012 volume).

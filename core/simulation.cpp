@@ -128,6 +128,9 @@ Simulation::Simulation(const Model& model, const HostParticles& initial, ClConte
     bslot_ = makeBuffer(n_bnd * 4);
     bpose_ = makeBuffer(moving_.size() * 64);
     bforce_ = makeBuffer(n_moving_ * 16);
+    bgeo_ = makeBuffer(n_moving_ * 16);  // per body particle: pressure force per pascal, running mean pressure
+    bpmean_ = makeBuffer(n_moving_ * 4);  // running means of the body particles' wall pressure (fluid.body_ambient_pressure)
+    clCall("clearing the body particles' mean pressures", [&] { return cl_.queue().enqueueFillBuffer(bpmean_, 0.0f, 0, std::size_t(n_moving_) * 4); });
     brange_ = makeBuffer(range.size() * 4);
     bsum_ = makeBuffer(moving_.size() * 32);
     bcell_ = makeBuffer(n_bnd * 4);
@@ -944,12 +947,16 @@ void Simulation::gatherBodyForces() {
   // velocities of the fluid's viscous pass (the no-slip ghost velocities or the wall's own).
   const int mirror = dfsphWallMode();
   const cl::Buffer& vel = dfsph_ ? dfsph_->viscousVelocities() : vel_[cur_];
-  kernels_.call("rigid_fluid_forces", n_moving_, kLocal, params_, n_moving_, n_static_, bsrc_, bslot_, viscousBoundaryVelocities(), bpressure_, pos_[cur_], vel, phase_[cur_], density_, pterm_, cell_start_, viscous, mirror, 0.0f, 0.0f, bforce_);
+  // WCSPH, fluid.body_ambient_pressure subtract: each body particle's running mean pressure (weight
+  // dt / kBodyAmbientTime per step) and its pressure force per pascal, for the reduction's reference.
+  const int ambient = model_.body_ambient_subtract ? 1 : 0;
+  const float ambient_rate = ambient ? static_cast<float>(std::min(1.0, params_.dt / Model::kBodyAmbientTime)) : 0.0f;
+  kernels_.call("rigid_fluid_forces", n_moving_, kLocal, params_, n_moving_, n_static_, bsrc_, bslot_, viscousBoundaryVelocities(), bpressure_, pos_[cur_], vel, phase_[cur_], density_, pterm_, cell_start_, viscous, mirror, 0.0f, 0.0f, bforce_, ambient_rate, bgeo_, bpmean_);
   // The per-body reduction is timed on its own (profile.rigid_reduce_seconds).
   clCall("waiting for the body forces", [&] { return cl_.queue().finish(); });
   const auto t_reduce = std::chrono::steady_clock::now();
   const uint32_t nb = static_cast<uint32_t>(moving_.size());
-  kernels_.call("rigid_reduce", nb, 0, nb, n_static_, brange_, bpose_, bsrc_, bforce_, bsum_);
+  kernels_.call("rigid_reduce", nb, 0, nb, n_static_, brange_, bpose_, bsrc_, bforce_, ambient, bgeo_, cl_float4{{params_.gravity[0], params_.gravity[1], params_.gravity[2], params_.phase_rest_density[0]}}, bsum_);
   // Only force and torque per body cross to the host.
   std::vector<Eigen::Vector4f> sums(2 * nb);
   clCall("reading body forces",
@@ -1312,7 +1319,7 @@ void Simulation::gatherClothForces() {
   // DFSPH's extrapolated walls push the fluid off the nodes too (dfsph_wall_contact_accel): the nodes
   // take that contact's reaction.
   const float contact = dfsph_ ? dfsph_->wallContactStiffness() : 0.0f;
-  kernels_.call("rigid_fluid_forces", n_cloth_, kLocal, params_, n_cloth_, n_static_ + n_moving_, bsrc_, bslot_, viscousBoundaryVelocities(), bpressure_, pos_[cur_], vel, phase_[cur_], density_, pterm_, cell_start_, viscous, mirror, contact, DfsphSolver::wallContactRange(), cloth_force_);
+  kernels_.call("rigid_fluid_forces", n_cloth_, kLocal, params_, n_cloth_, n_static_ + n_moving_, bsrc_, bslot_, viscousBoundaryVelocities(), bpressure_, pos_[cur_], vel, phase_[cur_], density_, pterm_, cell_start_, viscous, mirror, contact, DfsphSolver::wallContactRange(), cloth_force_, 0.0f, cloth_force_, cloth_force_);
 }
 
 FrameReport Simulation::runDiagnostics() {

@@ -305,7 +305,7 @@ class Simulation {
   std::vector<BodyWrench> wrenches_;      // its output, one per body
   bool record_forces_ = false;            // per-step force log on
   std::vector<StepForce> step_forces_;    // recorded since the last takeStepForces()
-  cl::Buffer bsrc_, blocal_, bbody_, bslot_, bpose_, bforce_, brange_, bsum_, bcell_, brank_, bsorted_, bcount_;
+  cl::Buffer bsrc_, blocal_, bbody_, bslot_, bpose_, bforce_, bgeo_, bpmean_, brange_, bsum_, bcell_, brank_, bsorted_, bcount_;
   cl::Buffer bnormal_, bnormal_src_;  // static bodies' sampled layers: outward normals, w = 1 (sorted; source order)
   uint32_t n_sampled_ = 0;            // static boundary particles on a body's sampled layer
   // DFSPH's fictitious body mass (addedMassReaction): this step's M per body (unit: kg; 0 = none),

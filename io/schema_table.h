@@ -55,6 +55,11 @@ struct EnumNames<BodyViscosity> {
                                                                        {BodyViscosity::Physical, "physical"}};
 };
 template <>
+struct EnumNames<BodyAmbientPressure> {
+  static constexpr std::pair<BodyAmbientPressure, const char*> values[] = {{BodyAmbientPressure::Subtract, "subtract"},
+                                                                             {BodyAmbientPressure::Keep, "keep"}};
+};
+template <>
 struct EnumNames<BoundaryVelocity> {
   static constexpr std::pair<BoundaryVelocity, const char*> values[] = {
       {BoundaryVelocity::Auto, "auto"}, {BoundaryVelocity::Ghost, "ghost"}, {BoundaryVelocity::Wall, "wall"}};

@@ -88,14 +88,20 @@ __kernel void boundary_reorder_static(const uint n, const uint n_static, __globa
  *     dfsph.cl, dfsph_wall_contact_accel): F_b = - m_i (V_b/V0) k_w (1 - r/r0) (x_i - x_b) / r,
  *                                            k_w = contact dx / dt^2, r0 = `range` dx
  * Fluid neighbours come from the fluid grid of the last list rebuild: its cells are H + skin
- * wide and no particle has moved skin/2 since, so the 27 cells hold every neighbour within H. */
+ * wide and no particle has moved skin/2 since, so the 27 cells hold every neighbour within H.
+ * With `ambient` > 0 (WCSPH, fluid.body_ambient_pressure subtract; the weight dt / tau of a running
+ * mean) it also writes geo[k] = (g_k, pbar_k): g_k the pressure force per pascal added to every p_i
+ * and p_b (the particle's share of the sampled surface's closure, sum_k g_k, zero for a closed surface
+ * in a continuum), and pbar_k the running mean of p_b, kept in pmean, or -1 where no fluid is within H
+ * (a dry particle). */
 __kernel void rigid_fluid_forces(const SimParams p, const uint n, const uint n_static, __global const float4* bsrc,
                                  __global const uint* slot, __global const float4* bvel,
                                  __global const float* bpressure, __global const float4* pos,
                                  __global const float4* vel, __global const uint* phase,
                                  __global const float* density, __global const float* pterm,
                                  __global const uint* cell_start, const int viscous, const int mirror,
-                                 const float contact, const float range, __global float4* force) {
+                                 const float contact, const float range, __global float4* force,
+                                 const float ambient, __global float4* geo, __global float* pmean) {
   const uint k = get_global_id(0);
   if (k >= n) return;
   const float4 bb = bsrc[n_static + k];
@@ -109,12 +115,14 @@ __kernel void rigid_fluid_forces(const SimParams p, const uint n, const uint n_s
   /* DFSPH's wall contact acts on the fluid from walls and cloth nodes, not from bodies' particles */
   const float dx = cbrt(p.rest_volume);
   const float kw = vb4.w > 0.5f ? 0.0f : contact * dx / (p.dt * p.dt), r0 = range * dx;
-  float3 f = (float3)(0.0f);
+  float3 f = (float3)(0.0f), g = (float3)(0.0f); /* g: the pressure force per pascal added to p_i and p_b */
+  int wet = 0;
   SPH_FOR_NEIGHBOURS(&p, cell_start, xb, i) {
     const float3 d = pos[i].xyz - xb;
     const float r2 = dot(d, d);
     if (r2 < H2) {
       const float r = sqrt(r2);
+      wet = 1;
       if (kw > 0.0f && r < r0 && r > 1e-6f * dx) f -= p.phase_mass[phase[i]] * (bb.w * kw * (1.0f - r / r0) / r) * d;
       const float mi = p.phase_mass[phase[i]];
       const float inv_delta = mi / density[i];
@@ -122,8 +130,10 @@ __kernel void rigid_fluid_forces(const SimParams p, const uint n, const uint n_s
       if (mirror > 0) { /* DFSPH (dfsph.cl): pterm = both solves' p / delta^2, weighed `mirror` = 2 (p_b = p_i)
                          * or 1 (single wall term); no contact term */
         f += bb.w * (float)mirror * pterm[i] * F * d;
+        g += bb.w * (float)mirror * inv_delta * inv_delta * F * d;
       } else { /* WCSPH (mirror 0) and DFSPH's extrapolated walls (-1: both solves' p_b, no contact) */
         f += bb.w * (pterm[i] + pb * inv_delta * inv_delta) * F * d;
+        g += bb.w * 2.0f * inv_delta * inv_delta * F * d;
         if (mirror == 0) f -= mi * sph_boundary_contact(&p, d, r, bb.w, vb4.w > 0.5f); /* r0 = dx/2 on bodies */
       }
       if (viscous)
@@ -132,20 +142,50 @@ __kernel void rigid_fluid_forces(const SimParams p, const uint n, const uint n_s
   }
   SPH_END_NEIGHBOURS
   force[k] = (float4)(f, 0.0f);
+  if (ambient > 0.0f) { /* the running mean of p_b; w = -1 marks a dry particle (rigid_reduce) */
+    const float e = pmean[k] + ambient * (pb - pmean[k]);
+    pmean[k] = e;
+    geo[k] = (float4)(g, wet ? e : -1.0f);
+  }
 }
 
 /* (3) Per body b: particles range[2b] .. range[2b] + range[2b+1] - 1, summed in order.
- * out[2b] = force (unit: N), out[2b+1] = torque about the centre of mass (unit: N m). */
+ * out[2b] = force (unit: N), out[2b+1] = torque about the centre of mass (unit: N m).
+ * With `ambient` (fluid.body_ambient_pressure subtract) each particle's force first loses
+ * p_ref g_k (geo: rigid_fluid_forces), and force[k] keeps what is summed. A constant pressure on a
+ * wholly wetted closed surface exerts no force, but the pair sum's closure sum_k g_k is not zero
+ * where the fluid crowds in front of a moving body and thins behind it, so the ambient pressure
+ * times it was a drag: ~1.5x the whole drag a sphere should feel, for a 6 cm ball sinking 8 cm
+ * deep at R / dx = 3, and more deeper (docs/forces.md, session 32). The fluid keeps its full
+ * boundary terms (they hold it off the body), so the body's force and its reaction on the fluid
+ * differ by p_ref sum_k g_k. g_rho = (g, rho0): gravity and the first phase's rest density. */
 __kernel void rigid_reduce(const uint n_bodies, const uint n_static, __global const uint* range,
                            __global const float4* pose, __global const float4* bsrc,
-                           __global const float4* force, __global float4* out) {
+                           __global float4* force, const int ambient, __global const float4* geo,
+                           const float4 g_rho, __global float4* out) {
   const uint b = get_global_id(0);
   if (b >= n_bodies) return;
   const float3 c = pose[4 * b].xyz;
   float3 F = (float3)(0.0f), T = (float3)(0.0f);
   const uint begin = range[2 * b], end = begin + range[2 * b + 1];
+  /* The reference pressure (fluid.body_ambient_pressure subtract): 0 if a particle is dry; else the least
+   * running mean brought to the centre's depth, p~_k = pbar_k - rho0 g.(x_k - c), at most twice the least
+   * running mean itself (so it goes to 0 with the pressure at the body's top near a free surface). */
+  float pref = 0.0f;
+  if (ambient && end > begin) {
+    float low = INFINITY, level = INFINITY;
+    for (uint k = begin; k < end; ++k) {
+      low = fmin(low, geo[k].w);
+      level = fmin(level, geo[k].w - g_rho.w * dot(g_rho.xyz, bsrc[n_static + k].xyz - c));
+    }
+    pref = low < 0.0f ? 0.0f : fmax(fmin(level, 2.0f * low), 0.0f);
+  }
   for (uint k = begin; k < end; ++k) {
-    const float3 f = force[k].xyz;
+    float3 f = force[k].xyz;
+    if (ambient) { /* less pref x the particle's share of the closure error; kept per particle (readBodyParticles) */
+      f -= pref * geo[k].xyz;
+      force[k] = (float4)(f, 0.0f);
+    }
     F += f;
     T += cross(bsrc[n_static + k].xyz - c, f);
   }
