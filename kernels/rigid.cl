@@ -122,7 +122,6 @@ __kernel void rigid_fluid_forces(const SimParams p, const uint n, const uint n_s
     const float r2 = dot(d, d);
     if (r2 < H2) {
       const float r = sqrt(r2);
-      wet = 1;
       if (kw > 0.0f && r < r0 && r > 1e-6f * dx) f -= p.phase_mass[phase[i]] * (bb.w * kw * (1.0f - r / r0) / r) * d;
       const float mi = p.phase_mass[phase[i]];
       const float inv_delta = mi / density[i];
@@ -130,10 +129,12 @@ __kernel void rigid_fluid_forces(const SimParams p, const uint n, const uint n_s
       if (mirror > 0) { /* DFSPH (dfsph.cl): pterm = both solves' p / delta^2, weighed `mirror` = 2 (p_b = p_i)
                          * or 1 (single wall term); no contact term */
         f += bb.w * (float)mirror * pterm[i] * F * d;
-        g += bb.w * (float)mirror * inv_delta * inv_delta * F * d;
       } else { /* WCSPH (mirror 0) and DFSPH's extrapolated walls (-1: both solves' p_b, no contact) */
         f += bb.w * (pterm[i] + pb * inv_delta * inv_delta) * F * d;
-        g += bb.w * 2.0f * inv_delta * inv_delta * F * d;
+        if (ambient > 0.0f) { /* WCSPH only (Model::body_ambient_subtract) */
+          g += bb.w * 2.0f * inv_delta * inv_delta * F * d;
+          wet = 1;
+        }
         if (mirror == 0) f -= mi * sph_boundary_contact(&p, d, r, bb.w, vb4.w > 0.5f); /* r0 = dx/2 on bodies */
       }
       if (viscous)
