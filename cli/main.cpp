@@ -138,9 +138,10 @@ int main(int argc, char** argv) {
   cmd_bench->add_option("--force-solvers", bench.force_solvers,
                         "fluid.solver values for the force checks (wcsph, dfsph; dfsph-ghost: dfsph with "
                         "fluid.boundary_velocity ghost; dfsph-strong: dfsph with fluid.dfsph.body_coupling strong, "
-                        "the default; dfsph-staggered: with body_coupling staggered; wcsph-subtract: wcsph with "
-                        "fluid.body_ambient_pressure subtract)")
-      ->check(CLI::IsMember({"wcsph", "wcsph-subtract", "dfsph", "dfsph-ghost", "dfsph-strong", "dfsph-staggered"}))
+                        "the default; dfsph-staggered: with body_coupling staggered; a suffix -subtract or -keep, e.g. "
+                        "wcsph-keep, dfsph-subtract: with that fluid.body_ambient_pressure)")
+      ->check(CLI::IsMember({"wcsph", "wcsph-subtract", "wcsph-keep", "dfsph", "dfsph-subtract", "dfsph-keep",
+                             "dfsph-ghost", "dfsph-strong", "dfsph-staggered"}))
       ->capture_default_str();
   cmd_bench->add_option("--force-checks", bench.force_checks,
                         "Only these groups of force checks (default: all): added-mass, free-held, release, stokes, "

@@ -1009,7 +1009,8 @@ Compiled compile(const SceneSpec& spec, const ResourceLimits& limits) {
   else if (dfsph) m.ghost_velocity_mode = body_laminar && moving_bodies ? 2u : 0u;
   else if (laminar) m.ghost_velocity_mode = 1;
   else m.ghost_velocity_mode = fl.body_viscosity == BodyViscosity::Physical ? 2u : 0u;
-  m.body_ambient_subtract = !dfsph && moving_bodies && fl.body_ambient_pressure == BodyAmbientPressure::Subtract;
+  m.body_ambient_subtract = (!dfsph || fl.dfsph.walls == DfsphWalls::Extrapolated) && moving_bodies &&
+                            fl.body_ambient_pressure == BodyAmbientPressure::Subtract;
   m.stages.set(Stage::Integrate, true);
   m.stages.set(Stage::RigidDynamics, moving_bodies);
   m.stages.set(Stage::RigidCoupling, moving_bodies && m.capacity > 0);

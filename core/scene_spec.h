@@ -34,7 +34,8 @@ enum class ViscosityModel { Artificial, Laminar };
 /// Viscous coupling of the fluid with moving rigid bodies (Akinci et al. 2012 eq. 11 has its own
 /// coefficient for it): the liquid's real viscosity, or the fluid's own (numerical) model.
 enum class BodyViscosity { Fluid, Physical };
-/// WCSPH: what a moving body's pressure force does with the ambient pressure around it (fluid.body_ambient_pressure).
+/// What a moving body's pressure force does with the ambient pressure around it (fluid.body_ambient_pressure;
+/// WCSPH and DFSPH's extrapolated walls).
 enum class BodyAmbientPressure { Subtract, Keep };
 /// Velocity a boundary particle carries in the viscous term between fluid and boundary: its own
 /// (the wall's or body's) velocity, or the no-slip ghost velocity 2 v_wall - v~ of Adami, Hu &
@@ -208,7 +209,7 @@ struct FluidSpec {
   ViscosityModel viscosity_model = ViscosityModel::Artificial;
   double artificial_viscosity = 0.05;  ///< Monaghan alpha, used by the artificial model (unit: 1)
   BodyViscosity body_viscosity = BodyViscosity::Fluid;  ///< fluid-body viscous term: the fluid's model, or the phase viscosity (laminar form)
-  BodyAmbientPressure body_ambient_pressure = BodyAmbientPressure::Keep;  ///< WCSPH: subtract = a wholly wetted body's pressure force without the ambient pressure's share of its sampled surface's closure error
+  BodyAmbientPressure body_ambient_pressure = BodyAmbientPressure::Subtract;  ///< subtract (default since session 33) = a wholly wetted body's pressure force without the ambient pressure's share of its sampled surface's closure error
   BoundaryVelocity boundary_velocity = BoundaryVelocity::Auto;  ///< boundary particles' velocity in the viscous term: no-slip ghost (Adami 2012) or the wall's own
   double colour_diffusion = 0.0;       ///< colour diffusion coefficient; 0 = none (unit: m^2/s)
   bool clamp_negative_pressure = true; ///< clamp p >= 0 (avoids tensile instability at free surfaces)

@@ -947,8 +947,10 @@ void Simulation::gatherBodyForces() {
   // velocities of the fluid's viscous pass (the no-slip ghost velocities or the wall's own).
   const int mirror = dfsphWallMode();
   const cl::Buffer& vel = dfsph_ ? dfsph_->viscousVelocities() : vel_[cur_];
-  // WCSPH, fluid.body_ambient_pressure subtract: each body particle's running mean pressure (weight
-  // dt / kBodyAmbientTime per step) and its pressure force per pascal, for the reduction's reference.
+  // fluid.body_ambient_pressure subtract (WCSPH, DFSPH's extrapolated walls): each body particle's running
+  // mean pressure (weight dt / kBodyAmbientTime per step) and its pressure force per pascal, for the
+  // reduction's reference. With DFSPH's strong body coupling the bodies moved inside the solves under
+  // the plain pair sum; the correction acts here, on the force the body is integrated with (session 33).
   const int ambient = model_.body_ambient_subtract ? 1 : 0;
   const float ambient_rate = ambient ? static_cast<float>(std::min(1.0, params_.dt / Model::kBodyAmbientTime)) : 0.0f;
   kernels_.call("rigid_fluid_forces", n_moving_, kLocal, params_, n_moving_, n_static_, bsrc_, bslot_, viscousBoundaryVelocities(), bpressure_, pos_[cur_], vel, phase_[cur_], density_, pterm_, cell_start_, viscous, mirror, 0.0f, 0.0f, bforce_, ambient_rate, bgeo_, bpmean_);

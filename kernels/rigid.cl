@@ -89,8 +89,8 @@ __kernel void boundary_reorder_static(const uint n, const uint n_static, __globa
  *                                            k_w = contact dx / dt^2, r0 = `range` dx
  * Fluid neighbours come from the fluid grid of the last list rebuild: its cells are H + skin
  * wide and no particle has moved skin/2 since, so the 27 cells hold every neighbour within H.
- * With `ambient` > 0 (WCSPH, fluid.body_ambient_pressure subtract; the weight dt / tau of a running
- * mean) it also writes geo[k] = (g_k, pbar_k): g_k the pressure force per pascal added to every p_i
+ * With `ambient` > 0 (fluid.body_ambient_pressure subtract, WCSPH or DFSPH's extrapolated walls; the
+ * weight dt / tau of a running mean) it also writes geo[k] = (g_k, pbar_k): g_k the pressure force per pascal added to every p_i
  * and p_b (the particle's share of the sampled surface's closure, sum_k g_k, zero for a closed surface
  * in a continuum), and pbar_k the running mean of p_b, kept in pmean, or -1 where no fluid is within H
  * (a dry particle). */
@@ -131,7 +131,7 @@ __kernel void rigid_fluid_forces(const SimParams p, const uint n, const uint n_s
         f += bb.w * (float)mirror * pterm[i] * F * d;
       } else { /* WCSPH (mirror 0) and DFSPH's extrapolated walls (-1: both solves' p_b, no contact) */
         f += bb.w * (pterm[i] + pb * inv_delta * inv_delta) * F * d;
-        if (ambient > 0.0f) { /* WCSPH only (Model::body_ambient_subtract) */
+        if (ambient > 0.0f) { /* Model::body_ambient_subtract: WCSPH, DFSPH's extrapolated walls */
           g += bb.w * 2.0f * inv_delta * inv_delta * F * d;
           wet = 1;
         }
