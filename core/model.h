@@ -63,8 +63,8 @@ struct Model {
   /// kernels/viscosity.cl boundary_ghost_velocity): 0 none (the wall's own velocity), 1 all, 2 moving
   /// bodies' particles only.
   uint32_t ghost_velocity_mode = 0;
-  /// Moving rigid bodies and fluid.body_ambient_pressure subtract (the default since session 33), with WCSPH or
-  /// DFSPH's extrapolated walls: each body's pressure force leaves out the ambient pressure's share of its
+  /// Moving rigid bodies and fluid.body_ambient_pressure subtract (auto, the default since session 33: with WCSPH),
+  /// with WCSPH or DFSPH's extrapolated walls: each body's pressure force leaves out the ambient pressure's share of its
   /// sampled surface's closure error (kernels/rigid.cl, rigid_reduce; docs/forces.md, sessions 32-33).
   bool body_ambient_subtract = false;
   /// The running mean of each body particle's wall pressure that the reference pressure reads: long

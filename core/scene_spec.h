@@ -36,7 +36,7 @@ enum class ViscosityModel { Artificial, Laminar };
 enum class BodyViscosity { Fluid, Physical };
 /// What a moving body's pressure force does with the ambient pressure around it (fluid.body_ambient_pressure;
 /// WCSPH and DFSPH's extrapolated walls).
-enum class BodyAmbientPressure { Subtract, Keep };
+enum class BodyAmbientPressure { Auto, Subtract, Keep };
 /// Velocity a boundary particle carries in the viscous term between fluid and boundary: its own
 /// (the wall's or body's) velocity, or the no-slip ghost velocity 2 v_wall - v~ of Adami, Hu &
 /// Adams 2012 (eq. 22-23; kernels/viscosity.cl); auto = ghost wherever the term is the laminar
@@ -209,7 +209,7 @@ struct FluidSpec {
   ViscosityModel viscosity_model = ViscosityModel::Artificial;
   double artificial_viscosity = 0.05;  ///< Monaghan alpha, used by the artificial model (unit: 1)
   BodyViscosity body_viscosity = BodyViscosity::Fluid;  ///< fluid-body viscous term: the fluid's model, or the phase viscosity (laminar form)
-  BodyAmbientPressure body_ambient_pressure = BodyAmbientPressure::Subtract;  ///< subtract (default since session 33) = a wholly wetted body's pressure force without the ambient pressure's share of its sampled surface's closure error
+  BodyAmbientPressure body_ambient_pressure = BodyAmbientPressure::Auto;  ///< auto (session 33): subtract with WCSPH, keep with DFSPH; subtract = a wholly wetted body's pressure force without the ambient pressure's share of its sampled surface's closure error
   BoundaryVelocity boundary_velocity = BoundaryVelocity::Auto;  ///< boundary particles' velocity in the viscous term: no-slip ghost (Adami 2012) or the wall's own
   double colour_diffusion = 0.0;       ///< colour diffusion coefficient; 0 = none (unit: m^2/s)
   bool clamp_negative_pressure = true; ///< clamp p >= 0 (avoids tensile instability at free surfaces)

@@ -56,7 +56,8 @@ struct EnumNames<BodyViscosity> {
 };
 template <>
 struct EnumNames<BodyAmbientPressure> {
-  static constexpr std::pair<BodyAmbientPressure, const char*> values[] = {{BodyAmbientPressure::Subtract, "subtract"},
+  static constexpr std::pair<BodyAmbientPressure, const char*> values[] = {{BodyAmbientPressure::Auto, "auto"},
+                                                                             {BodyAmbientPressure::Subtract, "subtract"},
                                                                              {BodyAmbientPressure::Keep, "keep"}};
 };
 template <>
