@@ -53,9 +53,10 @@ TEST_CASE("Forces: a ball shaken in still water feels the added mass C_m = 1/2",
   // Both solvers with fluid.body_ambient_pressure: subtract (WCSPH's default; DFSPH's default is keep,
   // whose closure error reads here as a spurious drag B = 1.0-1.2 N s/m and, at R / dx = 3, 0.03 less C_m).
   // DFSPH, R / dx = 3 and 4: 10 % outside [0.5, 0.58] (the sampled surface at R / dx = 3 and the fit over
-  // two periods). Measured (session 33): 0.479 and 0.500; with `keep` 0.450 and 0.502.
-  // WCSPH reads 10 % under 1/2 in the settled tank, with either rule, at both resolutions: 0.446 and
-  // 0.450 (`keep`: 0.414, 0.436), and at c0 = 30 m/s too (0.437): not the fluid's compressibility. Not
+  // two periods). Measured (session 33, the check): 0.484 and 0.503, B 0.27 / 0.23 N s/m; with `keep` 0.450
+  // and 0.502 (the fit replicated on forces.csv, which read 0.479 / 0.500 with subtract).
+  // WCSPH reads ~10 % under 1/2 in the settled tank, with either rule, at both resolutions: the check 0.451
+  // at R / dx = 3 (B 0.23), the replicated fit 0.446 and 0.450 (`keep`: the check 0.414, 0.436), and at c0 = 30 m/s too (0.437): not the fluid's compressibility. Not
   // explained yet (not Adami's wall acceleration a_w, 11.8 m/s^2 here, which the body's wall pressure
   // leaves out: with it the plain sum reads 0.418; docs/forces.md, session 33). Its check is the resolution's own: the fluid meets the
   // sampled surface within dx/2 of R, so C_m rho V lies between 1/2 rho V (1 - dx / 2R)^3 and the box's
@@ -93,7 +94,8 @@ TEST_CASE("Forces: a free body at rest feels the fluid force it felt while held"
   // (simulation.settle_time): held 0.25 s, the fluid carries its weight (Archimedes); released, it stays
   // put, and the mean fluid force over its first 0.1 s free must equal the held one over the last 0.1 s
   // held. Tolerance: 8 % of the buoyancy for held against free and for held against rho g V, as before
-  // (the sampled surface at R / dx = 3 and the tank's remaining slosh; measured settled: 1 %). Until session 33 the tank was not settled: gravity came on at t = 0 and
+  // (the sampled surface at R / dx = 3 and the tank's remaining slosh). Measured settled (session 33):
+  // held 1.080 N = 0.984 rho g V, free 1.088 N. Until session 33 the tank was not settled: gravity came on at t = 0 and
   // the column rang at its quarter-wave period 4 H / c0 = 0.05 s, +-35 % of the force; two periods per
   // window left ~5 %, and the held force read 0.93 rho g V (`keep`) / 0.91 (`subtract`), which the
   // comments put down to the sampled volume. Settled it reads 0.99 with either rule (docs/forces.md,
@@ -354,7 +356,8 @@ TEST_CASE("Forces with DFSPH and extrapolated walls: a free body feels its held 
   // Halving the coupling force halves the held force (0.52 N against rho g V = 1.10 N) and speeds
   // the sinking ball above the envelope (1.07 m/s at 0.2 s; measured).
   const std::vector<std::string> dfsph = {"fluid.solver=dfsph", "fluid.dfsph.walls=extrapolated"};
-  // The neutral ball in the tank settled 0.5 s before t = 0, as the WCSPH test (session 33).
+  // The neutral ball in the tank settled 0.5 s before t = 0, as the WCSPH test (session 33): held 1.072 N =
+  // 0.978 rho g V, free 1.092 N (the 0.95 / 1.03 above were the ringing tank's).
   std::vector<std::string> calm = dfsph;
   calm.push_back("simulation.settle_time=0.5");
   const app::ReleaseCheck r = app::releasedBall(scenePath("release_ball.yaml"), 0.01, 1000.0, 0.1, calm);
@@ -392,8 +395,9 @@ TEST_CASE("Forces with DFSPH: a dense ball released into a tank at rest sinks as
   // coupling). DFSPH's sampled surface has the same closure error while the ball sinks (G_z +1.5e-4 ..
   // +5.2e-4 N/Pa, session 32); since session 33 fluid.body_ambient_pressure subtract corrects the force the
   // body is integrated with (its motion inside the solves keeps the plain sum; docs/forces.md, session 33).
-  // Measured: v(0.2 s) 0.664 m/s in 0.596 .. 0.825 (8 cm deep; 0.617 at 28 cm, where `keep` read 0.514).
-  // Mutation: `keep`: 0.590, below the slow side: fails.
+  // Measured (this check): v(0.2 s) 0.648 m/s in 0.589 .. 0.812. Mutation, run: `keep` reads 0.582, 0.036 m/s
+  // below the slow side: fails. (`sphaptics run` of the scene itself: 0.664 / 0.590; 28 cm deep 0.617 /
+  // 0.514.)
   const app::SinkCheck c =
       checkSinkingBall("sink_ball_rest.yaml", 0.01, {"fluid.solver=dfsph", "fluid.body_ambient_pressure=subtract"});
   WARN("DFSPH R/dx 3 at rest: v(0.2 s) " << c.v_end << " m/s in " << c.v_lo << " .. " << c.v_hi << "; " << c.worst
