@@ -83,15 +83,16 @@ struct AccelCheck {
   double dx = 0;              ///< (unit: m)
   double radius = 0;          ///< (unit: m)
   double accel = 0;           ///< largest |a| of the path (unit: m/s^2)
-  double cm = 0;              ///< added-mass coefficient M / (rho V), F_x = -M a - B v fitted (unit: 1)
+  double cm = 0;              ///< added-mass coefficient M / (rho V), F_x = -M a - B v at the shaking's frequency (unit: 1)
   double cm_unbounded = 0.5;  ///< potential flow, unbounded fluid (unit: 1)
   double cm_confined = 0;     ///< Lamb (1932, art. 92): in a concentric sphere of radius b (the distance to the nearest wall), (1 + 2 l^3) / (2 (1 - l^3)), l = R / b (unit: 1)
   double damping = 0;         ///< B, the part of the force in phase with -v (unit: N s/m)
   double wall_seconds = 0;    ///< (unit: s)
 };
 
-/// Runs `scene` (accel_ball.yaml) at spacing dx: over the keyframed phase (first to last key) the
-/// fluid force is fitted as F_x = -C_m rho V a - B v by least squares.
+/// Runs `scene` (accel_ball.yaml) at spacing dx: over the keyframed phase (first to last key, whole
+/// periods) the fluid force is fitted as F_x = -C_m rho V a - B v at the shaking's frequency (F, a
+/// and v projected on its cos and sin).
 AccelCheck acceleratedBall(const std::string& scene, double dx, const std::vector<std::string>& sets = {},
                            const std::string& device = "");
 

@@ -1,5 +1,6 @@
 """Shared by the analysis scripts of this folder: the ball's track from a run's bodies.csv, and the
-shaken ball's prescribed path (scenes/tests/accel_ball.yaml: x = x0 + A (1 - cos w (t - 0.3 s)))."""
+shaken ball's prescribed path (scenes/tests/accel_ball.yaml as of session 14: x = x0 + A (1 - cos w (t - 0.3 s)), A = 1 mm;
+since session 34 the scene shakes A = 3 mm from t0 = 0.05 s after a settle: pass A and t0)."""
 import csv
 import numpy as np
 
