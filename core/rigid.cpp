@@ -174,7 +174,7 @@ MassProperties massProperties(const TriMesh& mesh) {
 // ---------------------------------------------------------------------------------------------
 
 std::vector<Eigen::Vector3f> sampleSurface(const TriMesh& mesh, double spacing, std::vector<Eigen::Vector3f>* normals) {
-  const double r = 0.8 * spacing;    // Poisson-disk radius
+  const double r = 0.75 * spacing;   // Poisson-disk radius
   const double dense = 0.2 * spacing; // candidate spacing on each triangle
   const double r2 = r * r;
   // Hash grid of cell r over the accepted points.

@@ -67,10 +67,12 @@ MassProperties massProperties(const TriMesh& mesh);
 
 // --- Sampling --------------------------------------------------------------------------------
 
-/// Boundary particles on the surface: a Poisson-disk set with minimum distance 0.8 * spacing,
-/// chosen greedily (in triangle order, so deterministic) from dense candidates on every triangle.
-/// Every point of the surface is then within 0.8 * spacing of a particle, inside the reach of the
-/// fluid's boundary contact force (dx), so the wall has no gap a fluid particle fits through.
+/// Boundary particles on the surface: a Poisson-disk set with minimum distance 0.75 * spacing,
+/// chosen greedily (in triangle order, so deterministic) from candidates 0.2 * spacing apart on
+/// every triangle. Every point of the surface is then within 0.95 * spacing of a particle; the
+/// largest hole on a ball of R / dx 5 is 0.67 spacing in radius. At 0.8 * spacing (until session
+/// 35) it was 0.70, and fluid went through such holes into a held ball (tests/test_rigid.cpp, "no
+/// water leaks into a held ball"; docs/forces.md, sessions 34-35).
 /// With `normals`, also the outward unit normal at each particle (the triangle's; at a mesh
 /// vertex, the area-weighted mean of its triangles').
 std::vector<Eigen::Vector3f> sampleSurface(const TriMesh& mesh, double spacing,

@@ -174,17 +174,18 @@ TEST_CASE("Cylinder and capsule volumes and inertia approach their closed forms"
   CHECK(cap.centre.norm() < 1e-6);
 }
 
-TEST_CASE("Surface sampling: particles at least 0.8 dx apart and no gap wider than dx", "[rigid]") {
+TEST_CASE("Surface sampling: particles at least 0.75 dx apart and no surface point farther than 0.95 dx from one", "[rigid]") {
   const double dx = 0.01;
   const TriMesh sphere = rigid::sphereMesh(0.05, 0.5 * dx);
   const std::vector<Eigen::Vector3f> pts = rigid::sampleSurface(sphere, dx);
-  // Poisson-disk radius 0.8 dx (float rounding aside).
+  // Poisson-disk radius 0.75 dx (float rounding aside; 0.8 dx until session 35, when fluid leaked through
+  // the holes into a held ball at R / dx = 5).
   double closest = 1e9;
   for (std::size_t i = 0; i < pts.size(); ++i)
     for (std::size_t j = i + 1; j < pts.size(); ++j) closest = std::min(closest, double((pts[i] - pts[j]).norm()));
-  CHECK(closest >= 0.8 * dx * (1 - 1e-6));
-  // Coverage: every candidate (0.2 dx apart) was rejected only within 0.8 dx of a particle, so
-  // every surface point is within 0.8 dx + 0.2 dx = dx of one. Probe random surface points.
+  CHECK(closest >= 0.75 * dx * (1 - 1e-6));
+  // Coverage: every candidate (0.2 dx apart) was rejected only within 0.75 dx of a particle, so
+  // every surface point is within 0.75 dx + 0.2 dx = 0.95 dx of one. Probe random surface points.
   std::mt19937 rng(7);
   std::uniform_real_distribution<double> u(0.0, 1.0);
   double worst = 0;
@@ -198,14 +199,14 @@ TEST_CASE("Surface sampling: particles at least 0.8 dx apart and no gap wider th
     for (const auto& q : pts) best = std::min(best, double((p - q).norm()));
     worst = std::max(worst, best);
   }
-  INFO(pts.size() << " particles; farthest probe " << worst / dx << " dx from a particle");
-  CHECK(worst <= dx);
-  // Density: between random sequential adsorption's jamming limit (disks of diameter 0.8 dx cover
-  // 0.547 of the plane: 1.09 per dx^2) less a margin for the sphere's curvature, and the densest
-  // packing (hexagonal at 0.8 dx: 1.80 per dx^2).
+  INFO(pts.size() << " particles, " << pts.size() / (meshArea(sphere) / (dx * dx)) << " per dx^2; farthest probe " << worst / dx << " dx from a particle");
+  CHECK(worst <= 0.95 * dx);
+  // Density: between random sequential adsorption's jamming limit (disks of diameter 0.75 dx cover
+  // 0.547 of the plane: 1.24 per dx^2) less the same margin for the sphere's curvature as at 0.8 dx
+  // (1.09 -> 0.9, x 0.83: 1.02), and the densest packing (hexagonal at 0.75 dx: 2.05 per dx^2).
   const double per_dx2 = pts.size() / (meshArea(sphere) / (dx * dx));
-  CHECK(per_dx2 > 0.9);
-  CHECK(per_dx2 < 1.81);
+  CHECK(per_dx2 > 1.02);
+  CHECK(per_dx2 < 2.06);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -939,6 +940,44 @@ TEST_CASE("rigid: the fictitious mass keeps a steady acceleration and stabilises
   CHECK(rigid::fictitiousForce(body, c, gz, 0.0).norm() == 0.0);
 }
 
+TEST_CASE("Coupling: no water leaks into a held ball shaken in a tank at R / dx = 5", "[rigid]") {
+  // scenes/tests/accel_ball.yaml at dx = 6 mm (R / dx = 5), without its settle: the tank starts with
+  // gravity on, rings, and the held ball is shaken from 0.05 s (A = 3 mm, 10 Hz; one period here). A
+  // body is one sampled layer of particles dx/2 inside its surface R (as the walls' first layer), so a
+  // fluid centre deeper than dx/2 inside R has gone through the layer (the landing test below uses the
+  // same criterion). Until session 35 the sampler's Poisson-disk radius was 0.8 dx, its largest holes 0.70 dx
+  // in radius at R / dx = 5, and the fluid-body contact reaches dx/2: the first centre went through by
+  // 0.04 s, and after the tank's 0.5 s settle 8 centres (WCSPH; DFSPH 3) sat inside the ball bouncing at
+  // up to 1.9 m/s. At 0.75 dx (holes 0.67 dx) none goes through (docs/forces.md, sessions 34-35).
+  // WCSPH only: it leaked the most. Measured (session 35): the deepest centre 0.06 mm outside R. Mutation:
+  // with the sampling back at 0.8 dx, a centre 20.1 mm inside R at 0.04 s: fails.
+  app::RunOptions o;
+  o.scene = (kSourceDir / "scenes" / "tests" / "accel_ball.yaml").string();
+  o.quiet = true;
+  o.write_output = false;
+  o.sets = {"fluid.particle_spacing=0.006", "simulation.settle_time=0", "simulation.duration=0.15",
+            "fluid.solver=wcsph"};
+  double deepest = -1.0;  // (unit: m) the deepest fluid centre inside the ball's sphere (negative: outside)
+  double deepest_t = 0.0, R = 0, dx = 0;
+  int through = 0;  // frames with a centre more than dx/2 inside
+  const app::RunResult r = app::runScene(o, [&](Simulation& sim, const FrameReport&) {
+    REQUIRE(sim.bodies().size() == 1);
+    R = sim.model().bodies[0].spec.radius;
+    dx = sim.model().dx;
+    const Eigen::Vector3d c = sim.bodies()[0].x;
+    const ParticleFrame f = sim.readFrame();
+    double frame_deepest = -1.0;
+    for (std::size_t i = 0; i < f.size(); ++i)
+      frame_deepest = std::max(frame_deepest, R - (Eigen::Vector3d(f.x[i], f.y[i], f.z[i]) - c).norm());
+    if (frame_deepest > deepest) deepest = frame_deepest, deepest_t = sim.time();
+    through += frame_deepest > 0.5 * dx ? 1 : 0;
+  });
+  INFO(r.message << "; R / dx " << R / dx << ", deepest fluid centre " << deepest * 1000 << " mm inside R at t = "
+                 << deepest_t << " s (negative: outside), " << through << " frame(s) with one past dx/2");
+  REQUIRE(r.exit_code == 0);
+  CHECK(through == 0);
+}
+
 TEST_CASE("Coupling: a heavy ball landing on the floor rests on a film of water and swallows none of it", "[rigid]") {
   // scenes/floating_bodies.yaml (WCSPH, its own solver): the 4,000 kg/m^3 ball (R = 3 cm, dx = 1 cm)
   // falls 22 cm through the water and lands at 1.3 m/s at t = 0.23 s. Before session 31 its surface
@@ -951,7 +990,13 @@ TEST_CASE("Coupling: a heavy ball landing on the floor rests on a film of water 
   // travel are far smaller), not bouncing (vertical speed under 1 cm/s; it may roll with the water,
   // which still sloshes from the three balls' entry). Measured: deepest centre 0.27 mm outside,
   // centre 0.03991 m at 0.5 s (at most 0.03997 after 0.3 s), rolling at 1.4 cm/s. Mutation: without
-  // the film, a particle up to 28.6 mm deep in 9 frames from 0.23 s and the centre at R: fails. (A non-penetration contact at the body's surface instead of the film kept the
+  // the film, a particle up to 28.6 mm deep in 9 frames from 0.23 s and the centre at R: fails.
+  // Swallowed means through the ball's one sampled layer, which lies dx/2 inside R: a centre more than
+  // dx/2 inside R in any frame, or any centre inside R at the end. Until
+  // session 35 any centre inside R in any frame failed; with the denser sampling (Poisson-disk radius
+  // 0.75 dx, against the leak into a held ball at R / dx = 5, the test above) one centre of the film
+  // pressed under the landing ball grazes the layer, 0.37 mm (0.04 dx) inside R in one frame, and is
+  // out again by the next. (A non-penetration contact at the body's surface instead of the film kept the
   // particle out, but the squeezed particle was a spring that kicked the ball 1.9 cm up, at up to 110 N
   // of fluid force against 3.3 N of weight under water: it would fail the check after 0.3 s.)
   app::RunOptions o;
@@ -960,6 +1005,7 @@ TEST_CASE("Coupling: a heavy ball landing on the floor rests on a film of water 
   o.write_output = false;
   o.sets = {"simulation.duration=0.5"};
   double deepest = -1.0;  // (unit: m) how far the deepest fluid centre is inside the ball (negative: outside)
+  double last = -1.0;     // ... in the last frame
   int inside_frames = 0;
   double z_landed_max = -1.0;  // highest centre after the landing (t >= 0.3 s)
   rigid::BodyState end;
@@ -973,20 +1019,19 @@ TEST_CASE("Coupling: a heavy ball landing on the floor rests on a film of water 
     dx = sim.model().dx;
     end = sim.bodies()[metal];
     const ParticleFrame f = sim.readFrame();
-    bool any = false;
-    for (std::size_t i = 0; i < f.size(); ++i) {
-      const double depth = R - (Eigen::Vector3d(f.x[i], f.y[i], f.z[i]) - end.x).norm();
-      deepest = std::max(deepest, depth);
-      any = any || depth > 0.0;
-    }
-    inside_frames += any ? 1 : 0;
+    last = -1.0;
+    for (std::size_t i = 0; i < f.size(); ++i)
+      last = std::max(last, R - (Eigen::Vector3d(f.x[i], f.y[i], f.z[i]) - end.x).norm());
+    deepest = std::max(deepest, last);
+    inside_frames += last > 0.0 ? 1 : 0;
     if (sim.time() >= 0.3 - 1e-9) z_landed_max = std::max(z_landed_max, end.x.z());
   });
   INFO(r.message << "; deepest centre " << deepest * 1000 << " mm inside the ball (negative: outside), " << inside_frames
-                 << " frame(s) with one inside; centre at rest " << end.x.z() << " m (R + dx = " << R + dx
+                 << " frame(s) with one inside R, in the last frame " << last * 1000 << " mm; centre at rest " << end.x.z() << " m (R + dx = " << R + dx
                  << "), highest after 0.3 s " << z_landed_max << " m, velocity " << end.v.transpose() << " m/s");
   REQUIRE(r.exit_code == 0);
-  CHECK(inside_frames == 0);
+  CHECK(deepest < 0.5 * dx);
+  CHECK(last <= 0.0);
   CHECK(std::abs(end.x.z() - (R + dx)) < 0.1 * dx);
   CHECK(z_landed_max < R + 1.1 * dx);
   CHECK(std::abs(end.v.z()) < 0.01);
