@@ -37,7 +37,7 @@ double skinRatio(const FluidSpec& fl) { return fl.solver == FluidSolver::Dfsph ?
 }  // namespace
 
 static_assert(sizeof(SimParams) % 4 == 0, "SimParams holds 4-byte scalars only");
-static_assert(sizeof(SimParams) == 4 * (4 + 4 + 4 + 4 + 4 + 9 + 1 + 4 + 4 + 3 * SPH_MAX_PHASES),
+static_assert(sizeof(SimParams) == 4 * (4 + 4 + 4 + 4 + 4 + 10 + 1 + 4 + 4 + 3 * SPH_MAX_PHASES),
               "SimParams layout must match kernels/shared/sim_params.h on the device");
 
 void HostParticles::push(const Eigen::Vector3f& x, const Eigen::Vector3f& v, const Eigen::Vector3f& c, uint32_t ph,
@@ -967,6 +967,7 @@ Compiled compile(const SceneSpec& spec, const ResourceLimits& limits) {
   P.kernel_type = sim.kernel == KernelType::WendlandC2 ? SPH_KERNEL_WENDLAND_C2 : SPH_KERNEL_CUBIC_SPLINE;
   P.eos = fl.equation_of_state == EquationOfState::Tait ? SPH_EOS_TAIT : SPH_EOS_LINEAR;
   P.clamp_negative_pressure = fl.clamp_negative_pressure ? 1u : 0u;
+  P.background_pressure = static_cast<float>(fl.background_pressure);
   P.n_boundary = static_cast<sph_uint>(m.boundary.size());
   P.num_cells = static_cast<sph_uint>(cells);
   P.c0 = static_cast<float>(m.c0);

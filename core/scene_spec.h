@@ -213,6 +213,7 @@ struct FluidSpec {
   BoundaryVelocity boundary_velocity = BoundaryVelocity::Auto;  ///< boundary particles' velocity in the viscous term: no-slip ghost (Adami 2012) or the wall's own
   double colour_diffusion = 0.0;       ///< colour diffusion coefficient; 0 = none (unit: m^2/s)
   bool clamp_negative_pressure = true; ///< clamp p >= 0 (avoids tensile instability at free surfaces)
+  double background_pressure = 0.0;    ///< WCSPH, every wall closed: added to the equation of state (Morris, Fox & Zhu 1997) (unit: Pa)
   long max_particles = 0;              ///< particle budget; 0 = automatic (unit: 1)
   std::vector<PhaseSpec> phases;
   std::vector<BlockSpec> blocks;

@@ -602,6 +602,8 @@ std::vector<KeyDef> buildTable() {
           .unit("m^2/s").atLeast(0).doc("colour diffusion coefficient; 0 = none"));
   add(field<InScene>("fluid.clamp_negative_pressure", [](auto& s) -> auto& { return s.fluid.clamp_negative_pressure; })
           .doc("clamp p >= 0 (avoids tensile instability at free surfaces)"));
+  add(field<InScene>("fluid.background_pressure", [](auto& s) -> auto& { return s.fluid.background_pressure; })
+          .unit("Pa").atLeast(0).doc("wcsph with every domain wall closed (no free surface): a pressure added to the equation of state everywhere (Morris, Fox & Zhu 1997), so that the fluid's pressure stays positive where the flow's own pressure is below the ambient one. SPH's symmetric pressure force is unstable under tension: in a closed box at zero ambient pressure a ball towed in Stokes flow feels 1.32 x 6 pi mu R U, and 2.07 / 2.11 with 1 / 3 kPa here, inside the closed form's bracket (2.04-2.57; docs/forces.md, session 35). It must exceed the flow's largest suction. 0 = none. Not with dfsph (its pressures come from the solve) or an open wall (the fluid would be pushed out)"));
   add(field<InScene>("fluid.max_particles", [](auto& s) -> auto& { return s.fluid.max_particles; })
           .unit("1").atLeast(0).doc("particle budget; 0 = automatic"));
 

@@ -61,6 +61,8 @@ __kernel void compute_density(const SimParams p, __global const float4* pos, __g
   } else {
     pr = p.c0 * p.c0 * (rho - rho0);
   }
+  /* fluid.background_pressure (Morris, Fox & Zhu 1997; 0 unless the scene sets it: WCSPH, closed domain) */
+  pr += p.background_pressure;
   if (p.clamp_negative_pressure) pr = fmax(pr, 0.0f);
   density[i] = rho;
   pressure[i] = pr;

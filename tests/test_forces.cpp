@@ -9,6 +9,7 @@
 #include "cli/runner.h"
 #include "core/model.h"
 #include "io/scene_loader.h"
+#include "tests/scene_issues.h"
 #include "tests/scene_runs.h"
 
 #include <catch2/catch.hpp>
@@ -178,6 +179,58 @@ TEST_CASE("Forces: the Stokes drag of a towed ball matches 6 pi mu R U with the 
                << c.wall_seconds << " s");
   CHECK(c.drag / c.stokes > c.expected_lo);
   CHECK(c.drag / c.stokes < c.expected_hi);
+}
+
+TEST_CASE("Forces: with a background pressure the towed ball's Stokes drag in a closed box does not depend on it",
+          "[forces]") {
+  // The Stokes tow above (scenes/tests/stokes_tow.yaml, R / dx = 3) with the box's top closed, so the fluid
+  // has no free surface, and fluid.background_pressure (Morris, Fox & Zhu 1997) of 1 and 3 kPa. In exact
+  // physics a uniform pressure changes no force on the ball. SPH's symmetric pressure force is unstable
+  // under tension, and at zero ambient pressure the suction behind the ball (the flow's pressure scale
+  // 3/2 mu U / R = 25 Pa) is tension: there the drag reads 1.32 x 6 pi mu R U, below the resolution's band
+  // (the open-top box's 1.51 and WCSPH's rise with the hydrostatic load: docs/forces.md, session 35).
+  // Checked: both runs inside the resolution's band (as the test above), and equal within 5 % of each
+  // other (the spread of the loaded tows over R / dx 3 - 4.5, 2.05-2.13, docs/forces.md). Measured
+  // (session 35): 2.065 and 2.110, inside the bracket at R itself (2.04 - 2.57). Mutation: with the
+  // background pressure 0 the first run reads 1.317 and fails the band.
+  double drag[2] = {0, 0};
+  const double pressures[2] = {1000.0, 3000.0};
+  for (int k = 0; k < 2; ++k) {
+    const app::TowCheck c =
+        app::towedBall(scenePath("stokes_tow.yaml"), 0.01,
+                       {"domain.closed.z_max=true", "fluid.background_pressure=" + std::to_string(pressures[k])});
+    INFO(c.message);
+    REQUIRE(c.exit_code == 0);
+    drag[k] = c.drag / c.stokes;
+    INFO("background " << pressures[k] << " Pa: drag " << drag[k] << " x 6 pi mu R U (expected " << c.expected_lo
+                       << " .. " << c.expected_hi << "; K " << c.wall_factor_lo << " .. " << c.wall_factor_hi
+                       << " at R); " << c.wall_seconds << " s");
+    CHECK(drag[k] > c.expected_lo);
+    CHECK(drag[k] < c.expected_hi);
+  }
+  INFO("1 kPa: " << drag[0] << ", 3 kPa: " << drag[1]);
+  CHECK(std::abs(drag[1] - drag[0]) < 0.05 * drag[0]);
+}
+
+TEST_CASE("fluid.background_pressure: negative, with DFSPH or with an open wall is reported at file:line:col",
+          "[forces]") {
+  testing::TempDir dir;
+  const std::string head = "domain: {min: [0, 0, 0], max: [0.1, 0.1, 0.1]}\nfluid:\n  particle_spacing: 0.02\n"
+                           "  blocks: [{min: [0, 0, 0], max: [0.1, 0.1, 0.1]}]\n";
+  auto issues = testing::issuesOf(dir, head + "  background_pressure: -5\n");
+  INFO(testing::dump(issues));
+  CHECK(testing::hasIssue(issues, 5, {"background_pressure"}));
+  // the default domain's top is open
+  issues = testing::issuesOf(dir, head + "  background_pressure: 1000\n");
+  CHECK(testing::hasIssue(issues, 5, {"background_pressure", "closed", "z_max"}));
+  const std::string closed = "domain: {min: [0, 0, 0], max: [0.1, 0.1, 0.1], closed: {z_max: true}}\nfluid:\n"
+                             "  particle_spacing: 0.02\n  blocks: [{min: [0, 0, 0], max: [0.1, 0.1, 0.1]}]\n";
+  issues = testing::issuesOf(dir, closed + "  solver: dfsph\n  background_pressure: 1000\n");
+  CHECK(testing::hasIssue(issues, 6, {"background_pressure", "wcsph"}));
+  CHECK(testing::issuesOf(dir, closed + "  background_pressure: 1000\n").empty());
+  // 0 (the default) is fine anywhere
+  CHECK(testing::issuesOf(dir, head + "  solver: dfsph\n  background_pressure: 0\n").empty());
+  CHECK(io::loadScene(dir.write("d.yaml", head).string()).fluid.background_pressure == 0.0);
 }
 
 TEST_CASE("Forces: a buoyant ball released from rest mid-water accelerates with the added mass C_m = 1/2", "[forces]") {

@@ -192,6 +192,7 @@ TEST_CASE("a minimal scene gets every default of core/scene_spec.h", "[io]") {
   CHECK(s.fluid.boundary_velocity == d.fluid.boundary_velocity);
   CHECK(s.fluid.colour_diffusion == d.fluid.colour_diffusion);
   CHECK(s.fluid.clamp_negative_pressure == d.fluid.clamp_negative_pressure);
+  CHECK(s.fluid.background_pressure == d.fluid.background_pressure);
   CHECK(s.fluid.max_particles == d.fluid.max_particles);
   CHECK(s.fluid.blocks.empty());
   CHECK(s.fluid.inflows.empty());
@@ -555,7 +556,7 @@ TEST_CASE("the schema text lists every key with type, default, unit and range", 
       "fluid.dfsph.divergence_solve", "fluid.dfsph.walls", "fluid.dfsph.warm_start", "fluid.dfsph.warm_smoothing", "fluid.dfsph.warm_average", "fluid.dfsph.relaxation", "fluid.dfsph.coarse_interval", "fluid.dfsph.coarse_start", "fluid.dfsph.coarse_rest_travel", "fluid.dfsph.coarse_reuse", "fluid.dfsph.coarse_rest_start", "fluid.dfsph.cfl", "fluid.dfsph.max_time_step", "fluid.dfsph.step_iterations", "fluid.dfsph.pressure_cfl", "fluid.dfsph.body_added_mass", "fluid.dfsph.cloth_coupling", "fluid.dfsph.body_coupling", "fluid.dfsph.body_error", "fluid.dfsph.body_coarse", "fluid.dfsph.cloth_added_mass",
       "fluid.particle_spacing",
       "fluid.equation_of_state", "fluid.speed_of_sound", "fluid.viscosity_model", "fluid.artificial_viscosity",
-      "fluid.body_viscosity", "fluid.body_ambient_pressure", "fluid.boundary_velocity", "fluid.colour_diffusion", "fluid.clamp_negative_pressure", "fluid.max_particles", "fluid.phases",
+      "fluid.body_viscosity", "fluid.body_ambient_pressure", "fluid.boundary_velocity", "fluid.colour_diffusion", "fluid.clamp_negative_pressure", "fluid.background_pressure", "fluid.max_particles", "fluid.phases",
       "fluid.phases[].name", "fluid.phases[].rest_density", "fluid.phases[].viscosity", "fluid.phases[].colour",
       "fluid.blocks", "fluid.blocks[].phase", "fluid.blocks[].min", "fluid.blocks[].max", "fluid.blocks[].velocity",
       "fluid.inflows", "fluid.inflows[].name", "fluid.inflows[].phase", "fluid.inflows[].shape",

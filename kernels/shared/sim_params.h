@@ -30,6 +30,7 @@ typedef struct SimParams {
   sph_uint kernel_type;   /* SPH_KERNEL_* (the device uses the SPH_KERNEL build option) */
   sph_uint eos;           /* SPH_EOS_* */
   sph_uint clamp_negative_pressure;
+  float background_pressure; /* added to the equation of state (WCSPH; fluid.background_pressure) (unit: Pa) */
   sph_uint n_fluid;       /* active fluid particles */
   sph_uint n_boundary;    /* static boundary particles */
   sph_uint num_cells;     /* grid_dims product */
