@@ -356,21 +356,20 @@ int forceChecks(const BenchOptions& opt) {
       // flow's 3/2 mu U / R = 25 Pa; the box is closed, so the liquid stays at rest); the drag
       // along x is the same in exact physics, the buoyancy goes to F_z (so sideways is |F_y|).
       // One tow with `extra` settings: its drag row, or a line saying why it did not run.
-      auto towDrag = [&](const std::vector<std::string>& extra, const char* name, TowCheck& t) {
+      auto towDrag = [&](const std::vector<std::string>& extra, const char* name) {
         std::vector<std::string> s2 = sets;
         s2.insert(s2.end(), extra.begin(), extra.end());
-        t = towedBall(tow, dx, s2, opt.device);
-        if (t.exit_code != 0) {
-          std::printf("%s at dx %g (%s): %s\n", name, dx, solver.c_str(), t.message.c_str());
-          return false;
-        }
-        row(name, solver, dx, t.radius / dx, t.drag / t.stokes, t.expected_lo, t.expected_hi, t.wall_seconds);
-        return true;
+        const TowCheck c = towedBall(tow, dx, s2, opt.device);
+        if (c.exit_code != 0)
+          std::printf("%s at dx %g (%s): %s\n", name, dx, solver.c_str(), c.message.c_str());
+        else
+          row(name, solver, dx, c.radius / dx, c.drag / c.stokes, c.expected_lo, c.expected_hi, c.wall_seconds);
+        return c;
       };
-      TowCheck t;
-      if (!towDrag(base == "dfsph" ? std::vector<std::string>{"simulation.gravity=[0, 0, -9.81]"} : std::vector<std::string>{},
-                   "stokes_drag_over_6piMuRU", t))
-        continue;
+      const TowCheck t = towDrag(base == "dfsph" ? std::vector<std::string>{"simulation.gravity=[0, 0, -9.81]"}
+                                                 : std::vector<std::string>{},
+                                 "stokes_drag_over_6piMuRU");
+      if (t.exit_code != 0) continue;
       row("sideways_over_drag", solver, dx, t.radius / dx, (base == "dfsph" ? t.side_y : t.side) / t.drag, 0.0, 0.0,
           t.wall_seconds);
       // Where the no-slip surface lies: (R - R_eff) / dx for the drag measured, with the box's two
@@ -386,8 +385,7 @@ int forceChecks(const BenchOptions& opt) {
       // weightless box the suction behind the ball is tension, under which SPH's symmetric pressure force is
       // unstable; fluid.background_pressure keeps the pressure positive).
       if (base != "wcsph") continue;
-      TowCheck b;
-      towDrag({"domain.closed.z_max=true", "fluid.background_pressure=1000"}, "stokes_bg1kPa_drag_over_6piMuRU", b);
+      towDrag({"domain.closed.z_max=true", "fluid.background_pressure=1000"}, "stokes_bg1kPa_drag_over_6piMuRU");
     }
     for (const double c0 : {30.0, 60.0}) {
       if (!on("re20")) break;

@@ -670,9 +670,12 @@ class Loader {
     // open top in 0.4 s), and DFSPH's pressures come from its solve, not from the equation of state.
     if (fluid.background_pressure > 0.0 && usable("fluid.background_pressure")) {
       static const char* kWalls[6] = {"x_min", "x_max", "y_min", "y_max", "z_min", "z_max"};
-      std::string open;
-      for (int w = 0; w < 6; ++w)
-        if (!spec.domain.closed[static_cast<std::size_t>(w)]) open += std::string(open.empty() ? "" : ", ") + kWalls[w];
+      std::string open, first;  // the open walls, and the first of them
+      for (int w = 0; w < 6; ++w) {
+        if (spec.domain.closed[static_cast<std::size_t>(w)]) continue;
+        if (first.empty()) first = kWalls[w];
+        open += std::string(open.empty() ? "" : ", ") + kWalls[w];
+      }
       if (fluid.solver == FluidSolver::Dfsph && usable("fluid.solver")) {
         issue("fluid.background_pressure", markOf("fluid.background_pressure"),
               "'fluid.background_pressure' is a wcsph setting: with 'fluid.solver: dfsph' the pressures come from "
@@ -680,7 +683,7 @@ class Loader {
       } else if (!open.empty()) {
         issue("fluid.background_pressure", markOf("fluid.background_pressure"),
               "'fluid.background_pressure' needs every domain wall closed, or it pushes the fluid out of the "
-              "domain; open: " + open + " (set domain.closed." + open.substr(0, 5) + ": true)");
+              "domain; open: " + open + " (set domain.closed." + first + ": true)");
       }
     }
 
