@@ -165,6 +165,13 @@ std::string profileLine(const Profile& p) {
                   100.0 * p.max_density_error, 100.0 * p.max_divergence_error,
                   static_cast<unsigned long long>(p.unconverged_steps));
     s << buf;
+    // The implicit viscosity's conjugate gradients (fluid.dfsph.viscosity_solve: implicit)
+    if (p.viscosity_iterations > 0) {
+      std::snprintf(buf, sizeof buf, "; implicit viscosity: %.2f CG iterations per step, largest residual %.3g, %llu step(s) "
+                    "at its most iterations", double(p.viscosity_iterations) / double(p.steps), p.max_viscosity_residual,
+                    static_cast<unsigned long long>(p.viscosity_unconverged_steps));
+      s << buf;
+    }
     // The two-level solve's coarse-grid corrections (fluid.dfsph.coarse_interval > 0)
     if (p.density_corrections + p.divergence_corrections > 0) {
       std::snprintf(buf, sizeof buf, "; %.2f density and %.2f divergence coarse corrections per step",

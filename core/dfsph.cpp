@@ -71,6 +71,13 @@ DfsphSolver::DfsphSolver(ClContext& cl, KernelSet& kernels, std::size_t capacity
   gwall_ = makeBuffer(capacity * 16);
   err_ = makeBuffer(capacity * 4);
   partial_ = makeBuffer(kChunks * 4);
+  const std::size_t nv = spec.viscosity_solve == ViscositySolve::Implicit ? capacity : 0;
+  vdiag_ = makeBuffer(nv * 4);
+  vr_ = makeBuffer(nv * 16);
+  vz_ = makeBuffer(nv * 16);
+  vd_ = makeBuffer(nv * 16);
+  vq_ = makeBuffer(nv * 16);
+  vkeep_ = makeBuffer(nv * 16);
   pdiv_ = makeBuffer(capacity * 4);
   pdens_ = makeBuffer(capacity * 4);
   scratch_a_ = makeBuffer(capacity * 4);
@@ -373,6 +380,54 @@ DfsphSolveResult DfsphSolver::solveMirrored(Kind kind, const SimParams& p, const
   return r;
 }
 
+ViscositySolveResult DfsphSolver::viscositySolve(const SimParams& p, const DfsphFields& f, const cl::Buffer& bvisc) {
+  // Preconditioned conjugate gradients on M A x = M b (kernels/viscosity.cl), from x = v. The dot
+  // products are chunk sums of per-particle values (dfsph_reduce into err_) added in order in double
+  // (averageError), so the run is bitwise deterministic. x is vel_before_: the viscous forces' velocities.
+  ViscositySolveResult res;
+  const std::size_t n = p.n_fluid;
+  if (n == 0) return res;
+  // Incremental (pressure-correction) splitting: the solve starts from w = v + dt a_p(p_prev), the
+  // velocities with the last density solve's pressure (the warm start's) applied, and the viscous
+  // increment is x - w. A steady Stokes flow, nu L v = grad p / rho, is then a fixed point of the step
+  // at any dt: (I - dt L) v = v - dt grad p / rho = w - ... gives x = w, and the density solve that
+  // follows (from the same warm start) applies p again. Without it (x - v from v), the step's
+  // viscosity and pressure act one after the other, and at steps long against dx^2 / nu the towed
+  // ball's drag fell with dt (docs/dfsph.md, session 36).
+  const bool incremental = !mirrored() && spec_.warm_start;
+  if (incremental) {
+    clCall("keeping the velocities", [&] { return cl_.queue().enqueueCopyBuffer(*f.vel, vkeep_, 0, 0, n * 16); });
+    apply(Kind::Density, p, f, pdens_);
+  }
+  kernels_.call("viscosity_cg_setup", n, kLocal, p, *f.pos, *f.vel, *f.phase, *f.density, *f.snbr, *f.snbr_count,
+                *f.bpos, bvisc, *f.sbnbr, *f.sbnbr_count, vdiag_, vel_before_, vr_, vz_, vd_, err_);
+  const double nn = static_cast<double>(n);
+  double rz = averageError(n) * nn;
+  const double rz0 = rz;
+  const double tol2 = spec_.viscosity_tolerance * spec_.viscosity_tolerance;
+  while (rz > tol2 * rz0 && res.iterations < spec_.viscosity_max_iterations) {
+    kernels_.call("viscosity_cg_apply", n, kLocal, p, *f.pos, *f.phase, *f.density, *f.snbr, *f.snbr_count, vdiag_,
+                  vd_, vq_, err_);
+    const double dq = averageError(n) * nn;
+    if (!(dq > 0.0)) break;  // d = 0: nothing left to solve
+    const float alpha = static_cast<float>(rz / dq);
+    kernels_.call("viscosity_cg_update", n, kLocal, p, alpha, *f.phase, vdiag_, vd_, vq_, vel_before_, vr_, vz_, err_);
+    const double rz_new = averageError(n) * nn;
+    ++res.iterations;
+    const float beta = static_cast<float>(rz_new / rz);
+    rz = rz_new;
+    if (rz <= tol2 * rz0) break;
+    kernels_.call("viscosity_cg_direction", n, kLocal, p, beta, vz_, vd_);
+  }
+  res.residual = rz0 > 0.0 ? std::sqrt(std::max(rz, 0.0) / rz0) : 0.0;
+  res.converged = res.residual <= spec_.viscosity_tolerance;
+  kernels_.call("viscosity_cg_finish", n, kLocal, p, *f.vel, vel_before_, *f.acc);
+  if (incremental)
+    clCall("restoring the velocities", [&] { return cl_.queue().enqueueCopyBuffer(vkeep_, *f.vel, 0, 0, n * 16); });
+  viscous_kept_ = true;
+  return res;
+}
+
 double DfsphSolver::averageError(std::size_t n, const DfsphFields* f, double* body_error) {
   // Chunk sums on the device, the chunks added in order here (double): a fixed order.
   const uint32_t chunk = static_cast<uint32_t>((n + kChunks - 1) / kChunks);
@@ -519,9 +574,12 @@ DfsphSolveResult DfsphSolver::divergenceSolve(const SimParams& p, const DfsphFie
 }
 
 DfsphSolveResult DfsphSolver::densitySolve(const SimParams& p, const DfsphFields& f) {
-  // Keep the velocities the viscous forces saw (for the rigid coupling), then v* = v + dt a.
-  clCall("keeping the velocities",
-         [&] { return cl_.queue().enqueueCopyBuffer(*f.vel, vel_before_, 0, 0, std::max<std::size_t>(p.n_fluid, 1) * 16); });
+  // Keep the velocities the viscous forces saw (for the rigid coupling; the implicit viscosity's
+  // solution is there already), then v* = v + dt a.
+  if (!viscous_kept_)
+    clCall("keeping the velocities",
+           [&] { return cl_.queue().enqueueCopyBuffer(*f.vel, vel_before_, 0, 0, std::max<std::size_t>(p.n_fluid, 1) * 16); });
+  viscous_kept_ = false;
   // v* = v + dt a; with extrapolated walls a takes the contact with the walls for the particles
   // the solve leaves without pressure first (kernels/dfsph.cl, dfsph_wall_contact_accel).
   const int contact = extrapolated() && f.n_boundary > 0 ? 1 : 0;

@@ -92,6 +92,13 @@ struct DfsphSolveResult {
   double body_error = 0.0;
 };
 
+/// The implicit viscosity solve of one step (fluid.dfsph.viscosity_solve: implicit).
+struct ViscositySolveResult {
+  int iterations = 0;       ///< conjugate-gradient iterations (unit: 1)
+  double residual = 0.0;    ///< sqrt(r.z / r0.z0) reached, the preconditioned residual against the first (unit: 1)
+  bool converged = true;    ///< residual <= fluid.dfsph.viscosity_tolerance when it stopped
+};
+
 class DfsphSolver {
  public:
   /// `one_mass`: every fluid phase has the same particle mass (the factor pass then reads no
@@ -123,6 +130,11 @@ class DfsphSolver {
   /// The velocities before this step's density solve: what the viscous forces saw, so that the
   /// rigid coupling's viscous reaction matches them (n x float4) (unit: m/s).
   const cl::Buffer& viscousVelocities() const { return vel_before_; }
+  /// Implicit laminar viscosity (kernels/viscosity.cl, viscosity_cg_*): solves backward Euler's
+  /// (I - dt L) v' = v by preconditioned conjugate gradients from v, adds (v' - v) / dt to f.acc, and
+  /// keeps v' as the velocities the viscous forces saw (viscousVelocities(), for the bodies' reaction:
+  /// the densitySolve that follows keeps them). bvisc: the boundary velocities of the viscous term.
+  ViscositySolveResult viscositySolve(const SimParams& p, const DfsphFields& f, const cl::Buffer& bvisc);
   /// Extrapolated walls' contact (kernels/dfsph.cl, dfsph_wall_contact_accel; from cloth nodes too):
   /// its stiffness dt^2 k_w / dx (0 where it does not act: other walls) and its range r0 / dx (unit:
   /// 1); the cloth nodes take its reaction (rigid.cl, rigid_fluid_forces).
@@ -207,7 +219,10 @@ class DfsphSolver {
   bool divergence_ran_ = false;            // the divergence solve runs (its wall pressure counts)
   bool rate_in_source_ = false;            // source_ holds the divergence solve's density rate (factors())
   double prev_dt_div_ = 0.0, prev_dt_dens_ = 0.0;  // step of the last solve of each kind (unit: s)
-  cl::Buffer vel_before_;                  // velocities before the density solve (unit: m/s)
+  cl::Buffer vel_before_;                  // velocities before the density solve, or the implicit viscosity's v' (unit: m/s)
+  bool viscous_kept_ = false;              // vel_before_ holds this step's implicit viscosity solution
+  cl::Buffer vdiag_, vr_, vz_, vd_, vq_;   // implicit viscosity: the diagonal of A, residual, preconditioned residual, direction, M A d
+  cl::Buffer vkeep_;                       // implicit viscosity: the velocities before the last pressure was applied
   cl::Buffer bp_div_, bp_dens_;            // extrapolated walls: each solve's wall pressures (unit: Pa)
   // Extrapolated walls: each wall particle's fluid neighbours within H for the step, in grid order
   // (kernels/dfsph.cl, dfsph_wall_lists; n_boundary x kWallSlots), and their counts (n_boundary).

@@ -62,6 +62,10 @@ enum class DfsphWalls { Mirrored, Single, Extrapolated };
 /// light sheet between two water layers blows up: the added-mass instability; a light body needs
 /// the fictitious mass body_added_mass).
 enum class DfsphCoupling { Strong, Staggered };
+/// DFSPH's laminar viscosity: explicit (the step is bound by 0.125 h^2 / nu, Morris et al. 1997) or
+/// implicit, a conjugate-gradient solve of (I - dt L) v' = v with Morris' operator L (Weiler et al. 2018
+/// solve implicitly too, with their own operator), which lifts that bound.
+enum class ViscositySolve { Explicit, Implicit };
 
 struct SimulationSpec {
   double duration = 2.0;                        ///< simulated time to run (unit: s)
@@ -154,6 +158,13 @@ struct DfsphSpec {
   /// session 29); walls single or extrapolated (unit: 1)
   double warm_average = 0.0;
   double relaxation = 0.5;           ///< Jacobi relaxation omega of both solves' pressure increments (unit: 1)
+  /// the laminar viscosity explicit (the step bound 0.125 h^2 / nu applies) or implicit (a conjugate-gradient
+  /// solve each step, no viscous step bound; kernels/viscosity.cl, viscosity_cg_*)
+  ViscositySolve viscosity_solve = ViscositySolve::Explicit;
+  /// implicit viscosity: the solve stops when its preconditioned residual is this fraction of the step's first
+  /// one (its explicit viscous increment), sqrt(r.z / r0.z0) (unit: 1)
+  double viscosity_tolerance = 1.0e-3;
+  int viscosity_max_iterations = 200;  ///< implicit viscosity: conjugate-gradient iterations at most per step (unit: 1)
   int coarse_interval = 4;           ///< two-level solve: a coarse-grid correction after the first iteration of the density solve at rest (and every n iterations after from coarse_rest_start while above its bound), and every n Jacobi iterations of a stalled solve from coarse_start (if > 0); 0 = off, plain Jacobi (kernels/dfsph_coarse.cl) (unit: 1)
   int coarse_start = 0;              ///< two-level solve: a solve still above its bound after k0 iterations takes a correction then and every coarse_interval after; 0 = never (unit: 1)
   double coarse_rest_travel = 0.1;   ///< two-level solve: a step whose fastest particle moved less than this many spacings dx in the last step is at rest: its density solve takes a correction after the first iteration (unit: 1)

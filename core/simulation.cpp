@@ -293,7 +293,7 @@ void Simulation::step(double dt) {
       ghostVelocities();                               // no-slip wall velocities 2 v_w - v~ (Adami 2012 eq. 22-23)
     pressureForces();                                  // wall pressure (Adami 2012), -grad p / rho + g (+ viscosity, fused); dfsph: g
     if (on(Stage::Viscosity) && !on(Stage::Pressure))
-      viscosityForces();                               // Monaghan or Morris, on its own
+      viscosityForces();                               // Monaghan or Morris, on its own; dfsph: explicit or implicit (CG)
     if (on(Stage::ColourDiffusion)) diffuseColour();   // colour mixing
     if (on(Stage::DensitySolve)) densitySolve();       // DFSPH: v* = v + dt a, constant density (B&K 2017 Alg. 3)
     if (on(Stage::RigidCoupling)) gatherBodyForces();  // fluid -> bodies: 6 numbers per body to the host
@@ -326,7 +326,8 @@ double Simulation::dfsphStepLimit(StepLimiter* limiter) const {
     if (l < limit) limit = l, by = who;
   };
   if (v > 0.0) bound(d.cfl * model_.dx / v, StepLimiter::Cfl);
-  if (on(Stage::Viscosity) && model_.spec.fluid.viscosity_model == ViscosityModel::Laminar && model_.max_viscosity > 0)
+  if (on(Stage::Viscosity) && model_.spec.fluid.viscosity_model == ViscosityModel::Laminar && model_.max_viscosity > 0 &&
+      d.viscosity_solve == ViscositySolve::Explicit)  // the implicit solve has no viscous bound
     bound(0.125 * model_.h * model_.h / model_.max_viscosity, StepLimiter::Viscous);
   if (on(Stage::Viscosity) && model_.spec.fluid.viscosity_model == ViscosityModel::Artificial &&
       model_.artificial_step_factor > 0.0 && model_.spec.fluid.artificial_viscosity > 0.0 && model_.c0 > 0.0)
@@ -849,6 +850,14 @@ void Simulation::densitySolve() {
 
 void Simulation::viscosityForces() {
   StageTimer timer(*this, Stage::Viscosity);
+  if (dfsph_ && model_.spec.fluid.dfsph.viscosity_solve == ViscositySolve::Implicit) {
+    // backward Euler by conjugate gradients (fluid.dfsph.viscosity_solve: implicit; kernels/viscosity.cl)
+    const ViscositySolveResult r = dfsph_->viscositySolve(params_, dfsphFields(), viscousBoundaryVelocities());
+    profile_.viscosity_iterations += static_cast<uint64_t>(r.iterations);
+    profile_.max_viscosity_residual = std::max(profile_.max_viscosity_residual, r.residual);
+    if (!r.converged) ++profile_.viscosity_unconverged_steps;
+    return;
+  }
   kernels_.call("viscosity_force", n_, kLocal, params_, pos_[cur_], vel_[cur_], phase_[cur_], density_, snbr_, snbr_count_, bpos_, viscousBoundaryVelocities(), sbnbr_, sbnbr_count_, acc_);
 }
 

@@ -66,6 +66,11 @@ struct Profile {
   uint64_t unconverged_steps = 0;      ///< steps whose density solve stopped above its bound
   double max_density_error = 0;        ///< largest average density error at the end of a step (unit: 1)
   double max_divergence_error = 0;     ///< largest average divergence error at the end of a step (unit: 1)
+  // DFSPH's implicit viscosity (fluid.dfsph.viscosity_solve: implicit): conjugate-gradient iterations,
+  // steps that stopped at the most iterations, the largest residual reached (sqrt(r.z / r0.z0)).
+  uint64_t viscosity_iterations = 0;          ///< all steps (unit: 1)
+  uint64_t viscosity_unconverged_steps = 0;   ///< steps above fluid.dfsph.viscosity_tolerance (unit: 1)
+  double max_viscosity_residual = 0;          ///< (unit: 1)
   /// DFSPH steps by what set their length (index: StepLimiter) (unit: 1).
   std::array<uint64_t, kNumStepLimiters> dfsph_step_limiters{};
   /// DFSPH: the largest dt sqrt(max p / rho) / dx of a step with its own pressures, and the steps where

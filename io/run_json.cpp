@@ -116,7 +116,10 @@ void writeRunJson(const std::string& path, const RunInfo& info) {
     << (info.profile.steps ? double(info.profile.density_iterations) / double(info.profile.steps) : 0.0)
     << ", \"unconverged_steps\": " << info.profile.unconverged_steps
     << ", \"max_density_error\": " << info.profile.max_density_error
-    << ", \"max_divergence_error\": " << info.profile.max_divergence_error << ", \"steps_limited_by\": {";
+    << ", \"max_divergence_error\": " << info.profile.max_divergence_error
+    << ", \"viscosity_iterations\": " << info.profile.viscosity_iterations
+    << ", \"viscosity_unconverged_steps\": " << info.profile.viscosity_unconverged_steps
+    << ", \"max_viscosity_residual\": " << info.profile.max_viscosity_residual << ", \"steps_limited_by\": {";
   // What set each step's length (Simulation::dfsphStepLimit): the largest step, CFL, a viscous limit
   for (int l = 0; l < kNumStepLimiters; ++l)
     j << (l ? ", " : "") << jsonString(stepLimiterName(static_cast<StepLimiter>(l))) << ": "

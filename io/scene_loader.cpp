@@ -665,6 +665,30 @@ class Loader {
     checkIterations("fluid.dfsph.divergence_min_iterations", "fluid.dfsph.divergence_max_iterations",
                     dfsph.divergence_min_iterations, dfsph.divergence_max_iterations);
 
+    // Implicit viscosity solves the laminar model's operator, in DFSPH's step.
+    if (dfsph.viscosity_solve == ViscositySolve::Implicit && usable("fluid.dfsph.viscosity_solve")) {
+      if (fluid.solver != FluidSolver::Dfsph && usable("fluid.solver"))
+        issue("fluid.dfsph.viscosity_solve", markOf("fluid.dfsph.viscosity_solve"),
+              "'fluid.dfsph.viscosity_solve: implicit' needs 'fluid.solver: dfsph' (WCSPH's step is bound by the "
+              "speed of sound: use explicit)");
+      else if (fluid.viscosity_model != ViscosityModel::Laminar && usable("fluid.viscosity_model"))
+        issue("fluid.dfsph.viscosity_solve", markOf("fluid.dfsph.viscosity_solve"),
+              "'fluid.dfsph.viscosity_solve: implicit' solves the laminar viscosity: set 'fluid.viscosity_model: "
+              "laminar' (the artificial viscosity is explicit)");
+      // Bodies and nodes that move under the fluid's force take its viscous force explicitly, one solve
+      // late: a ball falling through syrup swung by its own speed at every step tried (docs/dfsph.md,
+      // session 36). Walls and scripted bodies are fine: nothing answers.
+      std::string moving;
+      for (const RigidBodySpec& b : spec.rigid_bodies)
+        if (b.dynamic && moving.empty()) moving = "the dynamic rigid body '" + b.name + "'";
+      if (moving.empty() && !spec.cloth.empty()) moving = "cloth";
+      if (!moving.empty())
+        issue("fluid.dfsph.viscosity_solve", markOf("fluid.dfsph.viscosity_solve"),
+              "'fluid.dfsph.viscosity_solve: implicit' does not take " + moving +
+                  " yet: bodies and cloth that the fluid moves take its viscous force explicitly, and swing at "
+                  "the long steps the implicit solve allows (use explicit; walls and scripted bodies are fine)");
+    }
+
     // A background pressure pushes on every wall: with an open wall the fluid would be pushed out of the
     // domain (tried, session 35: at 1 kPa, 116 of a weightless box's 7,835 particles left through its
     // open top in 0.4 s), and DFSPH's pressures come from its solve, not from the equation of state.

@@ -474,6 +474,21 @@ std::vector<KeyDef> buildTable() {
   add(field<InScene>("fluid.dfsph.relaxation", [](auto& s) -> auto& { return s.fluid.dfsph.relaxation; })
           .unit("1").greaterThan(0).atMost(1)
           .doc("Jacobi relaxation omega of the pressure updates (the reference implementation's 0.5)"));
+  add(field<InScene>("fluid.dfsph.viscosity_solve", [](auto& s) -> auto& { return s.fluid.dfsph.viscosity_solve; })
+          .doc("the laminar viscosity (fluid.viscosity_model: laminar) explicit, whose step is bound by "
+               "0.125 h^2 / nu (Morris et al. 1997), or implicit: each step solves (I - dt L) v' = v for the "
+               "velocities, L Morris' viscous operator with the boundaries' no-slip velocities, by preconditioned "
+               "conjugate gradients on the device in a fixed order, and the step is no longer bound by the "
+               "viscosity (viscous liquids at the CFL step; docs/dfsph.md, session 36). The bodies take the "
+               "reaction of the same viscous forces"));
+  add(field<InScene>("fluid.dfsph.viscosity_tolerance", [](auto& s) -> auto& { return s.fluid.dfsph.viscosity_tolerance; })
+          .unit("1").greaterThan(0).atMost(1)
+          .doc("implicit viscosity: the solve stops when its preconditioned residual has fallen to this fraction of "
+               "the step's first one (the explicit viscous increment)"));
+  add(field<InScene>("fluid.dfsph.viscosity_max_iterations", [](auto& s) -> auto& { return s.fluid.dfsph.viscosity_max_iterations; })
+          .unit("1").atLeast(1).atMost(10000)
+          .doc("implicit viscosity: conjugate-gradient iterations at most per step (a step that stops here is "
+               "counted in the summary and run.json)"));
   add(field<InScene>("fluid.dfsph.coarse_interval", [](auto& s) -> auto& { return s.fluid.dfsph.coarse_interval; })
           .unit("1").atLeast(0).atMost(10000)
           .doc("two-level solve (walls single or extrapolated): a coarse-grid correction of the pressures on "

@@ -82,6 +82,11 @@ struct EnumNames<DfsphCoupling> {
                                                                             {DfsphCoupling::Staggered, "staggered"}};
 };
 template <>
+struct EnumNames<ViscositySolve> {
+  static constexpr std::pair<ViscositySolve, const char*> values[] = {{ViscositySolve::Explicit, "explicit"},
+                                                                        {ViscositySolve::Implicit, "implicit"}};
+};
+template <>
 struct EnumNames<TimeStepControl> {
   static constexpr std::pair<TimeStepControl, const char*> values[] = {{TimeStepControl::Subdivide, "subdivide"},
                                                                          {TimeStepControl::Warn, "warn"}};

@@ -77,3 +77,131 @@ __kernel void boundary_ghost_velocity(const SimParams p, const uint n_boundary, 
   /* 2 v_b - v~_b (eq. 23); with no fluid within H, the wall's own velocity */
   bghost[b] = sw > 0.0f ? (float4)(2.0f * vb.xyz - svw / sw, vb.w) : vb;
 }
+
+/* ---- Implicit laminar viscosity (fluid.dfsph.viscosity_solve: implicit) ------------------------
+ * Morris et al. 1997's viscous acceleration (shared/pair_loops.h, laminar) is linear in the
+ * velocities:
+ *     a_i = -sum_j k_ij (v_i - v_j) - sum_b k_ib (v_i - v_b),
+ *     k_ij = -m_j (mu_i + mu_j) F_ij r^2 / (rho_i rho_j (r^2 + 0.01 h^2)) >= 0   (F_ij < 0),
+ *     k_ib = -2 psi_b m_i nu_i / rho_i F_ib r^2 / (r^2 + 0.01 h^2) >= 0          (sph_boundary_viscosity),
+ * v_b the boundary's no-slip (ghost) or own velocity of this step, held fixed. Backward Euler for it,
+ * v' = v + dt a(v'), is the linear system A v' = v + dt sum_b k_ib v_b with
+ *     (A x)_i = (1 + dt sum_j k_ij + dt sum_b k_ib) x_i - dt sum_j k_ij x_j.
+ * m_i k_ij = m_j k_ji, so M A (M the particle masses) is symmetric, and positive definite (diagonally
+ * dominant with a positive diagonal): it is solved by conjugate gradients preconditioned with its
+ * diagonal, one gather pass per iteration (viscosity_cg_apply), the dot products as chunk sums in a
+ * fixed order (dfsph_reduce, then the host in double): bitwise deterministic. The three velocity
+ * components share the matrix and are solved as one vector (the dot products add the components).
+ * Weiler, Koschier, Brand & Bender 2018 ("A physically consistent implicit viscosity solver for SPH
+ * fluids") solve viscosity implicitly with CG the same way, with their own operator; this one is the
+ * explicit term the solver already has, so the implicit and explicit steps agree as dt -> 0. */
+inline float sph_laminar_pair(const float mj, const float mui, const float muj, const float rhoi, const float rhoj,
+                              const float F, const float r2, const float eta2) {
+  return -mj * (mui + muj) * (F * r2) / (rhoi * rhoj * (r2 + eta2));
+}
+
+/* The step's start: x = v, r = M (b - A v) = M dt a(v) (the explicit viscous increment), z = r / (M diag),
+ * the direction d = z, and r . z per particle for the reduction. */
+__kernel void viscosity_cg_setup(const SimParams p, __global const float4* pos, __global const float4* vel,
+                                 __global const uint* phase, __global const float* density,
+                                 __global const uint* nbr, __global const uint* nbr_count,
+                                 __global const float4* bpos, __global const float4* bvel,
+                                 __global const uint* bnbr, __global const uint* bnbr_count, __global float* diag,
+                                 __global float4* x, __global float4* r, __global float4* z, __global float4* d,
+                                 __global float* rz) {
+  const uint i = get_global_id(0);
+  if (i >= p.n_fluid) return;
+  const uint K = p.max_neighbours;
+  const float H = p.support, eta2 = 0.01f * p.h * p.h;
+  const float3 xi = pos[i].xyz, vi = vel[i].xyz;
+  const uint phi = phase[i];
+  const float mi = p.phase_mass[phi], rhoi = density[i], nui = p.phase_viscosity[phi], mui = rhoi * nui;
+  float ksum = 0.0f;
+  float3 a = (float3)(0.0f);
+  const SphList l = sph_list(&p, nbr, i);
+  for (uint k = 0; k < nbr_count[i]; ++k) {
+    const uint j = sph_list1(l, k);
+    const float3 dij = xi - pos[j].xyz;
+    const float r2 = dot(dij, dij);
+    const uint phj = phase[j];
+    const float rhoj = density[j];
+    const float kij = sph_laminar_pair(p.phase_mass[phj], mui, rhoj * p.phase_viscosity[phj], rhoi, rhoj,
+                                       sph_grad_factor(SPH_KERNEL, sqrt(r2), H), r2, eta2);
+    ksum += kij;
+    a -= kij * (vi - vel[j].xyz);
+  }
+  for (uint k = 0; k < bnbr_count[i]; ++k) {
+    const uint b = bnbr[(size_t)i * K + k];
+    const float3 dib = xi - bpos[b].xyz;
+    const float r2 = dot(dib, dib);
+    const float F = sph_grad_factor(SPH_KERNEL, sqrt(r2), H);
+    const float kib = -(2.0f * bpos[b].w * mi * nui / rhoi) * (F * r2) / (r2 + eta2);
+    ksum += kib;
+    a -= kib * (vi - bvel[b].xyz);
+  }
+  const float dg = 1.0f + p.dt * ksum;
+  diag[i] = dg;
+  const float3 ri = mi * p.dt * a, zi = ri / (mi * dg);
+  x[i] = (float4)(vi, 0.0f);
+  r[i] = (float4)(ri, 0.0f);
+  z[i] = (float4)(zi, 0.0f);
+  d[i] = (float4)(zi, 0.0f);
+  rz[i] = dot(ri, zi);
+}
+
+/* q = M A d, and d . q per particle (one gather over the fluid neighbours: the boundary's part of A is in diag). */
+__kernel void viscosity_cg_apply(const SimParams p, __global const float4* pos, __global const uint* phase,
+                                 __global const float* density, __global const uint* nbr,
+                                 __global const uint* nbr_count, __global const float* diag,
+                                 __global const float4* d, __global float4* q, __global float* dq) {
+  const uint i = get_global_id(0);
+  if (i >= p.n_fluid) return;
+  const float H = p.support, eta2 = 0.01f * p.h * p.h;
+  const float3 xi = pos[i].xyz;
+  const uint phi = phase[i];
+  const float mi = p.phase_mass[phi], rhoi = density[i], mui = rhoi * p.phase_viscosity[phi];
+  float3 s = (float3)(0.0f);
+  const SphList l = sph_list(&p, nbr, i);
+  for (uint k = 0; k < nbr_count[i]; ++k) {
+    const uint j = sph_list1(l, k);
+    const float3 dij = xi - pos[j].xyz;
+    const float r2 = dot(dij, dij);
+    const uint phj = phase[j];
+    const float rhoj = density[j];
+    s += sph_laminar_pair(p.phase_mass[phj], mui, rhoj * p.phase_viscosity[phj], rhoi, rhoj,
+                          sph_grad_factor(SPH_KERNEL, sqrt(r2), H), r2, eta2) * d[j].xyz;
+  }
+  const float3 di = d[i].xyz;
+  const float3 qi = mi * (diag[i] * di - p.dt * s);
+  q[i] = (float4)(qi, 0.0f);
+  dq[i] = dot(di, qi);
+}
+
+/* x += alpha d, r -= alpha q, z = r / (M diag), and r . z per particle. */
+__kernel void viscosity_cg_update(const SimParams p, const float alpha, __global const uint* phase,
+                                  __global const float* diag, __global const float4* d, __global const float4* q,
+                                  __global float4* x, __global float4* r, __global float4* z, __global float* rz) {
+  const uint i = get_global_id(0);
+  if (i >= p.n_fluid) return;
+  x[i] = (float4)(x[i].xyz + alpha * d[i].xyz, 0.0f);
+  const float3 ri = r[i].xyz - alpha * q[i].xyz;
+  const float3 zi = ri / (p.phase_mass[phase[i]] * diag[i]);
+  r[i] = (float4)(ri, 0.0f);
+  z[i] = (float4)(zi, 0.0f);
+  rz[i] = dot(ri, zi);
+}
+
+/* d = z + beta d. */
+__kernel void viscosity_cg_direction(const SimParams p, const float beta, __global const float4* z, __global float4* d) {
+  const uint i = get_global_id(0);
+  if (i >= p.n_fluid) return;
+  d[i] = (float4)(z[i].xyz + beta * d[i].xyz, 0.0f);
+}
+
+/* The solve's velocities as an acceleration: a += (v' - v) / dt. */
+__kernel void viscosity_cg_finish(const SimParams p, __global const float4* vel, __global const float4* x,
+                                  __global float4* acc) {
+  const uint i = get_global_id(0);
+  if (i >= p.n_fluid) return;
+  acc[i] = (float4)(acc[i].xyz + (x[i].xyz - vel[i].xyz) / p.dt, acc[i].w);
+}

@@ -342,6 +342,15 @@ TEST_CASE("DFSPH: the same scene twice gives bitwise equal states, and the error
   CHECK(e1.state_hash == e2.state_hash);
   CHECK(e1.profile.density_iterations == e2.profile.density_iterations);
   CHECK(e1.state_hash != s1.state_hash);
+  // the implicit viscosity's conjugate gradients: dot products in a fixed order, deterministic too
+  o.sets = {"fluid.solver=dfsph", "fluid.viscosity_model=laminar", "fluid.dfsph.viscosity_solve=implicit"};
+  const app::RunResult v1 = app::runScene(o);
+  const app::RunResult v2 = app::runScene(o);
+  REQUIRE(v1.exit_code == 0);
+  CHECK(v1.state_hash == v2.state_hash);
+  CHECK(v1.profile.viscosity_iterations == v2.profile.viscosity_iterations);
+  CHECK(v1.profile.viscosity_iterations > 0);
+  CHECK(v1.profile.viscosity_unconverged_steps == 0);
 }
 
 TEST_CASE("DFSPH stage mask: its kernels run only with solver dfsph", "[dfsph]") {
@@ -373,6 +382,16 @@ TEST_CASE("DFSPH stage mask: its kernels run only with solver dfsph", "[dfsph]")
   CHECK(nd.dispatch_counts.at("dfsph_source") == nd.profile.steps);
   CHECK(nd.dispatch_counts.at("dfsph_factor") == nd.profile.steps);
   CHECK(nd.state_hash != d.state_hash);
+  // the implicit viscosity's passes run only when the scene asks for them
+  for (const auto& [name, count] : d.dispatch_counts) {
+    INFO(name);
+    CHECK(name.rfind("viscosity_cg_", 0) != 0);
+  }
+  o.sets = {"fluid.solver=dfsph", "fluid.viscosity_model=laminar", "fluid.dfsph.viscosity_solve=implicit"};
+  const app::RunResult vi = app::runScene(o);
+  REQUIRE(vi.exit_code == 0);
+  CHECK(vi.dispatch_counts.at("viscosity_cg_setup") == vi.profile.steps);
+  CHECK(vi.dispatch_counts.count("viscosity_force") == 0);
 }
 
 TEST_CASE("DFSPH settings: bad values are reported at file:line:col", "[dfsph]") {
@@ -400,6 +419,28 @@ TEST_CASE("DFSPH settings: bad values are reported at file:line:col", "[dfsph]")
   CHECK(testing::hasIssue(issues, 7, {"warm_average"}));
   issues = testing::issuesOf(dir, head + "    warm_average: -0.5\n");
   CHECK(testing::hasIssue(issues, 7, {"warm_average"}));
+  // implicit viscosity: its tolerance in (0, 1], at least one iteration, the laminar model, and DFSPH
+  issues = testing::issuesOf(dir, head + "    viscosity_tolerance: 0\n");
+  CHECK(testing::hasIssue(issues, 7, {"viscosity_tolerance"}));
+  issues = testing::issuesOf(dir, head + "    viscosity_max_iterations: 0\n");
+  CHECK(testing::hasIssue(issues, 7, {"viscosity_max_iterations"}));
+  issues = testing::issuesOf(dir, head + "    viscosity_solve: implicit\n");  // the default model is artificial
+  CHECK(testing::hasIssue(issues, 7, {"viscosity_solve", "laminar"}));
+  issues = testing::issuesOf(dir, head + "    viscosity_solve: sometimes\n");
+  CHECK(testing::hasIssue(issues, 7, {"sometimes"}));
+  const std::string wcsph = "domain: {min: [0, 0, 0], max: [0.1, 0.1, 0.1]}\nfluid:\n  particle_spacing: 0.02\n"
+                            "  viscosity_model: laminar\n  solver: wcsph\n  dfsph:\n    viscosity_solve: implicit\n";
+  issues = testing::issuesOf(dir, wcsph);
+  CHECK(testing::hasIssue(issues, 7, {"viscosity_solve", "dfsph"}));
+  CHECK(testing::issuesOf(dir, head + "    viscosity_solve: implicit\n  viscosity_model: laminar\n").empty());
+  // not yet with bodies the fluid moves (a dynamic body; cloth): a scripted body is fine
+  const std::string ball = "rigid_bodies:\n  - {name: ball, shape: sphere, radius: 0.02, position: [0.05, 0.05, 0.03], ";
+  issues = testing::issuesOf(dir, head + "    viscosity_solve: implicit\n  viscosity_model: laminar\n" + ball +
+                                      "density: 2000, dynamic: true}\n");
+  CHECK(testing::hasIssue(issues, 7, {"viscosity_solve", "dynamic", "ball"}));
+  CHECK(testing::issuesOf(dir, head + "    viscosity_solve: implicit\n  viscosity_model: laminar\n" + ball +
+                                   "density: 2000, motion: {type: constant, velocity: [0.01, 0, 0]}}\n")
+            .empty());
   // an unknown solver
   issues = testing::issuesOf(dir, "domain: {min: [0, 0, 0], max: [0.1, 0.1, 0.1]}\nfluid:\n  solver: iisph\n");
   CHECK(testing::hasIssue(issues, 3, {"iisph"}));
