@@ -387,17 +387,24 @@ ViscositySolveResult DfsphSolver::viscositySolve(const SimParams& p, const Dfsph
   ViscositySolveResult res;
   const std::size_t n = p.n_fluid;
   if (n == 0) return res;
-  // Incremental (pressure-correction) splitting: the solve starts from w = v + dt a_p(p_prev), the
-  // velocities with the last density solve's pressure (the warm start's) applied, and the viscous
-  // increment is x - w. A steady Stokes flow, nu L v = grad p / rho, is then a fixed point of the step
-  // at any dt: (I - dt L) v = v - dt grad p / rho = w - ... gives x = w, and the density solve that
-  // follows (from the same warm start) applies p again. Without it (x - v from v), the step's
-  // viscosity and pressure act one after the other, and at steps long against dx^2 / nu the towed
-  // ball's drag fell with dt (docs/dfsph.md, session 36).
+  // Incremental (pressure-correction) splitting: the solve starts from w = v + dt (a_p(p_prev) + g),
+  // the velocities with the last density solve's pressure (the warm start's) and the step's other
+  // forces so far (gravity, in f.acc) applied, and the viscous increment is x - w. A steady Stokes
+  // flow, nu L v = grad p / rho - g, is then a fixed point of the step at any dt: (I - dt nu L) v = w
+  // gives x = v + dt (a_p + g) = w, and the density solve that follows (from the same warm start)
+  // applies p again. Without it (x - v from v), the step's viscosity and pressure act one after the
+  // other, and at steps long against dx^2 / nu the towed ball's drag fell with dt; without g in w,
+  // the hydrostatic pressure's dt a_p alone (0.025 m/s up at 2.5 ms) met the walls' and bodies' own
+  // velocities in the viscous terms, and the towed ball's force shook 20x more than the explicit
+  // solve's at the same step (docs/dfsph.md, session 36).
   const bool incremental = !mirrored() && spec_.warm_start;
   if (incremental) {
     clCall("keeping the velocities", [&] { return cl_.queue().enqueueCopyBuffer(*f.vel, vkeep_, 0, 0, n * 16); });
+    // (dfsph_apply_pressure reads the neighbours' pressures packed in xt_, which holds the divergence
+    // solve's: packed again from the density pressure first; the density solve packs its own)
+    kernels_.call("viscosity_cg_pack", n, kLocal, p, *f.pos, *f.phase, *f.density, pdens_, xt_);
     apply(Kind::Density, p, f, pdens_);
+    kernels_.call("viscosity_cg_predict", n, kLocal, p, *f.acc, *f.vel);
   }
   kernels_.call("viscosity_cg_setup", n, kLocal, p, *f.pos, *f.vel, *f.phase, *f.density, *f.snbr, *f.snbr_count,
                 *f.bpos, bvisc, *f.sbnbr, *f.sbnbr_count, vdiag_, vel_before_, vr_, vz_, vd_, err_);

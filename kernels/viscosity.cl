@@ -198,6 +198,25 @@ __kernel void viscosity_cg_direction(const SimParams p, const float beta, __glob
   d[i] = (float4)(z[i].xyz + beta * d[i].xyz, 0.0f);
 }
 
+/* The incremental splitting's start (core/dfsph.cpp, viscositySolve): each particle's position and
+ * p / delta^2 of the given pressure packed as dfsph_apply_pressure reads its neighbours (kernels/dfsph.cl,
+ * dfsph_force; the solves' own passes pack their current pressure the same way). */
+__kernel void viscosity_cg_pack(const SimParams p, __global const float4* pos, __global const uint* phase,
+                                __global const float* density, __global const float* pressure, __global float4* xt) {
+  const uint i = get_global_id(0);
+  if (i >= p.n_fluid) return;
+  const float delta = density[i] / p.phase_mass[phase[i]];
+  xt[i] = (float4)(pos[i].xyz, pressure[i] / (delta * delta));
+}
+
+/* The incremental splitting's start (core/dfsph.cpp, viscositySolve): v += dt a, a the accelerations of
+ * the step so far (gravity), after the last density pressure was applied. */
+__kernel void viscosity_cg_predict(const SimParams p, __global const float4* acc, __global float4* vel) {
+  const uint i = get_global_id(0);
+  if (i >= p.n_fluid) return;
+  vel[i] = (float4)(vel[i].xyz + p.dt * acc[i].xyz, vel[i].w);
+}
+
 /* The solve's velocities as an acceleration: a += (v' - v) / dt. */
 __kernel void viscosity_cg_finish(const SimParams p, __global const float4* vel, __global const float4* x,
                                   __global float4* acc) {
