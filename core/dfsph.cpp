@@ -381,7 +381,7 @@ DfsphSolveResult DfsphSolver::solveMirrored(Kind kind, const SimParams& p, const
 }
 
 ViscositySolveResult DfsphSolver::viscositySolve(const SimParams& p, const DfsphFields& f, const cl::Buffer& bvisc) {
-  // Preconditioned conjugate gradients on M A x = M b (kernels/viscosity.cl), from x = v. The dot
+  // Preconditioned conjugate gradients on M A x = M w (kernels/viscosity.cl), from x = w. The dot
   // products are chunk sums of per-particle values (dfsph_reduce into err_) added in order in double
   // (averageError), so the run is bitwise deterministic. x is vel_before_: the viscous forces' velocities.
   ViscositySolveResult res;
@@ -393,10 +393,9 @@ ViscositySolveResult DfsphSolver::viscositySolve(const SimParams& p, const Dfsph
   // flow, nu L v = grad p / rho - g, is then a fixed point of the step at any dt: (I - dt nu L) v = w
   // gives x = v + dt (a_p + g) = w, and the density solve that follows (from the same warm start)
   // applies p again. Without it (x - v from v), the step's viscosity and pressure act one after the
-  // other, and at steps long against dx^2 / nu the towed ball's drag fell with dt; without g in w,
-  // the hydrostatic pressure's dt a_p alone (0.025 m/s up at 2.5 ms) met the walls' and bodies' own
-  // velocities in the viscous terms, and the towed ball's force shook 20x more than the explicit
-  // solve's at the same step (docs/dfsph.md, session 36).
+  // other, and at steps long against dx^2 / nu the towed ball's drag fell with dt (docs/dfsph.md,
+  // session 36). g goes in with a_p because at rest they cancel: a_p alone (0.025 m/s up at 2.5 ms in
+  // a tank) would meet the walls' and bodies' own velocities in the viscous terms.
   const bool incremental = !mirrored() && spec_.warm_start;
   if (incremental) {
     clCall("keeping the velocities", [&] { return cl_.queue().enqueueCopyBuffer(*f.vel, vkeep_, 0, 0, n * 16); });
