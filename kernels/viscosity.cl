@@ -100,6 +100,17 @@ inline float sph_laminar_pair(const float mj, const float mui, const float muj, 
   return -mj * (mui + muj) * (F * r2) / (rhoi * rhoj * (r2 + eta2));
 }
 
+/* k_ij of fluid neighbour j of particle i (at xi, with mu_i and rho_i): sph_laminar_pair at their distance. */
+inline float viscosity_cg_k(const SimParams* p, const float3 xi, const float mui, const float rhoi, const uint j,
+                            __global const float4* pos, __global const uint* phase, __global const float* density) {
+  const float3 dij = xi - pos[j].xyz;
+  const float r2 = dot(dij, dij);
+  const uint phj = phase[j];
+  const float rhoj = density[j];
+  return sph_laminar_pair(p->phase_mass[phj], mui, rhoj * p->phase_viscosity[phj], rhoi, rhoj,
+                          sph_grad_factor(SPH_KERNEL, sqrt(r2), p->support), r2, 0.01f * p->h * p->h);
+}
+
 /* The step's start: x = v, r = M (b - A v) = M dt a(v) (the explicit viscous increment), z = r / (M diag),
  * the direction d = z, and r . z per particle for the reduction. */
 __kernel void viscosity_cg_setup(const SimParams p, __global const float4* pos, __global const float4* vel,
@@ -121,12 +132,7 @@ __kernel void viscosity_cg_setup(const SimParams p, __global const float4* pos, 
   const SphList l = sph_list(&p, nbr, i);
   for (uint k = 0; k < nbr_count[i]; ++k) {
     const uint j = sph_list1(l, k);
-    const float3 dij = xi - pos[j].xyz;
-    const float r2 = dot(dij, dij);
-    const uint phj = phase[j];
-    const float rhoj = density[j];
-    const float kij = sph_laminar_pair(p.phase_mass[phj], mui, rhoj * p.phase_viscosity[phj], rhoi, rhoj,
-                                       sph_grad_factor(SPH_KERNEL, sqrt(r2), H), r2, eta2);
+    const float kij = viscosity_cg_k(&p, xi, mui, rhoi, j, pos, phase, density);
     ksum += kij;
     a -= kij * (vi - vel[j].xyz);
   }
@@ -156,7 +162,6 @@ __kernel void viscosity_cg_apply(const SimParams p, __global const float4* pos, 
                                  __global const float4* d, __global float4* q, __global float* dq) {
   const uint i = get_global_id(0);
   if (i >= p.n_fluid) return;
-  const float H = p.support, eta2 = 0.01f * p.h * p.h;
   const float3 xi = pos[i].xyz;
   const uint phi = phase[i];
   const float mi = p.phase_mass[phi], rhoi = density[i], mui = rhoi * p.phase_viscosity[phi];
@@ -164,12 +169,7 @@ __kernel void viscosity_cg_apply(const SimParams p, __global const float4* pos, 
   const SphList l = sph_list(&p, nbr, i);
   for (uint k = 0; k < nbr_count[i]; ++k) {
     const uint j = sph_list1(l, k);
-    const float3 dij = xi - pos[j].xyz;
-    const float r2 = dot(dij, dij);
-    const uint phj = phase[j];
-    const float rhoj = density[j];
-    s += sph_laminar_pair(p.phase_mass[phj], mui, rhoj * p.phase_viscosity[phj], rhoi, rhoj,
-                          sph_grad_factor(SPH_KERNEL, sqrt(r2), H), r2, eta2) * d[j].xyz;
+    s += viscosity_cg_k(&p, xi, mui, rhoi, j, pos, phase, density) * d[j].xyz;
   }
   const float3 di = d[i].xyz;
   const float3 qi = mi * (diag[i] * di - p.dt * s);
