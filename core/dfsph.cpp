@@ -383,7 +383,7 @@ DfsphSolveResult DfsphSolver::solveMirrored(Kind kind, const SimParams& p, const
 ViscositySolveResult DfsphSolver::viscositySolve(const SimParams& p, const DfsphFields& f, const cl::Buffer& bvisc) {
   // Preconditioned conjugate gradients on M A x = M w (kernels/viscosity.cl), from x = w. The dot
   // products are chunk sums of per-particle values (dfsph_reduce into err_) added in order in double
-  // (averageError), so the run is bitwise deterministic. x is vel_before_: the viscous forces' velocities.
+  // (errorSum), so the run is bitwise deterministic. x is vel_before_: the viscous forces' velocities.
   ViscositySolveResult res;
   const std::size_t n = p.n_fluid;
   if (n == 0) return res;
@@ -407,18 +407,17 @@ ViscositySolveResult DfsphSolver::viscositySolve(const SimParams& p, const Dfsph
   }
   kernels_.call("viscosity_cg_setup", n, kLocal, p, *f.pos, *f.vel, *f.phase, *f.density, *f.snbr, *f.snbr_count,
                 *f.bpos, bvisc, *f.sbnbr, *f.sbnbr_count, vdiag_, vel_before_, vr_, vz_, vd_, err_);
-  const double nn = static_cast<double>(n);
-  double rz = averageError(n) * nn;
+  double rz = errorSum(n);
   const double rz0 = rz;
   const double tol2 = spec_.viscosity_tolerance * spec_.viscosity_tolerance;
   while (rz > tol2 * rz0 && res.iterations < spec_.viscosity_max_iterations) {
     kernels_.call("viscosity_cg_apply", n, kLocal, p, *f.pos, *f.phase, *f.density, *f.snbr, *f.snbr_count, vdiag_,
                   vd_, vq_, err_);
-    const double dq = averageError(n) * nn;
+    const double dq = errorSum(n);
     if (!(dq > 0.0)) break;  // d = 0: nothing left to solve
     const float alpha = static_cast<float>(rz / dq);
     kernels_.call("viscosity_cg_update", n, kLocal, p, alpha, *f.phase, vdiag_, vd_, vq_, vel_before_, vr_, vz_, err_);
-    const double rz_new = averageError(n) * nn;
+    const double rz_new = errorSum(n);
     ++res.iterations;
     const float beta = static_cast<float>(rz_new / rz);
     rz = rz_new;
@@ -435,6 +434,11 @@ ViscositySolveResult DfsphSolver::viscositySolve(const SimParams& p, const Dfsph
 }
 
 double DfsphSolver::averageError(std::size_t n, const DfsphFields* f, double* body_error) {
+  const double sum = errorSum(n, f, body_error);
+  return n > 0 ? sum / static_cast<double>(n) : 0.0;
+}
+
+double DfsphSolver::errorSum(std::size_t n, const DfsphFields* f, double* body_error) {
   // Chunk sums on the device, the chunks added in order here (double): a fixed order.
   const uint32_t chunk = static_cast<uint32_t>((n + kChunks - 1) / kChunks);
   kernels_.call("dfsph_reduce", kChunks, 0, static_cast<uint32_t>(n), chunk, err_, partial_);
@@ -449,7 +453,7 @@ double DfsphSolver::averageError(std::size_t n, const DfsphFields* f, double* bo
   if (with_bodies) *body_error = bodyError(*f);
   double sum = 0.0;
   for (float v : part) sum += v;
-  return n > 0 ? sum / static_cast<double>(n) : 0.0;
+  return sum;
 }
 
 double DfsphSolver::bodyError(const DfsphFields& f) {

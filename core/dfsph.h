@@ -131,9 +131,10 @@ class DfsphSolver {
   /// rigid coupling's viscous reaction matches them (n x float4) (unit: m/s).
   const cl::Buffer& viscousVelocities() const { return vel_before_; }
   /// Implicit laminar viscosity (kernels/viscosity.cl, viscosity_cg_*): solves backward Euler's
-  /// (I - dt L) v' = v by preconditioned conjugate gradients from v, adds (v' - v) / dt to f.acc, and
-  /// keeps v' as the velocities the viscous forces saw (viscousVelocities(), for the bodies' reaction:
-  /// the densitySolve that follows keeps them). bvisc: the boundary velocities of the viscous term.
+  /// (I - dt L) v' = w by preconditioned conjugate gradients from w, w = v with the last density pressure
+  /// and f.acc (gravity) applied (the incremental splitting, viscositySolve's comment), adds (v' - w) / dt
+  /// to f.acc, and keeps v' as the velocities the viscous forces saw (viscousVelocities(), for the bodies'
+  /// reaction: the densitySolve that follows keeps them). bvisc: the boundary velocities of the viscous term.
   ViscositySolveResult viscositySolve(const SimParams& p, const DfsphFields& f, const cl::Buffer& bvisc);
   /// Extrapolated walls' contact (kernels/dfsph.cl, dfsph_wall_contact_accel; from cloth nodes too):
   /// its stiffness dt^2 k_w / dx (0 where it does not act: other walls) and its range r0 / dx (unit:
@@ -168,6 +169,8 @@ class DfsphSolver {
   /// The average error of the last iteration; with `f` and `body_error`, also the bodies' largest
   /// error (bodyError), read in the same wait for the device.
   double averageError(std::size_t n, const DfsphFields* f = nullptr, double* body_error = nullptr);
+  // the sum of err_'s first n values, chunk sums in a fixed order (averageError is it over n)
+  double errorSum(std::size_t n, const DfsphFields* f = nullptr, double* body_error = nullptr);
   cl::Buffer makeBuffer(std::size_t bytes);
   /// Two-level solve (kernels/dfsph_coarse.cl, core/dfsph_coarse.cpp): the Galerkin coarse-grid
   /// correction of `pressure` on aggregates of one support H, projected to p >= 0.

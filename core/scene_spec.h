@@ -63,7 +63,7 @@ enum class DfsphWalls { Mirrored, Single, Extrapolated };
 /// the fictitious mass body_added_mass).
 enum class DfsphCoupling { Strong, Staggered };
 /// DFSPH's laminar viscosity: explicit (the step is bound by 0.125 h^2 / nu, Morris et al. 1997) or
-/// implicit, a conjugate-gradient solve of (I - dt L) v' = v with Morris' operator L (Weiler et al. 2018
+/// implicit, a conjugate-gradient solve of backward Euler with Morris' operator L (Weiler et al. 2018
 /// solve implicitly too, with their own operator), which lifts that bound.
 enum class ViscositySolve { Explicit, Implicit };
 

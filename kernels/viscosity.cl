@@ -82,8 +82,8 @@ __kernel void boundary_ghost_velocity(const SimParams p, const uint n_boundary, 
  * Morris et al. 1997's viscous acceleration (shared/pair_loops.h, laminar) is linear in the
  * velocities:
  *     a_i = -sum_j k_ij (v_i - v_j) - sum_b k_ib (v_i - v_b),
- *     k_ij = -m_j (mu_i + mu_j) F_ij r^2 / (rho_i rho_j (r^2 + 0.01 h^2)) >= 0   (F_ij < 0),
- *     k_ib = -2 psi_b m_i nu_i / rho_i F_ib r^2 / (r^2 + 0.01 h^2) >= 0          (sph_boundary_viscosity),
+ *     k_ij = -m_j (mu_i + mu_j) F_ij r^2 / (rho_i rho_j (r^2 + 0.01 h^2)) >= 0   (F_ij < 0; sph_laminar_coefficient),
+ *     k_ib = -2 psi_b m_i nu_i / rho_i F_ib r^2 / (r^2 + 0.01 h^2) >= 0          (sph_boundary_laminar),
  * v_b the boundary's no-slip (ghost) or own velocity of this step, held fixed. Backward Euler for it,
  * v' = v + dt a(v'), is the linear system A v' = v + dt sum_b k_ib v_b with
  *     (A x)_i = (1 + dt sum_j k_ij + dt sum_b k_ib) x_i - dt sum_j k_ij x_j.
@@ -95,20 +95,16 @@ __kernel void boundary_ghost_velocity(const SimParams p, const uint n_boundary, 
  * Weiler, Koschier, Brand & Bender 2018 ("A physically consistent implicit viscosity solver for SPH
  * fluids") solve viscosity implicitly with CG the same way, with their own operator; this one is the
  * explicit term the solver already has, so the implicit and explicit steps agree as dt -> 0. */
-inline float sph_laminar_pair(const float mj, const float mui, const float muj, const float rhoi, const float rhoj,
-                              const float F, const float r2, const float eta2) {
-  return -mj * (mui + muj) * (F * r2) / (rhoi * rhoj * (r2 + eta2));
-}
-
-/* k_ij of fluid neighbour j of particle i (at xi, with mu_i and rho_i): sph_laminar_pair at their distance. */
+/* k_ij of fluid neighbour j of particle i (at xi, with mu_i and rho_i): minus the explicit term's
+ * coefficient (shared/pair_loops.h, sph_laminar_coefficient) at their distance. */
 inline float viscosity_cg_k(const SimParams* p, const float3 xi, const float mui, const float rhoi, const uint j,
                             __global const float4* pos, __global const uint* phase, __global const float* density) {
   const float3 dij = xi - pos[j].xyz;
   const float r2 = dot(dij, dij);
   const uint phj = phase[j];
   const float rhoj = density[j];
-  return sph_laminar_pair(p->phase_mass[phj], mui, rhoj * p->phase_viscosity[phj], rhoi, rhoj,
-                          sph_grad_factor(SPH_KERNEL, sqrt(r2), p->support), r2, 0.01f * p->h * p->h);
+  return -sph_laminar_coefficient(p->phase_mass[phj], mui, rhoj * p->phase_viscosity[phj], rhoi, rhoj,
+                                  sph_grad_factor(SPH_KERNEL, sqrt(r2), p->support), r2, 0.01f * p->h * p->h);
 }
 
 /* The step's start: x = v, r = M (b - A v) = M dt a(v) (the explicit viscous increment), z = r / (M diag),
@@ -123,7 +119,7 @@ __kernel void viscosity_cg_setup(const SimParams p, __global const float4* pos, 
   const uint i = get_global_id(0);
   if (i >= p.n_fluid) return;
   const uint K = p.max_neighbours;
-  const float H = p.support, eta2 = 0.01f * p.h * p.h;
+  const float H = p.support;
   const float3 xi = pos[i].xyz, vi = vel[i].xyz;
   const uint phi = phase[i];
   const float mi = p.phase_mass[phi], rhoi = density[i], nui = p.phase_viscosity[phi], mui = rhoi * nui;
@@ -141,7 +137,7 @@ __kernel void viscosity_cg_setup(const SimParams p, __global const float4* pos, 
     const float3 dib = xi - bpos[b].xyz;
     const float r2 = dot(dib, dib);
     const float F = sph_grad_factor(SPH_KERNEL, sqrt(r2), H);
-    const float kib = -(2.0f * bpos[b].w * mi * nui / rhoi) * (F * r2) / (r2 + eta2);
+    const float kib = -sph_boundary_laminar(&p, mi, rhoi, nui, r2, F, bpos[b].w);
     ksum += kib;
     a -= kib * (vi - bvel[b].xyz);
   }

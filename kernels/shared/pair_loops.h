@@ -175,6 +175,14 @@ inline uint sph_collect_row(const float3 xi, __global const float4* pts, const u
  *     laminar (Morris et al. 1997, -DSPH_LAMINAR=1):
  *         a_i = sum_j m_j (mu_i + mu_j) F_ij |x_ij|^2 / (rho_i rho_j (|x_ij|^2 + 0.01 h^2)) v_ij
  * with grad W_ij = F_ij x_ij. `pressure` and `viscous` are constants after inlining. */
+/* The laminar term's coefficient between fluid particles i and j: m_j (mu_i + mu_j) F r^2 / (rho_i rho_j
+ * (r^2 + 0.01 h^2)), <= 0 (F < 0); a_i gains it times v_i - v_j (also the implicit viscosity's -k_ij,
+ * kernels/viscosity.cl). The eight-wide loop below writes the same expression in float8. */
+inline float sph_laminar_coefficient(const float mj, const float mui, const float muj, const float rhoi,
+                                     const float rhoj, const float F, const float r2, const float eta2) {
+  return mj * (mui + muj) * (F * r2) / (rhoi * rhoj * (r2 + eta2));
+}
+
 typedef struct {
   float3 f;  /* pressure force sum (unit: N) */
   float3 av; /* viscous acceleration (unit: m/s^2) */
@@ -247,7 +255,7 @@ inline SphPairSums sph_pair_sums(const SimParams* p, const uint i, __global cons
       const float mj = p->phase_mass[phj];
 #if SPH_LAMINAR
       const float muj = rhoj * p->phase_viscosity[phj];
-      s.av += mj * (mui + muj) * (F * r2) / (rhoi * rhoj * (r2 + eta2)) * vij;
+      s.av += sph_laminar_coefficient(mj, mui, muj, rhoi, rhoj, F, r2, eta2) * vij;
 #else
       const float Pi = visc_k * fmin(dot(vij, d), 0.0f) / ((r2 + eta2) * (0.5f * (rhoi + rhoj)));
       s.av += -mj * Pi * F * d;
@@ -261,6 +269,14 @@ inline SphPairSums sph_pair_sums(const SimParams* p, const uint i, __global cons
  * one boundary particle of volume ratio w = V_b / V0 at offset d = x_i - x_b (|d|^2 = r2), relative
  * velocity v = v_i - v_b, gradient factor F: the fluid pair terms above with the
  * boundary particle as a fluid particle of mass w m and the same density and viscosity. */
+/* The laminar term's coefficient between a fluid particle (mass m, density rho, kinematic viscosity nu)
+ * and a boundary particle of volume ratio w: (2 w m nu / rho) F r^2 / (r^2 + 0.01 h^2), <= 0 (F < 0); the
+ * acceleration is it times v_i - v_b (also the implicit viscosity's -k_ib, kernels/viscosity.cl). */
+inline float sph_boundary_laminar(const SimParams* p, const float m, const float rho, const float nu, const float r2,
+                                  const float F, const float w) {
+  return (2.0f * w * m * nu / rho) * (F * r2) / (r2 + 0.01f * p->h * p->h);
+}
+
 inline float3 sph_boundary_viscosity(const SimParams* p, const float m, const float rho, const float nu,
                                      const float3 v, const float3 d, const float r2, const float F, const float w,
                                      const float4 vb) {
@@ -270,9 +286,9 @@ inline float3 sph_boundary_viscosity(const SimParams* p, const float m, const fl
    * gives the fluid-body term its own coefficient). The artificial alpha is a numerical viscosity,
    * nu_eff ~ alpha h c0 / 10 (Monaghan 2005), ~1000x water's at dx = 1 cm: on a body it is the drag
    * and squeeze film of syrup (docs/forces.md). */
-  if (p->body_viscosity && vb.w > 0.5f) return (2.0f * w * m * nu / rho) * (F * r2) / (r2 + eta2) * v;
+  if (p->body_viscosity && vb.w > 0.5f) return sph_boundary_laminar(p, m, rho, nu, r2, F, w) * v;
 #if SPH_LAMINAR
-  return (2.0f * w * m * nu / rho) * (F * r2) / (r2 + eta2) * v; /* (mu_i + mu_b) / (rho_i rho_b) = 2 nu / rho */
+  return sph_boundary_laminar(p, m, rho, nu, r2, F, w) * v; /* (mu_i + mu_b) / (rho_i rho_b) = 2 nu / rho */
 #else
   const float Pi = -p->alpha * p->c0 * p->h * fmin(dot(v, d), 0.0f) / ((r2 + eta2) * rho);
   return -w * m * Pi * F * d;
