@@ -675,11 +675,6 @@ class Loader {
         issue("fluid.dfsph.viscosity_solve", markOf("fluid.dfsph.viscosity_solve"),
               "'fluid.dfsph.viscosity_solve: implicit' solves the laminar viscosity: set 'fluid.viscosity_model: "
               "laminar' (the artificial viscosity is explicit)");
-      // Cloth and soft-body nodes: not measured with the implicit solve yet (rigid bodies, scripted and
-      // free, are: docs/dfsph.md, session 36).
-      if (!spec.cloth.empty() || !spec.soft_bodies.empty())
-        issue("fluid.dfsph.viscosity_solve", markOf("fluid.dfsph.viscosity_solve"),
-              "'fluid.dfsph.viscosity_solve: implicit' is not measured with cloth or soft bodies yet (use explicit)");
     }
 
     // A background pressure pushes on every wall: with an open wall the fluid would be pushed out of the

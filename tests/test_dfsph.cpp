@@ -433,15 +433,15 @@ TEST_CASE("DFSPH settings: bad values are reported at file:line:col", "[dfsph]")
   issues = testing::issuesOf(dir, wcsph);
   CHECK(testing::hasIssue(issues, 7, {"viscosity_solve", "dfsph"}));
   CHECK(testing::issuesOf(dir, head + "    viscosity_solve: implicit\n  viscosity_model: laminar\n").empty());
-  // rigid bodies, free or scripted, are taken; cloth not yet
+  // rigid bodies, free or scripted, are taken, and cloth (session 37)
   const std::string ball = "rigid_bodies:\n  - {name: ball, shape: sphere, radius: 0.02, position: [0.05, 0.05, 0.03], ";
   CHECK(testing::issuesOf(dir, head + "    viscosity_solve: implicit\n  viscosity_model: laminar\n" + ball +
                                    "density: 2000, dynamic: true}\n")
             .empty());
-  issues = testing::issuesOf(dir, head + "    viscosity_solve: implicit\n  viscosity_model: laminar\n" +
-                                      "cloth:\n  - {name: sheet, width: 0.08, length: 0.08, resolution_x: 5, "
-                                      "resolution_y: 5, position: [0.05, 0.05, 0.08]}\n");
-  CHECK(testing::hasIssue(issues, 7, {"viscosity_solve", "cloth"}));
+  CHECK(testing::issuesOf(dir, head + "    viscosity_solve: implicit\n  viscosity_model: laminar\n" +
+                                   "cloth:\n  - {name: sheet, width: 0.08, length: 0.08, resolution_x: 5, "
+                                   "resolution_y: 5, position: [0.05, 0.05, 0.08]}\n")
+            .empty());
   // an unknown solver
   issues = testing::issuesOf(dir, "domain: {min: [0, 0, 0], max: [0.1, 0.1, 0.1]}\nfluid:\n  solver: iisph\n");
   CHECK(testing::hasIssue(issues, 3, {"iisph"}));
