@@ -675,26 +675,18 @@ class Loader {
         issue("fluid.dfsph.viscosity_solve", markOf("fluid.dfsph.viscosity_solve"),
               "'fluid.dfsph.viscosity_solve: implicit' solves the laminar viscosity: set 'fluid.viscosity_model: "
               "laminar' (the artificial viscosity is explicit)");
-      // Light cloth: the nodes take the viscous reaction explicitly in their own step, after the fluid's
-      // implicit solve. Measured (docs/dfsph.md, session 37: the hammock in liquids of 0.001-0.1 m^2/s at
-      // 5 ms steps): at 5 kg/m^2 = half a particle layer of water at dx = 1 cm the anchors carried the
-      // weight within 0.4 %; at 2 kg/m^2 and below the sheet bounced the syrup (anchors 29-50 % off, 100-
-      // 1000x the explicit run's kinetic energy), and at 0.5 kg/m^2 in 0.1 m^2/s it blew up. So cloth
-      // lighter than half a particle layer of the heaviest phase is refused with it.
-      double rho_max = fluid.phases.empty() ? PhaseSpec{}.rest_density : 0.0;  // compile()'s default phase
-      for (const PhaseSpec& ph : fluid.phases) rho_max = std::max(rho_max, ph.rest_density);
-      const double lightest = 0.5 * rho_max * fluid.particle_spacing;
-      const bool has_fluid = !fluid.blocks.empty() || !fluid.inflows.empty();
-      for (std::size_t c = 0; c < spec.cloth.size() && has_fluid; ++c) {
-        if (!(spec.cloth[c].areal_density < lightest)) continue;
-        const std::string key = indexed("cloth", c) + ".areal_density";
-        const std::string at = marks_.count(key) ? key : "fluid.dfsph.viscosity_solve";
-        issue(at, markOf(at),
-              "cloth '" + spec.cloth[c].name + "' (" + numberText(spec.cloth[c].areal_density) +
-                  " kg/m^2) is lighter than half a particle layer of the fluid (0.5 rho0 dx = " + numberText(lightest) +
-                  " kg/m^2): with 'fluid.dfsph.viscosity_solve: implicit' such cloth bounced or blew up in viscous "
-                  "liquids at long steps (docs/dfsph.md, session 37); use explicit, or a heavier cloth");
-      }
+      // Cloth and soft-body nodes take the viscous reaction explicitly in their own step, after the fluid's
+      // implicit solve. Measured (docs/dfsph.md, session 37): momentum is conserved and a 5 kg/m^2 hammock's
+      // anchors carry its weight, but at long steps in syrup a node lighter than the fluid it drags
+      // overshoots: cloth under 5 kg/m^2 bounced (anchors 29-50 % off) or blew up, a soft slab of 300
+      // kg/m^3 blew up, and even the 5 kg/m^2 hammock and a 1000 kg/m^3 slab kept swinging in 0.1 m^2/s
+      // (200-1000x the explicit run's kinetic energy at the end). Refused until the nodes are unknowns of
+      // the solve.
+      if (!spec.cloth.empty() || !spec.soft_bodies.empty())
+        issue("fluid.dfsph.viscosity_solve", markOf("fluid.dfsph.viscosity_solve"),
+              "'fluid.dfsph.viscosity_solve: implicit' does not take cloth or soft bodies yet: their nodes take the "
+              "viscous reaction explicitly, and in viscous liquids at long steps they bounced or blew up "
+              "(docs/dfsph.md, session 37); use explicit");
     }
 
     // A background pressure pushes on every wall: with an open wall the fluid would be pushed out of the

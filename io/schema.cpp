@@ -482,8 +482,8 @@ std::vector<KeyDef> buildTable() {
                "is kept at any step), by preconditioned conjugate gradients on the device in a fixed order, and the "
                "step is no longer bound by the viscosity (a towed ball in syrup: the drag within 1-5 % of the "
                "explicit solve's at 4-20x its step; docs/dfsph.md, session 36). The bodies take the reaction of "
-               "the same viscous forces, and so do cloth and soft-body nodes (session 37; cloth lighter than "
-               "0.5 rho0 dx is refused: its nodes bounced in syrup at long steps)"));
+               "the same viscous forces. Not with cloth or soft bodies: their nodes take the reaction explicitly, "
+               "and in syrup at long steps they bounced or blew up (session 37)"));
   add(field<InScene>("fluid.dfsph.viscosity_tolerance", [](auto& s) -> auto& { return s.fluid.dfsph.viscosity_tolerance; })
           .unit("1").greaterThan(0).atMost(1)
           .doc("implicit viscosity: the solve stops when its preconditioned residual has fallen to this fraction of "

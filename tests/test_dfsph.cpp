@@ -433,24 +433,21 @@ TEST_CASE("DFSPH settings: bad values are reported at file:line:col", "[dfsph]")
   issues = testing::issuesOf(dir, wcsph);
   CHECK(testing::hasIssue(issues, 7, {"viscosity_solve", "dfsph"}));
   CHECK(testing::issuesOf(dir, head + "    viscosity_solve: implicit\n  viscosity_model: laminar\n").empty());
-  // rigid bodies, free or scripted, are taken, and cloth of at least half a particle layer's areal mass,
-  // 0.5 rho0 dx = 10 kg/m^2 here (session 37); lighter cloth is refused at its areal_density (line 10), or at
-  // the key when the cloth takes the default 0.2 kg/m^2
+  // rigid bodies, free or scripted, are taken; cloth and soft bodies not yet (session 37: their nodes
+  // bounced or blew up in syrup at long steps), whatever the cloth's mass; with explicit, cloth is taken
   const std::string ball = "rigid_bodies:\n  - {name: ball, shape: sphere, radius: 0.02, position: [0.05, 0.05, 0.03], ";
   CHECK(testing::issuesOf(dir, head + "    viscosity_solve: implicit\n  viscosity_model: laminar\n" + ball +
                                    "density: 2000, dynamic: true}\n")
             .empty());
   const std::string sheet = "cloth:\n  - {name: sheet, width: 0.08, length: 0.08, resolution_x: 5, "
-                            "resolution_y: 5, position: [0.05, 0.05, 0.08]";
-  CHECK(testing::issuesOf(dir, head + "    viscosity_solve: implicit\n  viscosity_model: laminar\n" + sheet +
-                                   ", areal_density: 10}\n")
-            .empty());
-  issues = testing::issuesOf(dir, head + "    viscosity_solve: implicit\n  viscosity_model: laminar\n" + sheet +
-                                      ", areal_density: 9.9}\n");
-  CHECK(testing::hasIssue(issues, 10, {"sheet", "lighter than half a particle layer", "implicit"}));
-  issues = testing::issuesOf(dir, head + "    viscosity_solve: implicit\n  viscosity_model: laminar\n" + sheet + "}\n");
-  CHECK(testing::hasIssue(issues, 7, {"sheet", "0.2 kg/m^2"}));
-  CHECK(testing::issuesOf(dir, head + "  viscosity_model: laminar\n" + sheet + "}\n").empty());  // explicit: taken
+                            "resolution_y: 5, position: [0.05, 0.05, 0.08], areal_density: 50}\n";
+  issues = testing::issuesOf(dir, head + "    viscosity_solve: implicit\n  viscosity_model: laminar\n" + sheet);
+  CHECK(testing::hasIssue(issues, 7, {"viscosity_solve", "cloth or soft bodies"}));
+  issues = testing::issuesOf(dir, head + "    viscosity_solve: implicit\n  viscosity_model: laminar\n" +
+                                      "soft_bodies:\n  - {name: slab, size: [0.1, 0.1, 0.02], position: [0.05, 0.05, "
+                                      "0.08], spacing: 0.02, density: 1000, young_modulus: 2e4}\n");
+  CHECK(testing::hasIssue(issues, 7, {"viscosity_solve", "cloth or soft bodies"}));
+  CHECK(testing::issuesOf(dir, head + "  viscosity_model: laminar\n" + sheet).empty());  // explicit: taken
   // an unknown solver
   issues = testing::issuesOf(dir, "domain: {min: [0, 0, 0], max: [0.1, 0.1, 0.1]}\nfluid:\n  solver: iisph\n");
   CHECK(testing::hasIssue(issues, 3, {"iisph"}));
