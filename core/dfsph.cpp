@@ -407,25 +407,69 @@ ViscositySolveResult DfsphSolver::viscositySolve(const SimParams& p, const Dfsph
   }
   kernels_.call("viscosity_cg_setup", n, kLocal, p, *f.pos, *f.vel, *f.phase, *f.density, *f.snbr, *f.snbr_count,
                 *f.bpos, bvisc, *f.sbnbr, *f.sbnbr_count, vdiag_, vel_before_, vr_, vz_, vd_, err_);
-  double rz = errorSum(n);
+  // Cloth and soft-body nodes are unknowns too (kernels/viscosity.cl, viscosity_cg_node_*): their rows
+  // follow the fluid's, and every dot product is the fluid's sum plus the nodes'.
+  const uint32_t nn = f.n_nodes;
+  const bool with_nodes = nn > 0 && f.response && f.nodes && f.bslot && f.cell_start;
+  nodes_solved_ = with_nodes;
+  if (with_nodes) {
+    if (vnode_cap_ < f.n_boundary) {
+      vnode_cap_ = f.n_boundary;
+      vnode_ = makeBuffer(vnode_cap_ * 4);
+      bvisc_nodes_ = makeBuffer(vnode_cap_ * 16);
+    }
+    if (nodes_cap_ < nn) {
+      nodes_cap_ = nn;
+      nA_ = makeBuffer(nodes_cap_ * 48);
+      nP_ = makeBuffer(nodes_cap_ * 48);
+      for (cl::Buffer* b : {&ny_, &nr_, &nz_, &nd_, &nq_, &ndv_}) *b = makeBuffer(nodes_cap_ * 16);
+      nerr_ = makeBuffer(nodes_cap_ * 4);
+    }
+    clCall("clearing the viscosity's node slots",
+           [&] { return cl_.queue().enqueueFillBuffer(vnode_, 0xffffffffu, 0, std::size_t(f.n_boundary) * 4); });
+    kernels_.call("viscosity_cg_node_slots", nn, kLocal, nn, f.node_offset, *f.nodes, *f.bslot, vnode_);
+    kernels_.call("viscosity_cg_node_setup", nn, kLocal, p, nn, f.node_offset, *f.nodes, *f.response, *f.bslot,
+                  *f.bpos, bvisc, *f.pos, *f.vel, *f.phase, *f.density, *f.cell_start, nA_, nP_, ny_, nr_, nz_, nd_,
+                  nerr_);
+  }
+  auto dotSum = [&] { return errorSum(n) + (with_nodes ? nodeErrorSum(nn) : 0.0); };
+  double rz = dotSum();
   const double rz0 = rz;
   const double tol2 = spec_.viscosity_tolerance * spec_.viscosity_tolerance;
   while (rz > tol2 * rz0 && res.iterations < spec_.viscosity_max_iterations) {
     kernels_.call("viscosity_cg_apply", n, kLocal, p, *f.pos, *f.phase, *f.density, *f.snbr, *f.snbr_count, vdiag_,
                   vd_, vq_, err_);
-    const double dq = errorSum(n);
+    if (with_nodes) {
+      kernels_.call("viscosity_cg_apply_nodes", n, kLocal, p, *f.pos, *f.phase, *f.density, *f.bpos, *f.sbnbr,
+                    *f.sbnbr_count, vnode_, nd_, vd_, vq_, err_);
+      kernels_.call("viscosity_cg_node_apply", nn, kLocal, p, nn, f.node_offset, *f.nodes, *f.bslot, *f.bpos, *f.pos,
+                    *f.phase, *f.density, *f.cell_start, nA_, vd_, nd_, nq_, nerr_);
+    }
+    const double dq = dotSum();
     if (!(dq > 0.0)) break;  // d = 0: nothing left to solve
     const float alpha = static_cast<float>(rz / dq);
     kernels_.call("viscosity_cg_update", n, kLocal, p, alpha, *f.phase, vdiag_, vd_, vq_, vel_before_, vr_, vz_, err_);
-    const double rz_new = errorSum(n);
+    if (with_nodes) kernels_.call("viscosity_cg_node_update", nn, kLocal, nn, alpha, nP_, nd_, nq_, ny_, nr_, nz_, nerr_);
+    const double rz_new = dotSum();
     ++res.iterations;
     const float beta = static_cast<float>(rz_new / rz);
     rz = rz_new;
     if (rz <= tol2 * rz0) break;
     kernels_.call("viscosity_cg_direction", n, kLocal, p, beta, vz_, vd_);
+    if (with_nodes) kernels_.call("viscosity_cg_node_direction", nn, kLocal, nn, beta, nz_, nd_);
   }
   res.residual = rz0 > 0.0 ? std::sqrt(std::max(rz, 0.0) / rz0) : 0.0;
   res.converged = res.residual <= spec_.viscosity_tolerance;
+  if (with_nodes) {
+    // The nodes' reaction is gathered with their solved velocities (Simulation::gatherClothForces), and
+    // the density solve sees them move by it (densitySolve, dfsph_node_dry).
+    clCall("copying the viscous boundary velocities", [&] {
+      return cl_.queue().enqueueCopyBuffer(bvisc, bvisc_nodes_, 0, 0, std::size_t(f.n_boundary) * 16);
+    });
+    kernels_.call("viscosity_cg_node_finish", nn, kLocal, nn, f.node_offset, *f.nodes, *f.bslot, bvisc, ny_,
+                  bvisc_nodes_, ndv_);
+  }
+  node_dv_pending_ = with_nodes;
   kernels_.call("viscosity_cg_finish", n, kLocal, p, *f.vel, vel_before_, *f.acc);
   if (incremental)
     clCall("restoring the velocities", [&] { return cl_.queue().enqueueCopyBuffer(vkeep_, *f.vel, 0, 0, n * 16); });
@@ -451,6 +495,17 @@ double DfsphSolver::errorSum(std::size_t n, const DfsphFields* f, double* body_e
     return cl_.queue().enqueueReadBuffer(partial_, with_bodies ? CL_FALSE : CL_TRUE, 0, kChunks * 4, part.data());
   });
   if (with_bodies) *body_error = bodyError(*f);
+  double sum = 0.0;
+  for (float v : part) sum += v;
+  return sum;
+}
+
+double DfsphSolver::nodeErrorSum(std::size_t n) {
+  const uint32_t chunk = static_cast<uint32_t>((n + kChunks - 1) / kChunks);
+  kernels_.call("dfsph_reduce", kChunks, 0, static_cast<uint32_t>(n), chunk, nerr_, partial_);
+  std::vector<float> part(kChunks);
+  clCall("reading the viscosity's node sums",
+         [&] { return cl_.queue().enqueueReadBuffer(partial_, CL_TRUE, 0, kChunks * 4, part.data()); });
   double sum = 0.0;
   for (float v : part) sum += v;
   return sum;
@@ -590,6 +645,8 @@ DfsphSolveResult DfsphSolver::densitySolve(const SimParams& p, const DfsphFields
     clCall("keeping the velocities",
            [&] { return cl_.queue().enqueueCopyBuffer(*f.vel, vel_before_, 0, 0, std::max<std::size_t>(p.n_fluid, 1) * 16); });
   viscous_kept_ = false;
+  const bool node_dv = node_dv_pending_;
+  node_dv_pending_ = false;
   // v* = v + dt a; with extrapolated walls a takes the contact with the walls for the particles
   // the solve leaves without pressure first (kernels/dfsph.cl, dfsph_wall_contact_accel).
   const int contact = extrapolated() && f.n_boundary > 0 ? 1 : 0;
@@ -619,6 +676,10 @@ DfsphSolveResult DfsphSolver::densitySolve(const SimParams& p, const DfsphFields
     if (f.node_dv)
       kernels_.call("dfsph_node_dry", f.n_nodes, kLocal, f.n_nodes, f.node_offset, 1.0f / p.dt, *f.nodes, *f.bslot,
                     *f.node_dv, bacc_);
+    // and what the implicit viscosity does to them (viscositySolve: they were its unknowns)
+    if (cloth_ && node_dv)
+      kernels_.call("dfsph_node_dry", f.n_nodes, kLocal, f.n_nodes, f.node_offset, 1.0f / p.dt, *f.nodes, *f.bslot,
+                    ndv_, bacc_);
     kernels_.call("dfsph_node_rate", p.n_fluid, kLocal, p, *f.pos, *f.bpos, *f.sbnbr, *f.sbnbr_count, bacc_, gwall_);
   }
   const DfsphSolveResult r = solve(Kind::Density, p, f);

@@ -136,6 +136,11 @@ class DfsphSolver {
   /// to f.acc, and keeps v' as the velocities the viscous forces saw (viscousVelocities(), for the bodies'
   /// reaction: the densitySolve that follows keeps them). bvisc: the boundary velocities of the viscous term.
   ViscositySolveResult viscositySolve(const SimParams& p, const DfsphFields& f, const cl::Buffer& bvisc);
+  /// With cloth or soft-body nodes in the last implicit viscosity solve (f.n_nodes > 0; they are its
+  /// unknowns too, kernels/viscosity.cl, viscosity_cg_node_*): bvisc with the free nodes' solved
+  /// velocities, for the nodes' reaction (rigid.cl, rigid_fluid_forces) (n_boundary x float4) (unit:
+  /// m/s); else null. Valid until the next step's solve.
+  const cl::Buffer* nodeViscousVelocities() const { return nodes_solved_ ? &bvisc_nodes_ : nullptr; }
   /// Extrapolated walls' contact (kernels/dfsph.cl, dfsph_wall_contact_accel; from cloth nodes too):
   /// its stiffness dt^2 k_w / dx (0 where it does not act: other walls) and its range r0 / dx (unit:
   /// 1); the cloth nodes take its reaction (rigid.cl, rigid_fluid_forces).
@@ -226,6 +231,16 @@ class DfsphSolver {
   bool viscous_kept_ = false;              // vel_before_ holds this step's implicit viscosity solution
   cl::Buffer vdiag_, vr_, vz_, vd_, vq_;   // implicit viscosity: the diagonal of A, residual, preconditioned residual, direction, M A d
   cl::Buffer vkeep_;                       // implicit viscosity: the velocities before the last pressure was applied
+  // Implicit viscosity with cloth and soft-body nodes as unknowns (kernels/viscosity.cl, viscosity_cg_node_*):
+  // slot -> node (n_boundary), each node's 3 x 3 block and its inverse (3 float4), solution, residual,
+  // preconditioned residual, direction, M A d (float4), r . z (float), the boundary velocities with the
+  // solved nodes' (n_boundary x float4), and each node's viscous velocity change (float4).
+  cl::Buffer vnode_, nA_, nP_, ny_, nr_, nz_, nd_, nq_, nerr_, bvisc_nodes_, ndv_;
+  std::size_t vnode_cap_ = 0, nodes_cap_ = 0;
+  bool nodes_solved_ = false;              // the last viscosity solve had nodes (nodeViscousVelocities)
+  bool node_dv_pending_ = false;           // ndv_ holds this step's nodes' viscous change, for the density solve
+  /// The sum of nerr_'s first n values, chunk sums in a fixed order (as errorSum).
+  double nodeErrorSum(std::size_t n);
   cl::Buffer bp_div_, bp_dens_;            // extrapolated walls: each solve's wall pressures (unit: Pa)
   // Extrapolated walls: each wall particle's fluid neighbours within H for the step, in grid order
   // (kernels/dfsph.cl, dfsph_wall_lists; n_boundary x kWallSlots), and their counts (n_boundary).

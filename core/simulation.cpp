@@ -1330,7 +1330,10 @@ void Simulation::gatherClothForces() {
   // DFSPH's extrapolated walls push the fluid off the nodes too (dfsph_wall_contact_accel): the nodes
   // take that contact's reaction.
   const float contact = dfsph_ ? dfsph_->wallContactStiffness() : 0.0f;
-  kernels_.call("rigid_fluid_forces", n_cloth_, kLocal, params_, n_cloth_, n_static_ + n_moving_, bsrc_, bslot_, viscousBoundaryVelocities(), bpressure_, pos_[cur_], vel, phase_[cur_], density_, pterm_, cell_start_, viscous, mirror, contact, DfsphSolver::wallContactRange(), cloth_force_, 0.0f, cloth_force_, cloth_force_);  // ambient 0: geo and pmean unused
+  // With the implicit viscosity the nodes were unknowns of its solve: their reaction is gathered at the
+  // solved velocities (core/dfsph.cpp, viscositySolve), as the fluid's side was.
+  const cl::Buffer* solved = dfsph_ ? dfsph_->nodeViscousVelocities() : nullptr;
+  kernels_.call("rigid_fluid_forces", n_cloth_, kLocal, params_, n_cloth_, n_static_ + n_moving_, bsrc_, bslot_, solved ? *solved : viscousBoundaryVelocities(), bpressure_, pos_[cur_], vel, phase_[cur_], density_, pterm_, cell_start_, viscous, mirror, contact, DfsphSolver::wallContactRange(), cloth_force_, 0.0f, cloth_force_, cloth_force_);  // ambient 0: geo and pmean unused
 }
 
 FrameReport Simulation::runDiagnostics() {

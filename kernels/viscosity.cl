@@ -220,3 +220,203 @@ __kernel void viscosity_cg_finish(const SimParams p, __global const float4* vel,
   if (i >= p.n_fluid) return;
   acc[i] = (float4)(acc[i].xyz + (x[i].xyz - vel[i].xyz) / p.dt, acc[i].w);
 }
+
+/* ---- Cloth and soft-body nodes as unknowns of the implicit viscosity (issue 14, session 38) ------
+ * A node k (a boundary particle at slot s, volume ratio psi_k) takes the viscous reaction of its fluid
+ * neighbours, F_k = sum_i m_i k_ik (x_i - y_k) (k_ik as k_ib above, with the node's psi; rigid.cl's
+ * rigid_fluid_forces gathers the same sum from the solved velocities). Held at its step-start velocity
+ * w_k while the fluid is solved, a node lighter than the fluid it drags overshoots at long steps
+ * (docs/dfsph.md, session 37). As an unknown it moves in the solve as its own step will move it under
+ * that force, backward Euler for both sides:
+ *     M_k (y_k - w_k) = dt sum_i m_i k_ik (x_i - y_k),
+ * M_k the node's mass with its springs implicit (cloth.cl, cloth_node_response, the inverse of its
+ * M_k^-1; the strong coupling's response). Its rows join the fluid's M A:
+ *     node row:   (M_k + dt K_k) y_k - dt sum_i m_i k_ik x_i = M_k w_k,    K_k = sum_i m_i k_ik,
+ *     fluid row:  ... - dt sum_k m_i k_ik y_k (the boundary's k_ik stays in diag_i),
+ * the same coupling -dt m_i k_ik both ways, so the system stays symmetric and positive definite and
+ * conjugate gradients still apply. The node rows are preconditioned with the inverse of their 3 x 3
+ * diagonal block. Anchored nodes (1/m = 0) stay held: no row, their velocity in the fluid's right-hand
+ * side as before. Each node gathers its fluid within H over the cell grid (as rigid_fluid_forces);
+ * each fluid particle its nodes from its boundary list: the same pairs, the same k from the same
+ * float distances, so the two couplings are equal to rounding. */
+
+/* slot -> node index (vnode, cleared to ~0 by the host), for the free nodes only */
+__kernel void viscosity_cg_node_slots(const uint n, const uint offset, __global const float4* nodes,
+                                      __global const uint* slot, __global uint* vnode) {
+  const uint k = get_global_id(0);
+  if (k >= n || nodes[k].w == 0.0f) return;
+  vnode[slot[offset + k]] = k;
+}
+
+/* The inverse of a symmetric 3 x 3 matrix given by its rows (the first three components), by its adjugate. */
+inline void viscosity_sym3_inverse(const float3 r0, const float3 r1, const float3 r2, float3* i0, float3* i1,
+                                   float3* i2) {
+  const float a00 = r0.x, a01 = r0.y, a02 = r0.z, a11 = r1.y, a12 = r1.z, a22 = r2.z;
+  const float c00 = a11 * a22 - a12 * a12, c01 = a02 * a12 - a01 * a22, c02 = a01 * a12 - a02 * a11;
+  const float c11 = a00 * a22 - a02 * a02, c12 = a01 * a02 - a00 * a12, c22 = a00 * a11 - a01 * a01;
+  const float inv = 1.0f / (a00 * c00 + a01 * c01 + a02 * c02);
+  *i0 = (float3)(c00, c01, c02) * inv;
+  *i1 = (float3)(c01, c11, c12) * inv;
+  *i2 = (float3)(c02, c12, c22) * inv;
+}
+
+/* k_ik of fluid particle i and the node at xb (volume ratio psi), times m_i; 0 beyond H. */
+inline float viscosity_cg_node_k(const SimParams* p, const float3 xb, const float psi, const uint i,
+                                 __global const float4* pos, __global const uint* phase,
+                                 __global const float* density) {
+  const float3 d = pos[i].xyz - xb;
+  const float r2 = dot(d, d);
+  if (!(r2 < p->support * p->support)) return 0.0f;
+  const uint phi = phase[i];
+  const float mi = p->phase_mass[phi];
+  return -mi * sph_boundary_laminar(p, mi, density[i], p->phase_viscosity[phi], r2,
+                                    sph_grad_factor(SPH_KERNEL, sqrt(r2), p->support), psi);
+}
+
+/* The node rows' start, after viscosity_cg_setup (which set x = the fluid's w): y = w_k (the node's
+ * velocity as the fluid sees it, bvisc), r = dt F_k(x, w), the block A_k = M_k + dt K_k I (3 float4)
+ * and its inverse P_k, z = P_k r, d = z, r . z. A free node with no fluid within H has r = 0. Anchored:
+ * zeros (no row). */
+__kernel void viscosity_cg_node_setup(const SimParams p, const uint n, const uint offset,
+                                      __global const float4* nodes, __global const float4* response,
+                                      __global const uint* slot, __global const float4* bpos,
+                                      __global const float4* bvisc, __global const float4* pos,
+                                      __global const float4* vel, __global const uint* phase,
+                                      __global const float* density, __global const uint* cell_start,
+                                      __global float4* A, __global float4* P, __global float4* y,
+                                      __global float4* r, __global float4* z, __global float4* d,
+                                      __global float* rz) {
+  const uint k = get_global_id(0);
+  if (k >= n) return;
+  const uint s = slot[offset + k];
+  const float3 wk = bvisc[s].xyz;
+  y[k] = (float4)(wk, 0.0f);
+  if (nodes[k].w == 0.0f) {
+    A[3 * k] = A[3 * k + 1] = A[3 * k + 2] = P[3 * k] = P[3 * k + 1] = P[3 * k + 2] = (float4)(0.0f);
+    r[k] = z[k] = d[k] = (float4)(0.0f);
+    rz[k] = 0.0f;
+    return;
+  }
+  const float4 xb4 = bpos[s];
+  const float3 xb = xb4.xyz;
+  float K = 0.0f;
+  float3 f = (float3)(0.0f);
+  SPH_FOR_NEIGHBOURS(&p, cell_start, xb, i) {
+    const float mk = viscosity_cg_node_k(&p, xb, xb4.w, i, pos, phase, density);
+    K += mk;
+    f += mk * (vel[i].xyz - wk);
+  }
+  SPH_END_NEIGHBOURS
+  /* M_k = m_k I (m + M with a fictitious added mass: the w of cloth_node_response's first row) */
+  const float inv_m = response[3 * k].w > 0.0f ? response[3 * k].w : nodes[k].w;
+  const float3 m0 = (float3)(1.0f / inv_m, 0.0f, 0.0f), m1 = (float3)(0.0f, 1.0f / inv_m, 0.0f),
+               m2 = (float3)(0.0f, 0.0f, 1.0f / inv_m);
+  const float dK = p.dt * K;
+  const float3 a0 = m0 + (float3)(dK, 0.0f, 0.0f), a1 = m1 + (float3)(0.0f, dK, 0.0f), a2 = m2 + (float3)(0.0f, 0.0f, dK);
+  float3 p0, p1, p2;
+  viscosity_sym3_inverse(a0, a1, a2, &p0, &p1, &p2);
+  A[3 * k] = (float4)(a0, 0.0f);
+  A[3 * k + 1] = (float4)(a1, 0.0f);
+  A[3 * k + 2] = (float4)(a2, 0.0f);
+  P[3 * k] = (float4)(p0, 0.0f);
+  P[3 * k + 1] = (float4)(p1, 0.0f);
+  P[3 * k + 2] = (float4)(p2, 0.0f);
+  const float3 rk = p.dt * f;
+  const float3 zk = (float3)(dot(p0, rk), dot(p1, rk), dot(p2, rk));
+  r[k] = (float4)(rk, 0.0f);
+  z[k] = (float4)(zk, 0.0f);
+  d[k] = (float4)(zk, 0.0f);
+  rz[k] = dot(rk, zk);
+}
+
+/* The fluid rows' coupling to the nodes, after viscosity_cg_apply: q_i -= dt sum_k m_i k_ik d_k over
+ * the free nodes in i's boundary list, and d . q again. */
+__kernel void viscosity_cg_apply_nodes(const SimParams p, __global const float4* pos, __global const uint* phase,
+                                       __global const float* density, __global const float4* bpos,
+                                       __global const uint* bnbr, __global const uint* bnbr_count,
+                                       __global const uint* vnode, __global const float4* nd,
+                                       __global const float4* d, __global float4* q, __global float* dq) {
+  const uint i = get_global_id(0);
+  if (i >= p.n_fluid) return;
+  const uint K = p.max_neighbours;
+  float3 s = (float3)(0.0f);
+  int any = 0;
+  for (uint c = 0; c < bnbr_count[i]; ++c) {
+    const uint b = bnbr[(size_t)i * K + c];
+    const uint k = vnode[b];
+    if (k == 0xffffffffu) continue;
+    const float4 xb = bpos[b];
+    s += viscosity_cg_node_k(&p, xb.xyz, xb.w, i, pos, phase, density) * nd[k].xyz;
+    any = 1;
+  }
+  if (!any) return;
+  const float3 qi = q[i].xyz - p.dt * s;
+  q[i] = (float4)(qi, 0.0f);
+  dq[i] = dot(d[i].xyz, qi);
+}
+
+/* The node rows of q = M A d: q_k = A_k d_k - dt sum_i m_i k_ik d_i, and d . q. */
+__kernel void viscosity_cg_node_apply(const SimParams p, const uint n, const uint offset,
+                                      __global const float4* nodes, __global const uint* slot,
+                                      __global const float4* bpos, __global const float4* pos,
+                                      __global const uint* phase, __global const float* density,
+                                      __global const uint* cell_start, __global const float4* A,
+                                      __global const float4* fd, __global const float4* d,
+                                      __global float4* q, __global float* dq) {
+  const uint k = get_global_id(0);
+  if (k >= n) return;
+  if (nodes[k].w == 0.0f) {
+    q[k] = (float4)(0.0f);
+    dq[k] = 0.0f;
+    return;
+  }
+  const float4 xb4 = bpos[slot[offset + k]];
+  float3 s = (float3)(0.0f);
+  SPH_FOR_NEIGHBOURS(&p, cell_start, xb4.xyz, i) {
+    s += viscosity_cg_node_k(&p, xb4.xyz, xb4.w, i, pos, phase, density) * fd[i].xyz;
+  }
+  SPH_END_NEIGHBOURS
+  const float3 dk = d[k].xyz;
+  const float3 qk = (float3)(dot(A[3 * k].xyz, dk), dot(A[3 * k + 1].xyz, dk), dot(A[3 * k + 2].xyz, dk)) - p.dt * s;
+  q[k] = (float4)(qk, 0.0f);
+  dq[k] = dot(dk, qk);
+}
+
+/* Node rows: y += alpha d, r -= alpha q, z = P r, r . z. */
+__kernel void viscosity_cg_node_update(const uint n, const float alpha, __global const float4* P,
+                                       __global const float4* d, __global const float4* q, __global float4* y,
+                                       __global float4* r, __global float4* z, __global float* rz) {
+  const uint k = get_global_id(0);
+  if (k >= n) return;
+  y[k] = (float4)(y[k].xyz + alpha * d[k].xyz, 0.0f);
+  const float3 rk = r[k].xyz - alpha * q[k].xyz;
+  const float3 zk = (float3)(dot(P[3 * k].xyz, rk), dot(P[3 * k + 1].xyz, rk), dot(P[3 * k + 2].xyz, rk));
+  r[k] = (float4)(rk, 0.0f);
+  z[k] = (float4)(zk, 0.0f);
+  rz[k] = dot(rk, zk);
+}
+
+/* Node rows: d = z + beta d. */
+__kernel void viscosity_cg_node_direction(const uint n, const float beta, __global const float4* z,
+                                          __global float4* d) {
+  const uint k = get_global_id(0);
+  if (k >= n) return;
+  d[k] = (float4)(z[k].xyz + beta * d[k].xyz, 0.0f);
+}
+
+/* After the solve: the boundary velocities the reaction is gathered with (bout, a copy of bvisc) take
+ * the free nodes' solved velocities y_k, and dv_k = y_k - w_k is what the viscous force does to the node
+ * in the step (the density solve sees the node move by it: dfsph_node_dry). */
+__kernel void viscosity_cg_node_finish(const uint n, const uint offset, __global const float4* nodes,
+                                       __global const uint* slot, __global const float4* bvisc,
+                                       __global const float4* y, __global float4* bout, __global float4* dv) {
+  const uint k = get_global_id(0);
+  if (k >= n) return;
+  const uint s = slot[offset + k];
+  if (nodes[k].w == 0.0f) {
+    dv[k] = (float4)(0.0f);
+    return;
+  }
+  bout[s] = (float4)(y[k].xyz, bvisc[s].w);
+  dv[k] = (float4)(y[k].xyz - bvisc[s].xyz, 0.0f);
+}

@@ -364,10 +364,11 @@ TEST_CASE("Soft body with DFSPH: a slab clamped under a pool holds the water", "
 
 TEST_CASE("Soft body with DFSPH and implicit viscosity: a slab clamped under a pool of syrup holds it", "[soft][fluid][dfsph]") {
   // The test above with a laminar liquid of 0.01 m^2/s, its viscosity solved implicitly
-  // (fluid.dfsph.viscosity_solve: implicit, session 37; the nodes take the viscous reaction as cloth
-  // nodes do, checked for momentum in test_cloth.cpp; the loader refuses the combination, because in
-  // 0.1 m^2/s a slab of 300 kg/m^3 blew up, docs/dfsph.md: the spec is set here, past it). The same criteria. Measured: 0 fluid particles
-  // below the slab, the lowest node 9.6 mm at 0.4 s (water 6.5 mm: the syrup damps the slab's swing).
+  // (fluid.dfsph.viscosity_solve: implicit, session 37; since session 38 the slab's nodes are unknowns of
+  // the solve, as cloth nodes, checked for momentum in test_cloth.cpp; the loader takes the combination
+  // for soft bodies at least as dense as the liquid, as this 1000 kg/m^3 slab). The same criteria.
+  // Measured (session 37): 0 fluid particles below the slab, the lowest node 9.6 mm at 0.4 s (water 6.5
+  // mm: the syrup damps the slab's swing).
   // Mutation: no fluid force on the nodes (gatherClothForces skipped): lowest node 17.0 mm: fails.
   sph::testing::TempDir dir;
   SceneSpec spec = io::loadScene(dir.write("slab.yaml", kSlabYaml).string());
@@ -377,6 +378,48 @@ TEST_CASE("Soft body with DFSPH and implicit viscosity: a slab clamped under a p
   spec.fluid.phases[0].viscosity = 0.01;
   spec.fluid.dfsph.viscosity_solve = ViscositySolve::Implicit;
   slabHoldsPool(spec);
+}
+
+TEST_CASE("Soft body with DFSPH and implicit viscosity: a slab under 0.1 m^2/s syrup comes to rest at 5 ms steps",
+          "[soft][fluid][dfsph]") {
+  // scenes/tests/dfsph_soft_slab_syrup.yaml: the clamped slab (0.2 kg, 1000 kg/m^3, as dense as the
+  // liquid) under a 6 cm pool of a liquid of 0.1 m^2/s, its viscosity solved implicitly with the slab's
+  // nodes as unknowns (kernels/viscosity.cl, viscosity_cg_node_*, session 38), at 5 ms steps, 40x the
+  // explicit bound 0.125 h^2 / nu. In such a liquid nothing at the particle scale moves faster than a
+  // creeping settling speed g dx^2 / nu (1 cm/s here), so once the pool has settled (from 0.5 s) the
+  // slab's kinetic energy must stay below 1/2 m_slab (g dx^2 / nu)^2 = 9.6e-6 J.
+  // Measured (session 38): at most 1.8e-9 J from 0.5 s (the explicit solve at its bound, 8,010 steps of
+  // 0.125 ms: mean 6.5e-7 J from 0.5 s, the pool still settling), 210 steps, the anchors' z force -6.18
+  // to -6.09 N. Mutation: the nodes held during the solve and given its reaction after it (session 37):
+  // 2.2e-3 J, the anchors swinging from -7.1 to -4.8 N: fails.
+  SceneSpec spec = io::loadScene(std::string(SPHAPTICS_SOURCE_DIR) + "/scenes/tests/dfsph_soft_slab_syrup.yaml");
+  REQUIRE(spec.fluid.dfsph.viscosity_solve == ViscositySolve::Implicit);
+  const Compiled comp = compile(spec);
+  ClContext cl;
+  Simulation sim(comp.model, comp.initial, cl);
+  const double g = 9.81, dx = 0.01, nu = spec.fluid.phases.at(0).viscosity;
+  double slab_mass = 0, worst = 0;
+  for (int f = 0; f < comp.model.num_frames; ++f) {
+    sim.advanceFrame();
+    std::vector<Eigen::Vector4f> x, v;
+    sim.cloth()->read(x, v);
+    double ke = 0, m_all = 0;
+    for (std::size_t k = 0; k < x.size(); ++k) {
+      const double m = comp.model.cloth.mass[k];
+      m_all += m;
+      ke += 0.5 * m * v[k].head<3>().cast<double>().squaredNorm();
+    }
+    slab_mass = m_all;
+    if (sim.time() >= 0.5 - 1e-9) worst = std::max(worst, ke);
+  }
+  const double creep = g * dx * dx / nu, bound = 0.5 * slab_mass * creep * creep;
+  INFO("slab " << slab_mass << " kg; largest kinetic energy from 0.5 s " << worst << " J; bound " << bound << " J; "
+               << sim.profile().steps << " steps");
+  CHECK(std::abs(slab_mass - 0.2) < 0.01);
+  CHECK(sim.profile().steps < 1000);
+  CHECK(worst < bound);
+  WARN("soft slab under 0.1 m^2/s syrup, implicit viscosity: kinetic energy from 0.5 s at most " << worst << " J (bound " << bound
+                                                                                                 << "), " << sim.profile().steps << " steps");
 }
 
 TEST_CASE("Soft body: bad input is reported at its location, exit 2", "[soft][input]") {
