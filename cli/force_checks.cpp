@@ -575,8 +575,10 @@ FallCheck fallingBall(const std::string& scene, double dx, const std::vector<std
   const double hold = b.hold, end = b.duration, nu = b.nu, rho = b.rho, box = b.box, g = b.g;
   const double volume = b.volume, mass = b.mass;
   const std::vector<StepForce>& log = b.log;
-  // Stokes: 6 pi mu R U = (m - rho V) g, mu = rho nu.
-  c.speed_stokes = (mass - rho * volume) * g / (6.0 * M_PI * rho * nu * c.radius);
+  // Stokes: 6 pi mu R U = |m - rho V| g, mu = rho nu. A ball lighter than the liquid rises: its speed
+  // is then taken upward.
+  const double down = mass >= rho * volume ? 1.0 : -1.0;
+  c.speed_stokes = std::abs(mass - rho * volume) * g / (6.0 * M_PI * rho * nu * c.radius);
   stokesBand(c.radius, dx, box, c.expected_lo, c.expected_hi);
   // The second half of the free time: the flow has set up over the gap to the walls.
   const double from = hold + 0.5 * (end - hold);
@@ -584,14 +586,14 @@ FallCheck fallingBall(const std::string& scene, double dx, const std::vector<std
   int n = 0;
   for (const StepForce& f : log) {
     if (f.time < from) continue;
-    vz += -f.v.z();
+    vz += -down * f.v.z();
     vx += f.v.x();
     vy += f.v.y();
     ++n;
   }
   if (n < 12 || !(vz > 0.0)) {
     c.exit_code = 1;
-    c.message = "too few steps in the window, or the ball did not fall";
+    c.message = "too few steps in the window, or the ball did not move with its net weight";
     return c;
   }
   c.speed = vz / n;
@@ -604,7 +606,7 @@ FallCheck fallingBall(const std::string& scene, double dx, const std::vector<std
   if (nh > 0) {
     held /= nh;
     c.held_over_buoyancy = held / (rho * g * volume);
-    c.ratio_held = (mass * g - held) / (6.0 * M_PI * rho * nu * c.radius * c.speed);
+    c.ratio_held = down * (mass * g - held) / (6.0 * M_PI * rho * nu * c.radius * c.speed);
   }
   c.reynolds = 2.0 * c.radius * c.speed / nu;
   c.ratio = c.speed_stokes / c.speed;

@@ -242,7 +242,7 @@ struct FallCheck {
   std::string message;
   double dx = 0;               ///< (unit: m)
   double radius = 0;           ///< (unit: m)
-  double speed = 0;            ///< mean downward speed over the second half of the free time (unit: m/s)
+  double speed = 0;            ///< mean speed along its net weight (down, or up for a ball lighter than the liquid) over the second half of the free time (unit: m/s)
   double speed_stokes = 0;     ///< (m - rho V) g / (6 pi mu R), unbounded (unit: m/s)
   double reynolds = 0;         ///< 2 R U / nu (unit: 1)
   double ratio = 0;            ///< the drag's factor over Stokes: speed_stokes / speed, to compare with the band (unit: 1)

@@ -1,6 +1,9 @@
 #include "core/dfsph.h"
 
 #include "core/errors.h"
+#include "kernels/shared/body_response.h"
+
+#include <Eigen/Dense>
 
 #include <algorithm>
 #include <cmath>
@@ -380,7 +383,10 @@ DfsphSolveResult DfsphSolver::solveMirrored(Kind kind, const SimParams& p, const
   return r;
 }
 
-ViscositySolveResult DfsphSolver::viscositySolve(const SimParams& p, const DfsphFields& f, const cl::Buffer& bvisc) {
+ViscositySolveResult DfsphSolver::viscositySolve(const SimParams& p, const DfsphFields& f, const cl::Buffer& bvisc_in,
+                                                 uint32_t ghost_mode) {
+  using Vector6 = Eigen::Matrix<double, 6, 1>;
+  using Matrix6 = Eigen::Matrix<double, 6, 6>;
   // Preconditioned conjugate gradients on M A x = M w (kernels/viscosity.cl), from x = w. The dot
   // products are chunk sums of per-particle values (dfsph_reduce into err_) added in order in double
   // (errorSum), so the run is bitwise deterministic. x is vel_before_: the viscous forces' velocities.
@@ -405,19 +411,143 @@ ViscositySolveResult DfsphSolver::viscositySolve(const SimParams& p, const Dfsph
     apply(Kind::Density, p, f, pdens_);
     kernels_.call("viscosity_cg_predict", n, kLocal, p, *f.acc, *f.vel);
   }
-  kernels_.call("viscosity_cg_setup", n, kLocal, p, *f.pos, *f.vel, *f.phase, *f.density, *f.snbr, *f.snbr_count,
-                *f.bpos, bvisc, *f.sbnbr, *f.sbnbr_count, vdiag_, vel_before_, vr_, vz_, vd_, err_);
-  // Cloth and soft-body nodes are unknowns too (kernels/viscosity.cl, viscosity_cg_node_*): their rows
-  // follow the fluid's, and every dot product is the fluid's sum plus the nodes'.
+  // Cloth and soft-body nodes and free rigid bodies are unknowns too (kernels/viscosity.cl,
+  // viscosity_cg_node_*, viscosity_cg_body_*): their rows follow the fluid's, and every dot product is the
+  // fluid's sum plus the nodes' and the bodies'. Where the fluid sees a mirrored (no-slip ghost) velocity
+  // 2 v_b - v~_b (ghost_mode: 1 every boundary particle, 2 moving bodies'), the unknown is that velocity's
+  // moving part and the mass is halved (g = 2; kernels/viscosity.cl's comment): the system stays symmetric.
   const uint32_t nn = f.n_nodes;
   const bool with_nodes = nn > 0 && f.response && f.nodes && f.bslot && f.cell_start;
-  nodes_solved_ = with_nodes;
-  if (with_nodes) {
+  const uint32_t nbod = f.n_bodies, nmov = f.n_moving;
+  const bool with_bodies = nbod > 0 && nmov > 0 && f.body_data && f.body_of &&
+                           f.bslot && f.bsrc && f.body_force && f.cell_start;
+  const float g_node = ghost_mode == 1 ? 2.0f : 1.0f;
+  const double g_body = ghost_mode != 0 ? 2.0 : 1.0;
+  nodes_solved_ = with_nodes || with_bodies;
+  if (nodes_solved_) {
     if (vnode_cap_ < f.n_boundary) {
       vnode_cap_ = f.n_boundary;
       vnode_ = makeBuffer(vnode_cap_ * 4);
       bvisc_nodes_ = makeBuffer(vnode_cap_ * 16);
+      bdir_ = makeBuffer(vnode_cap_ * 16);
     }
+    clCall("clearing the viscosity's unknown slots",
+           [&] { return cl_.queue().enqueueFillBuffer(vnode_, 0u, 0, std::size_t(f.n_boundary) * 4); });
+  }
+  // The bodies' rows on the host (six unknowns each, in double): A_B = N^-1 / g + dt sum_b K_b G_b^T G_b,
+  // preconditioned with its inverse; x_B is the change dU of the body's unknown.
+  struct BodyRows {
+    Matrix6 N = Matrix6::Zero();  // the mobility over the step (body_response.h)
+    Matrix6 Mg = Matrix6::Zero(), A = Matrix6::Zero(), P = Matrix6::Zero();  // N^-1 / g, the block, its inverse
+    Vector6 x = Vector6::Zero(), r = Vector6::Zero(), z = Vector6::Zero(), d = Vector6::Zero(), q = Vector6::Zero();
+    bool free = false;
+  };
+  std::vector<BodyRows> rows;
+  std::vector<Eigen::Vector4f> fk, rk;  // per moving particle: the gathered sums (f, K) and r
+  std::vector<uint32_t> body_of;
+  // The bodies' directions into their slots (bdir, vflag), from rows[].d.
+  auto bodyDirections = [&](bool with_base, const cl::Buffer& base, cl::Buffer& out, bool from_x) {
+    std::vector<Eigen::Vector4f> dir(std::size_t(nbod) * 2, Eigen::Vector4f::Zero());
+    for (uint32_t b = 0; b < nbod; ++b) {
+      const Vector6& v = from_x ? rows[b].x : rows[b].d;
+      dir[2 * b].head<3>() = v.head<3>().cast<float>();
+      dir[2 * b + 1].head<3>() = v.tail<3>().cast<float>();
+    }
+    clCall("writing the bodies' directions",
+           [&] { return cl_.queue().enqueueWriteBuffer(bdirs_, CL_TRUE, 0, dir.size() * 16, dir.data()); });
+    kernels_.call("viscosity_cg_body_dir", nmov, kLocal, nmov, f.n_static, *f.bslot, *f.body_of, *f.body_data,
+                  *f.bpos, bdirs_, with_base ? 1 : 0, base, out, vnode_);
+  };
+  // The start's boundary velocities (bvisc with the nodes' and bodies' incremental starts), copied from
+  // bvisc on first use.
+  bool start_copied = false;
+  auto startBuffer = [&]() -> cl::Buffer& {
+    if (!start_copied) {
+      if (bvisc_start_cap_ < f.n_boundary) {
+        bvisc_start_cap_ = f.n_boundary;
+        bvisc_start_ = makeBuffer(bvisc_start_cap_ * 16);
+      }
+      clCall("copying the viscous boundary velocities", [&] {
+        return cl_.queue().enqueueCopyBuffer(bvisc_in, bvisc_start_, 0, 0, std::size_t(f.n_boundary) * 16);
+      });
+      start_copied = true;
+    }
+    return bvisc_start_;
+  };
+  if (with_bodies) {
+    if (bodies_cap_ < nmov) {
+      bodies_cap_ = nmov;
+      bfk_ = makeBuffer(bodies_cap_ * 16);
+      brk_ = makeBuffer(bodies_cap_ * 16);
+    }
+    if (bodies_dir_cap_ < nbod) {
+      bodies_dir_cap_ = nbod;
+      bdirs_ = makeBuffer(bodies_dir_cap_ * 32);
+    }
+    std::vector<Eigen::Vector4f> data(std::size_t(nbod) * DFSPH_BODY_STRIDE);
+    body_of.resize(nmov);
+    clCall("reading the bodies' responses", [&] {
+      cl_.queue().enqueueReadBuffer(*f.body_of, CL_FALSE, 0, std::size_t(nmov) * 4, body_of.data());
+      return cl_.queue().enqueueReadBuffer(*f.body_data, CL_TRUE, 0, data.size() * 16, data.data());
+    });
+    rows.resize(nbod);
+    for (uint32_t b = 0; b < nbod; ++b) {
+      const Eigen::Vector4f* d = &data[std::size_t(b) * DFSPH_BODY_STRIDE];
+      rows[b].free = d[0].w() > 0.5f;
+      if (!rows[b].free) continue;
+      Matrix6 N;
+      for (int r = 0; r < 6; ++r) {
+        N.block<1, 3>(r, 0) = d[3 + 2 * r].head<3>().cast<double>().transpose();
+        N.block<1, 3>(r, 3) = d[4 + 2 * r].head<3>().cast<double>().transpose();
+      }
+      rows[b].N = N;
+      rows[b].Mg = (0.5 * (N + N.transpose())).inverse() / g_body;
+      rows[b].A = rows[b].Mg;
+    }
+    // The incremental splitting's start for the bodies, as the fluid's w: each free body's unknown starts
+    // at U0 + delta, delta = g dt (a_dry + N F_p), a_dry its acceleration without the fluid (gravity,
+    // contact, the external wrench: body_response.h) and F_p the last density pressure's force on it
+    // (dfsph_body_force on the pressure applied above). Without it a body at its terminal speed met its
+    // weight only after the viscous solve, which then slowed it: a 2000 kg/m^3 ball fell 10 % too fast at
+    // 1 ms steps in 0.05 m^2/s (docs/dfsph.md, session 38).
+    std::vector<Vector6> delta(nbod, Vector6::Zero());
+    if (incremental) {
+      kernels_.call("dfsph_body_force", nmov, kLocal, p, nmov, f.n_static, *f.bsrc, *f.bslot, wallPressure(Kind::Density),
+                    extrapolated() ? 1 : 0, xt_, *f.phase, *f.density, *f.cell_start, wallFactor(), *f.body_force);
+      kernels_.call("viscosity_cg_body_gather", nmov, kLocal, p, nmov, f.n_static, *f.bslot, *f.body_of, *f.body_data,
+                    *f.bpos, *f.pos, *f.phase, *f.density, *f.cell_start, *f.vel, bvisc_in, bfk_, brk_);  // for r
+      std::vector<Eigen::Vector4f> fp(nmov), r0(nmov);
+      clCall("reading the bodies' pressure forces", [&] {
+        cl_.queue().enqueueReadBuffer(brk_, CL_FALSE, 0, std::size_t(nmov) * 16, r0.data());
+        return cl_.queue().enqueueReadBuffer(*f.body_force, CL_TRUE, 0, std::size_t(nmov) * 16, fp.data());
+      });
+      std::vector<Vector6> wp(nbod, Vector6::Zero());
+      for (uint32_t k = 0; k < nmov; ++k) {
+        const Eigen::Vector3d f3 = fp[k].head<3>().cast<double>(), r3 = r0[k].head<3>().cast<double>();
+        wp[body_of[k]].head<3>() += f3;
+        wp[body_of[k]].tail<3>() += r3.cross(f3);
+      }
+      for (uint32_t b = 0; b < nbod; ++b)
+        if (rows[b].free) {
+          const Eigen::Vector4f* d = &data[std::size_t(b) * DFSPH_BODY_STRIDE];
+          Vector6 a;
+          a << d[1].head<3>().cast<double>(), d[2].head<3>().cast<double>();
+          delta[b] = g_body * double(p.dt) * (a + rows[b].N * wp[b]);
+        }
+    }
+    if (incremental) {
+      for (uint32_t b = 0; b < nbod; ++b) rows[b].x = delta[b];
+      bodyDirections(true, bvisc_in, startBuffer(), true);  // bvisc + G_b delta
+      for (uint32_t b = 0; b < nbod; ++b) rows[b].x.setZero();  // x: the change from the start
+    }
+  }
+  // The nodes start at their own velocity. Started as the bodies are, with what the cloth's own forces and the
+  // last density pressure do to them in the step, the light hammocks in 0.1 m^2/s blew up (docs/dfsph.md,
+  // session 38).
+  const cl::Buffer& bvisc = start_copied ? bvisc_start_ : bvisc_in;
+  kernels_.call("viscosity_cg_setup", n, kLocal, p, *f.pos, *f.vel, *f.phase, *f.density, *f.snbr, *f.snbr_count,
+                *f.bpos, bvisc, *f.sbnbr, *f.sbnbr_count, vdiag_, vel_before_, vr_, vz_, vd_, err_);
+  if (with_nodes) {
     if (nodes_cap_ < nn) {
       nodes_cap_ = nn;
       nA_ = makeBuffer(nodes_cap_ * 48);
@@ -425,51 +555,120 @@ ViscositySolveResult DfsphSolver::viscositySolve(const SimParams& p, const Dfsph
       for (cl::Buffer* b : {&ny_, &nr_, &nz_, &nd_, &nq_, &ndv_}) *b = makeBuffer(nodes_cap_ * 16);
       nerr_ = makeBuffer(nodes_cap_ * 4);
     }
-    clCall("clearing the viscosity's node slots",
-           [&] { return cl_.queue().enqueueFillBuffer(vnode_, 0xffffffffu, 0, std::size_t(f.n_boundary) * 4); });
     kernels_.call("viscosity_cg_node_slots", nn, kLocal, nn, f.node_offset, *f.nodes, *f.bslot, vnode_);
-    kernels_.call("viscosity_cg_node_setup", nn, kLocal, p, nn, f.node_offset, *f.nodes, *f.response, *f.bslot,
-                  *f.bpos, bvisc, *f.pos, *f.vel, *f.phase, *f.density, *f.cell_start, nA_, nP_, ny_, nr_, nz_, nd_,
-                  nerr_);
+    kernels_.call("viscosity_cg_node_setup", nn, kLocal, p, nn, f.node_offset, 1.0f / g_node, *f.nodes, *f.response,
+                  *f.bslot, *f.bpos, bvisc, *f.pos, *f.vel, *f.phase, *f.density, *f.cell_start, nA_, nP_, ny_, nr_,
+                  nz_, nd_, nerr_);
   }
-  auto dotSum = [&] { return errorSum(n) + (with_nodes ? nodeErrorSum(nn) : 0.0); };
-  double rz = dotSum();
+  if (with_bodies) {
+    // the start: the fluid's x0 against the boundary's bvisc
+    kernels_.call("viscosity_cg_body_gather", nmov, kLocal, p, nmov, f.n_static, *f.bslot, *f.body_of, *f.body_data,
+                  *f.bpos, *f.pos, *f.phase, *f.density, *f.cell_start, *f.vel, bvisc, bfk_, brk_);
+    fk.resize(nmov);
+    rk.resize(nmov);
+    clCall("reading the bodies' viscous sums", [&] {
+      cl_.queue().enqueueReadBuffer(brk_, CL_FALSE, 0, std::size_t(nmov) * 16, rk.data());
+      return cl_.queue().enqueueReadBuffer(bfk_, CL_TRUE, 0, std::size_t(nmov) * 16, fk.data());
+    });
+    for (uint32_t k = 0; k < nmov; ++k) {
+      BodyRows& R = rows[body_of[k]];
+      if (!R.free) continue;
+      const Eigen::Vector3d f3 = fk[k].head<3>().cast<double>(), r3 = rk[k].head<3>().cast<double>();
+      const double K = fk[k].w();
+      Eigen::Matrix3d X;  // [r]x
+      X << 0, -r3.z(), r3.y(), r3.z(), 0, -r3.x(), -r3.y(), r3.x(), 0;
+      const double dtK = double(p.dt) * K;
+      R.A.block<3, 3>(0, 0) += dtK * Eigen::Matrix3d::Identity();
+      R.A.block<3, 3>(0, 3) += -dtK * X;
+      R.A.block<3, 3>(3, 0) += dtK * X;
+      R.A.block<3, 3>(3, 3) += -dtK * X * X;
+      R.r.head<3>() += double(p.dt) * f3;
+      R.r.tail<3>() += double(p.dt) * r3.cross(f3);
+    }
+    for (BodyRows& R : rows)
+      if (R.free) {
+        R.P = R.A.inverse();
+        R.z = R.P * R.r;
+        R.d = R.z;
+      }
+  }
+  auto bodyDot = [&](int which) {  // 0: r . z, 1: d . q
+    double s = 0.0;
+    for (const BodyRows& R : rows)
+      if (R.free) s += which == 0 ? R.r.dot(R.z) : R.d.dot(R.q);
+    return s;
+  };
+  auto dotSum = [&](int which) {
+    return errorSum(n) + (with_nodes ? nodeErrorSum(nn) : 0.0) + (with_bodies ? bodyDot(which) : 0.0);
+  };
+  double rz = dotSum(0);
   const double rz0 = rz;
   const double tol2 = spec_.viscosity_tolerance * spec_.viscosity_tolerance;
   while (rz > tol2 * rz0 && res.iterations < spec_.viscosity_max_iterations) {
     kernels_.call("viscosity_cg_apply", n, kLocal, p, *f.pos, *f.phase, *f.density, *f.snbr, *f.snbr_count, vdiag_,
                   vd_, vq_, err_);
-    if (with_nodes) {
+    if (nodes_solved_) {
+      if (with_nodes) kernels_.call("viscosity_cg_node_dir", nn, kLocal, nn, f.node_offset, *f.nodes, *f.bslot, nd_, bdir_);
+      if (with_bodies) bodyDirections(false, bdir_, bdir_, false);
       kernels_.call("viscosity_cg_apply_nodes", n, kLocal, p, *f.pos, *f.phase, *f.density, *f.bpos, *f.sbnbr,
-                    *f.sbnbr_count, vnode_, nd_, vd_, vq_, err_);
+                    *f.sbnbr_count, vnode_, bdir_, vd_, vq_, err_);
+    }
+    if (with_nodes)
       kernels_.call("viscosity_cg_node_apply", nn, kLocal, p, nn, f.node_offset, *f.nodes, *f.bslot, *f.bpos, *f.pos,
                     *f.phase, *f.density, *f.cell_start, nA_, vd_, nd_, nq_, nerr_);
+    if (with_bodies) {
+      // q_B = (N^-1 / g) d_B - dt sum_b G_b^T sum_i m_i k_ib (d_i - G_b d_B)
+      kernels_.call("viscosity_cg_body_gather", nmov, kLocal, p, nmov, f.n_static, *f.bslot, *f.body_of, *f.body_data,
+                    *f.bpos, *f.pos, *f.phase, *f.density, *f.cell_start, vd_, bdir_, bfk_, brk_);
+      clCall("reading the bodies' viscous sums",
+             [&] { return cl_.queue().enqueueReadBuffer(bfk_, CL_TRUE, 0, std::size_t(nmov) * 16, fk.data()); });
+      std::vector<Vector6> w(nbod, Vector6::Zero());
+      for (uint32_t k = 0; k < nmov; ++k) {
+        if (!rows[body_of[k]].free) continue;
+        const Eigen::Vector3d f3 = fk[k].head<3>().cast<double>(), r3 = rk[k].head<3>().cast<double>();
+        w[body_of[k]].head<3>() += f3;
+        w[body_of[k]].tail<3>() += r3.cross(f3);
+      }
+      for (uint32_t b = 0; b < nbod; ++b)
+        if (rows[b].free) rows[b].q = rows[b].Mg * rows[b].d - double(p.dt) * w[b];
     }
-    const double dq = dotSum();
+    const double dq = dotSum(1);
     if (!(dq > 0.0)) break;  // d = 0: nothing left to solve
     const float alpha = static_cast<float>(rz / dq);
     kernels_.call("viscosity_cg_update", n, kLocal, p, alpha, *f.phase, vdiag_, vd_, vq_, vel_before_, vr_, vz_, err_);
     if (with_nodes) kernels_.call("viscosity_cg_node_update", nn, kLocal, nn, alpha, nP_, nd_, nq_, ny_, nr_, nz_, nerr_);
-    const double rz_new = dotSum();
+    for (BodyRows& R : rows)
+      if (R.free) {
+        R.x += double(alpha) * R.d;
+        R.r -= double(alpha) * R.q;
+        R.z = R.P * R.r;
+      }
+    const double rz_new = dotSum(0);
     ++res.iterations;
     const float beta = static_cast<float>(rz_new / rz);
     rz = rz_new;
     if (rz <= tol2 * rz0) break;
     kernels_.call("viscosity_cg_direction", n, kLocal, p, beta, vz_, vd_);
     if (with_nodes) kernels_.call("viscosity_cg_node_direction", nn, kLocal, nn, beta, nz_, nd_);
+    for (BodyRows& R : rows)
+      if (R.free) R.d = R.z + double(beta) * R.d;
   }
   res.residual = rz0 > 0.0 ? std::sqrt(std::max(rz, 0.0) / rz0) : 0.0;
   res.converged = res.residual <= spec_.viscosity_tolerance;
-  if (with_nodes) {
-    // The nodes' reaction is gathered with their solved velocities (Simulation::gatherClothForces), and
-    // the density solve sees them move by it (densitySolve, dfsph_node_dry).
+  if (nodes_solved_) {
+    // The nodes' and bodies' reaction is gathered with their solved velocities (Simulation::gatherClothForces,
+    // gatherBodyForces), and the density solve sees them move by it (densitySolve).
     clCall("copying the viscous boundary velocities", [&] {
       return cl_.queue().enqueueCopyBuffer(bvisc, bvisc_nodes_, 0, 0, std::size_t(f.n_boundary) * 16);
     });
-    kernels_.call("viscosity_cg_node_finish", nn, kLocal, nn, f.node_offset, *f.nodes, *f.bslot, bvisc, ny_,
-                  bvisc_nodes_, ndv_);
+    if (with_nodes)
+      kernels_.call("viscosity_cg_node_finish", nn, kLocal, nn, f.node_offset, 1.0f / g_node, *f.nodes, *f.bslot, bvisc,
+                    ny_, bvisc_nodes_, ndv_);
+    if (with_bodies) bodyDirections(true, bvisc, bvisc_nodes_, true);  // bvisc + G_b dU; bdirs_ keeps dU
   }
   node_dv_pending_ = with_nodes;
+  body_dv_pending_ = with_bodies;
+  body_inv_g_ = static_cast<float>(1.0 / g_body);
   kernels_.call("viscosity_cg_finish", n, kLocal, p, *f.vel, vel_before_, *f.acc);
   if (incremental)
     clCall("restoring the velocities", [&] { return cl_.queue().enqueueCopyBuffer(vkeep_, *f.vel, 0, 0, n * 16); });
@@ -645,8 +844,8 @@ DfsphSolveResult DfsphSolver::densitySolve(const SimParams& p, const DfsphFields
     clCall("keeping the velocities",
            [&] { return cl_.queue().enqueueCopyBuffer(*f.vel, vel_before_, 0, 0, std::max<std::size_t>(p.n_fluid, 1) * 16); });
   viscous_kept_ = false;
-  const bool node_dv = node_dv_pending_;
-  node_dv_pending_ = false;
+  const bool node_dv = node_dv_pending_, body_dv = body_dv_pending_;
+  node_dv_pending_ = body_dv_pending_ = false;
   // v* = v + dt a; with extrapolated walls a takes the contact with the walls for the particles
   // the solve leaves without pressure first (kernels/dfsph.cl, dfsph_wall_contact_accel).
   const int contact = extrapolated() && f.n_boundary > 0 ? 1 : 0;
@@ -671,6 +870,10 @@ DfsphSolveResult DfsphSolver::densitySolve(const SimParams& p, const DfsphFields
     body_div_ready_ = false;
     kernels_.call("dfsph_body_slots", f.n_moving, kLocal, f.n_moving, f.n_static, *f.body_of, *f.bslot, *f.bsrc,
                   *f.body_data, bbacc_div_, 1, bacc_);
+    // and what the implicit viscosity does to them (viscositySolve: they were its unknowns)
+    if (body_dv)
+      kernels_.call("viscosity_cg_body_accel", f.n_moving, kLocal, f.n_moving, f.n_static, body_inv_g_ / p.dt, *f.bslot,
+                    *f.body_of, *f.body_data, *f.bpos, bdirs_, bacc_);
   }
   if (nodes_) {
     if (f.node_dv)

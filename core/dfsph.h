@@ -135,11 +135,14 @@ class DfsphSolver {
   /// and f.acc (gravity) applied (the incremental splitting, viscositySolve's comment), adds (v' - w) / dt
   /// to f.acc, and keeps v' as the velocities the viscous forces saw (viscousVelocities(), for the bodies'
   /// reaction: the densitySolve that follows keeps them). bvisc: the boundary velocities of the viscous term.
-  ViscositySolveResult viscositySolve(const SimParams& p, const DfsphFields& f, const cl::Buffer& bvisc);
-  /// With cloth or soft-body nodes in the last implicit viscosity solve (f.n_nodes > 0; they are its
-  /// unknowns too, kernels/viscosity.cl, viscosity_cg_node_*): bvisc with the free nodes' solved
-  /// velocities, for the nodes' reaction (rigid.cl, rigid_fluid_forces) (n_boundary x float4) (unit:
-  /// m/s); else null. Valid until the next step's solve.
+  /// Cloth and soft-body nodes (f.n_nodes) and the free rigid bodies (f.n_bodies, the strong coupling's)
+  /// are unknowns of the solve too (kernels/viscosity.cl, viscosity_cg_node_*, viscosity_cg_body_*).
+  /// ghost_mode: Model::ghost_velocity_mode, which boundary particles bvisc mirrors.
+  ViscositySolveResult viscositySolve(const SimParams& p, const DfsphFields& f, const cl::Buffer& bvisc,
+                                      uint32_t ghost_mode);
+  /// With cloth or soft-body nodes or free bodies in the last implicit viscosity solve (its unknowns too):
+  /// bvisc with their solved velocities, for their reaction (rigid.cl, rigid_fluid_forces) (n_boundary x
+  /// float4) (unit: m/s); else null. Valid until the next step's solve.
   const cl::Buffer* nodeViscousVelocities() const { return nodes_solved_ ? &bvisc_nodes_ : nullptr; }
   /// Extrapolated walls' contact (kernels/dfsph.cl, dfsph_wall_contact_accel; from cloth nodes too):
   /// its stiffness dt^2 k_w / dx (0 where it does not act: other walls) and its range r0 / dx (unit:
@@ -232,11 +235,17 @@ class DfsphSolver {
   cl::Buffer vdiag_, vr_, vz_, vd_, vq_;   // implicit viscosity: the diagonal of A, residual, preconditioned residual, direction, M A d
   cl::Buffer vkeep_;                       // implicit viscosity: the velocities before the last pressure was applied
   // Implicit viscosity with cloth and soft-body nodes as unknowns (kernels/viscosity.cl, viscosity_cg_node_*):
-  // slot -> node (n_boundary), each node's 3 x 3 block and its inverse (3 float4), solution, residual,
+  // the unknown slots' flags (n_boundary), each node's 3 x 3 block and its inverse (3 float4), solution, residual,
   // preconditioned residual, direction, M A d (float4), r . z (float), the boundary velocities with the
   // solved nodes' (n_boundary x float4), and each node's viscous velocity change (float4).
   cl::Buffer vnode_, nA_, nP_, ny_, nr_, nz_, nd_, nq_, nerr_, bvisc_nodes_, ndv_;
-  std::size_t vnode_cap_ = 0, nodes_cap_ = 0;
+  // and free bodies (viscosity_cg_body_*): each unknown slot's direction (n_boundary x float4), per moving
+  // particle the gathered sums (f, K) and its arm r (float4), per body the pair (dV, dOmega) (2 float4)
+  cl::Buffer bdir_, bfk_, brk_, bdirs_;
+  cl::Buffer bvisc_start_;                 // the boundary velocities of the solve's start (the bodies' incremental start)
+  std::size_t vnode_cap_ = 0, nodes_cap_ = 0, bodies_cap_ = 0, bodies_dir_cap_ = 0, bvisc_start_cap_ = 0;
+  bool body_dv_pending_ = false;           // bdirs_ holds this step's bodies' viscous change dU, for the density solve
+  float body_inv_g_ = 1.0f;                // 1 / g of the bodies' unknowns (viscositySolve)
   bool nodes_solved_ = false;              // the last viscosity solve had nodes (nodeViscousVelocities)
   bool node_dv_pending_ = false;           // ndv_ holds this step's nodes' viscous change, for the density solve
   /// The sum of nerr_'s first n values, chunk sums in a fixed order (as errorSum).

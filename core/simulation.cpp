@@ -852,7 +852,8 @@ void Simulation::viscosityForces() {
   StageTimer timer(*this, Stage::Viscosity);
   if (dfsph_ && model_.spec.fluid.dfsph.viscosity_solve == ViscositySolve::Implicit) {
     // backward Euler by conjugate gradients (fluid.dfsph.viscosity_solve: implicit; kernels/viscosity.cl)
-    const ViscositySolveResult r = dfsph_->viscositySolve(params_, dfsphFields(), viscousBoundaryVelocities());
+    const ViscositySolveResult r =
+        dfsph_->viscositySolve(params_, dfsphFields(), viscousBoundaryVelocities(), model_.ghost_velocity_mode);
     profile_.viscosity_iterations += static_cast<uint64_t>(r.iterations);
     profile_.max_viscosity_residual = std::max(profile_.max_viscosity_residual, r.residual);
     if (!r.converged) ++profile_.viscosity_unconverged_steps;
@@ -962,7 +963,10 @@ void Simulation::gatherBodyForces() {
   // the plain pair sum; the correction acts here, on the force the body is integrated with (session 33).
   const int ambient = model_.body_ambient_subtract ? 1 : 0;
   const float ambient_rate = ambient ? static_cast<float>(std::min(1.0, params_.dt / Model::kBodyAmbientTime)) : 0.0f;
-  kernels_.call("rigid_fluid_forces", n_moving_, kLocal, params_, n_moving_, n_static_, bsrc_, bslot_, viscousBoundaryVelocities(), bpressure_, pos_[cur_], vel, phase_[cur_], density_, pterm_, cell_start_, viscous, mirror, 0.0f, 0.0f, bforce_, ambient_rate, bgeo_, bpmean_);
+  // With the implicit viscosity the free bodies were unknowns of its solve: their reaction is gathered at
+  // the solved velocities (core/dfsph.cpp, viscositySolve), as the fluid's side was.
+  const cl::Buffer* solved = dfsph_ ? dfsph_->nodeViscousVelocities() : nullptr;
+  kernels_.call("rigid_fluid_forces", n_moving_, kLocal, params_, n_moving_, n_static_, bsrc_, bslot_, solved ? *solved : viscousBoundaryVelocities(), bpressure_, pos_[cur_], vel, phase_[cur_], density_, pterm_, cell_start_, viscous, mirror, 0.0f, 0.0f, bforce_, ambient_rate, bgeo_, bpmean_);
   // The per-body reduction is timed on its own (profile.rigid_reduce_seconds).
   clCall("waiting for the body forces", [&] { return cl_.queue().finish(); });
   const auto t_reduce = std::chrono::steady_clock::now();

@@ -685,6 +685,7 @@ class Loader {
       // bodies lighter than the liquid, are refused.
       double rho_liquid = 0.0;
       for (const PhaseSpec& ph : fluid.phases) rho_liquid = std::max(rho_liquid, ph.rest_density);
+      if (fluid.phases.empty()) rho_liquid = PhaseSpec().rest_density;  // the default phase (added later)
       std::string light;
       if (!spec.cloth.empty()) light = "cloth '" + spec.cloth[0].name + "'";
       for (const SoftBodySpec& b : spec.soft_bodies)

@@ -240,12 +240,12 @@ __kernel void viscosity_cg_finish(const SimParams p, __global const float4* vel,
  * each fluid particle its nodes from its boundary list: the same pairs, the same k from the same
  * float distances, so the two couplings are equal to rounding. */
 
-/* slot -> node index (vnode, cleared to ~0 by the host), for the free nodes only */
+/* The free nodes' slots marked in vflag (cleared to 0 by the host): the slots whose velocity is an unknown */
 __kernel void viscosity_cg_node_slots(const uint n, const uint offset, __global const float4* nodes,
-                                      __global const uint* slot, __global uint* vnode) {
+                                      __global const uint* slot, __global uint* vflag) {
   const uint k = get_global_id(0);
   if (k >= n || nodes[k].w == 0.0f) return;
-  vnode[slot[offset + k]] = k;
+  vflag[slot[offset + k]] = 1u;
 }
 
 /* The inverse of a symmetric 3 x 3 matrix given by its rows (the first three components), by its adjugate. */
@@ -277,7 +277,7 @@ inline float viscosity_cg_node_k(const SimParams* p, const float3 xb, const floa
  * velocity as the fluid sees it, bvisc), r = dt F_k(x, w), the block A_k = M_k + dt K_k I (3 float4)
  * and its inverse P_k, z = P_k r, d = z, r . z. A free node with no fluid within H has r = 0. Anchored:
  * zeros (no row). */
-__kernel void viscosity_cg_node_setup(const SimParams p, const uint n, const uint offset,
+__kernel void viscosity_cg_node_setup(const SimParams p, const uint n, const uint offset, const float inv_g,
                                       __global const float4* nodes, __global const float4* response,
                                       __global const uint* slot, __global const float4* bpos,
                                       __global const float4* bvisc, __global const float4* pos,
@@ -309,8 +309,8 @@ __kernel void viscosity_cg_node_setup(const SimParams p, const uint n, const uin
   SPH_END_NEIGHBOURS
   /* M_k = m_k I (m + M with a fictitious added mass: the w of cloth_node_response's first row) */
   const float inv_m = response[3 * k].w > 0.0f ? response[3 * k].w : nodes[k].w;
-  const float3 m0 = (float3)(1.0f / inv_m, 0.0f, 0.0f), m1 = (float3)(0.0f, 1.0f / inv_m, 0.0f),
-               m2 = (float3)(0.0f, 0.0f, 1.0f / inv_m);
+  const float mg = inv_g / inv_m; /* m / g (the node's unknown is g y - (g - 1) v~ where it is mirrored) */
+  const float3 m0 = (float3)(mg, 0.0f, 0.0f), m1 = (float3)(0.0f, mg, 0.0f), m2 = (float3)(0.0f, 0.0f, mg);
   const float dK = p.dt * K;
   const float3 a0 = m0 + (float3)(dK, 0.0f, 0.0f), a1 = m1 + (float3)(0.0f, dK, 0.0f), a2 = m2 + (float3)(0.0f, 0.0f, dK);
   float3 p0, p1, p2;
@@ -329,12 +329,13 @@ __kernel void viscosity_cg_node_setup(const SimParams p, const uint n, const uin
   rz[k] = dot(rk, zk);
 }
 
-/* The fluid rows' coupling to the nodes, after viscosity_cg_apply: q_i -= dt sum_k m_i k_ik d_k over
- * the free nodes in i's boundary list, and d . q again. */
+/* The fluid rows' coupling to the nodes and bodies, after viscosity_cg_apply: q_i -= dt sum_b m_i k_ib
+ * u_b over the boundary particles in i's list whose velocity is an unknown (vflag), u_b their direction
+ * in bdir (a node's d_k, a body particle's G_b d_U), and d . q again. */
 __kernel void viscosity_cg_apply_nodes(const SimParams p, __global const float4* pos, __global const uint* phase,
                                        __global const float* density, __global const float4* bpos,
                                        __global const uint* bnbr, __global const uint* bnbr_count,
-                                       __global const uint* vnode, __global const float4* nd,
+                                       __global const uint* vflag, __global const float4* bdir,
                                        __global const float4* d, __global float4* q, __global float* dq) {
   const uint i = get_global_id(0);
   if (i >= p.n_fluid) return;
@@ -343,10 +344,9 @@ __kernel void viscosity_cg_apply_nodes(const SimParams p, __global const float4*
   int any = 0;
   for (uint c = 0; c < bnbr_count[i]; ++c) {
     const uint b = bnbr[(size_t)i * K + c];
-    const uint k = vnode[b];
-    if (k == 0xffffffffu) continue;
+    if (!vflag[b]) continue;
     const float4 xb = bpos[b];
-    s += viscosity_cg_node_k(&p, xb.xyz, xb.w, i, pos, phase, density) * nd[k].xyz;
+    s += viscosity_cg_node_k(&p, xb.xyz, xb.w, i, pos, phase, density) * bdir[b].xyz;
     any = 1;
   }
   if (!any) return;
@@ -405,9 +405,9 @@ __kernel void viscosity_cg_node_direction(const uint n, const float beta, __glob
 }
 
 /* After the solve: the boundary velocities the reaction is gathered with (bout, a copy of bvisc) take
- * the free nodes' solved velocities y_k, and dv_k = y_k - w_k is what the viscous force does to the node
- * in the step (the density solve sees the node move by it: dfsph_node_dry). */
-__kernel void viscosity_cg_node_finish(const uint n, const uint offset, __global const float4* nodes,
+ * the free nodes' solved velocities y_k, and dv_k = (y_k - w_k) / g is what the viscous force does to the
+ * node in the step (the density solve sees the node move by it: dfsph_node_dry). */
+__kernel void viscosity_cg_node_finish(const uint n, const uint offset, const float inv_g, __global const float4* nodes,
                                        __global const uint* slot, __global const float4* bvisc,
                                        __global const float4* y, __global float4* bout, __global float4* dv) {
   const uint k = get_global_id(0);
@@ -418,5 +418,97 @@ __kernel void viscosity_cg_node_finish(const uint n, const uint offset, __global
     return;
   }
   bout[s] = (float4)(y[k].xyz, bvisc[s].w);
-  dv[k] = (float4)(y[k].xyz - bvisc[s].xyz, 0.0f);
+  dv[k] = (float4)(inv_g * (y[k].xyz - bvisc[s].xyz), 0.0f);
+}
+
+/* ---- Rigid bodies as unknowns of the implicit viscosity (issue 14, session 38) ---------------------
+ * A free body B (body_data's free flag; held and kinematic bodies stay held) moves rigidly: its particle b
+ * at r_b = x_b - c_B has the velocity G_b Y = V + Omega x r_b. Held at its step-start velocity during the
+ * solve and given the reaction afterwards, a body lighter than about twice the liquid it drags overshoots
+ * at long steps (a 2000 kg/m^3 ball released in 0.05 m^2/s syrup at 5 ms steps jumped to +0.38 m/s
+ * where it falls at 0.019; 300 kg/m^3 blew up). As an unknown its rows are
+ *     (N^-1 / g) (U - U0) = dt sum_b G_b^T sum_i m_i k_ib (x_i - u_b),   u_b = G_b U - (g - 1) v~_b,
+ * N the body's mobility over the step (body_response.h), g = 2 where the fluid sees the body's no-slip
+ * ghost velocity u_b = 2 v_b - v~_b (v~_b the Shepard fluid velocity at b, held) and U = 2 Y, g = 1 where
+ * it sees v_b itself: in both cases the coupling is -dt m_i k_ib G_b in the fluid's row and its transpose in
+ * the body's, and the system stays symmetric (cloth nodes take the same g). The host keeps the six
+ * unknowns per body (core/dfsph.cpp, viscositySolve); the device gathers, per body particle, the sums the
+ * body's rows need, and writes the bodies' directions into the boundary slots for the fluid's rows. */
+
+/* Per moving particle k (slot s): f_k = sum_i m_i k_ik (v_i - u_s) and K_k = sum_i m_i k_ik over the fluid
+ * within H (v: fluid vectors, u: per-slot vectors), and r_k = x_k - c_B; zeros for a body not free. */
+__kernel void viscosity_cg_body_gather(const SimParams p, const uint n_moving, const uint n_static,
+                                       __global const uint* slot, __global const uint* body_of,
+                                       __global const float4* body_data, __global const float4* bpos,
+                                       __global const float4* pos, __global const uint* phase,
+                                       __global const float* density, __global const uint* cell_start,
+                                       __global const float4* v, __global const float4* u, __global float4* fk,
+                                       __global float4* rk) {
+  const uint k = get_global_id(0);
+  if (k >= n_moving) return;
+  const uint B = body_of[k];
+  const float4 c = body_data[(size_t)B * DFSPH_BODY_STRIDE];
+  const uint s = slot[n_static + k];
+  const float4 xb4 = bpos[s];
+  rk[k] = (float4)(xb4.xyz - c.xyz, 0.0f);
+  if (!(c.w > 0.5f)) {
+    fk[k] = (float4)(0.0f);
+    return;
+  }
+  const float3 us = u[s].xyz;
+  float K = 0.0f;
+  float3 f = (float3)(0.0f);
+  SPH_FOR_NEIGHBOURS(&p, cell_start, xb4.xyz, i) {
+    const float mk = viscosity_cg_node_k(&p, xb4.xyz, xb4.w, i, pos, phase, density);
+    K += mk;
+    f += mk * (v[i].xyz - us);
+  }
+  SPH_END_NEIGHBOURS
+  fk[k] = (float4)(f, K);
+}
+
+/* Per moving particle k of a free body: out[s] = base[s] (or 0 without base) + dV + dOmega x r_k, from
+ * the body's pair (dV, dOmega) in dir[2B], dir[2B + 1]; a body not free: out[s] = base[s] (or 0). The w
+ * component is base's (or 0). Also marks the slot in vflag (1 for a free body's particle). */
+__kernel void viscosity_cg_body_dir(const uint n_moving, const uint n_static, __global const uint* slot,
+                                    __global const uint* body_of, __global const float4* body_data,
+                                    __global const float4* bpos, __global const float4* dir, const int with_base,
+                                    __global const float4* base, __global float4* out, __global uint* vflag) {
+  const uint k = get_global_id(0);
+  if (k >= n_moving) return;
+  const uint B = body_of[k];
+  const float4 c = body_data[(size_t)B * DFSPH_BODY_STRIDE];
+  const uint s = slot[n_static + k];
+  const float4 b0 = with_base ? base[s] : (float4)(0.0f);
+  if (!(c.w > 0.5f)) {
+    out[s] = b0;
+    return;
+  }
+  const float3 r = bpos[s].xyz - c.xyz;
+  out[s] = (float4)(b0.xyz + dir[2 * B].xyz + cross(dir[2 * B + 1].xyz, r), b0.w);
+  vflag[s] = 1u;
+}
+
+/* Before the density solve: each free body's particle's acceleration gains the viscous change of its
+ * velocity, (dV + dOmega x r) / (g dt), from the solve's dU (dir, per body pair). */
+__kernel void viscosity_cg_body_accel(const uint n_moving, const uint n_static, const float inv_g_dt,
+                                      __global const uint* slot, __global const uint* body_of,
+                                      __global const float4* body_data, __global const float4* bpos,
+                                      __global const float4* dir, __global float4* bacc) {
+  const uint k = get_global_id(0);
+  if (k >= n_moving) return;
+  const uint B = body_of[k];
+  const float4 c = body_data[(size_t)B * DFSPH_BODY_STRIDE];
+  if (!(c.w > 0.5f)) return;
+  const uint s = slot[n_static + k];
+  const float3 r = bpos[s].xyz - c.xyz;
+  bacc[s] = (float4)(bacc[s].xyz + inv_g_dt * (dir[2 * B].xyz + cross(dir[2 * B + 1].xyz, r)), bacc[s].w);
+}
+
+/* Node directions into their slots (for viscosity_cg_apply_nodes): out[s] = d_k, vflag[s] = 1. */
+__kernel void viscosity_cg_node_dir(const uint n, const uint offset, __global const float4* nodes,
+                                    __global const uint* slot, __global const float4* d, __global float4* out) {
+  const uint k = get_global_id(0);
+  if (k >= n || nodes[k].w == 0.0f) return;
+  out[slot[offset + k]] = d[k];
 }
