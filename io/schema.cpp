@@ -482,7 +482,8 @@ std::vector<KeyDef> buildTable() {
                "is kept at any step), by preconditioned conjugate gradients on the device in a fixed order, and the "
                "step is no longer bound by the viscosity (a towed ball in syrup: the drag within 1-5 % of the "
                "explicit solve's at 4-20x its step; docs/dfsph.md, session 36). The bodies take the reaction of "
-               "the same viscous forces; cloth and soft-body nodes are unknowns of the solve (session 38). Taken with "
+               "the same viscous forces; free rigid bodies and cloth and soft-body nodes are unknowns of the solve "
+               "(session 38). Taken with "
                "soft bodies at least as dense as the liquid, not with cloth or lighter soft bodies: at long steps "
                "in syrup light sheets and soft bodies still swing or blow up (docs/dfsph.md, sessions 37-38)"));
   add(field<InScene>("fluid.dfsph.viscosity_tolerance", [](auto& s) -> auto& { return s.fluid.dfsph.viscosity_tolerance; })
