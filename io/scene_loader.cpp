@@ -683,6 +683,16 @@ class Loader {
       // m^2/s kept 10-3000x the explicit run's kinetic energy, and begins to at the syrup's impact, where
       // the runs with and without the node rows agree (docs/dfsph.md, session 38). So cloth, and soft
       // bodies lighter than the liquid, are refused.
+      // Free bodies are unknowns of the solve only with the strong body coupling (its bodies' mobilities);
+      // staggered, they would be held in it and take its reaction after it, which overshoots at long steps
+      // (a ball released into syrup at 5 ms shot off or blew up, docs/dfsph.md, session 38).
+      const bool dynamic_body = std::any_of(spec.rigid_bodies.begin(), spec.rigid_bodies.end(),
+                                            [](const RigidBodySpec& b) { return b.dynamic; });
+      if (dynamic_body && dfsph.body_coupling == DfsphCoupling::Staggered && usable("fluid.dfsph.body_coupling"))
+        issue("fluid.dfsph.viscosity_solve", markOf("fluid.dfsph.viscosity_solve"),
+              "'fluid.dfsph.viscosity_solve: implicit' moves free bodies in its solve only with "
+              "'fluid.dfsph.body_coupling: strong' (staggered, a ball released into syrup shot off or blew up: "
+              "docs/dfsph.md, session 38); use strong, or the explicit viscosity");
       double rho_liquid = 0.0;
       for (const PhaseSpec& ph : fluid.phases) rho_liquid = std::max(rho_liquid, ph.rest_density);
       if (fluid.phases.empty()) rho_liquid = PhaseSpec().rest_density;  // the default phase (added later)

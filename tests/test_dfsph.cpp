@@ -440,6 +440,10 @@ TEST_CASE("DFSPH settings: bad values are reported at file:line:col", "[dfsph]")
   CHECK(testing::issuesOf(dir, head + "    viscosity_solve: implicit\n  viscosity_model: laminar\n" + ball +
                                    "density: 2000, dynamic: true}\n")
             .empty());
+  // with the staggered body coupling a free body is not an unknown of the solve: refused (session 38)
+  issues = testing::issuesOf(dir, head + "    viscosity_solve: implicit\n    body_coupling: staggered\n"
+                                         "  viscosity_model: laminar\n" + ball + "density: 2000, dynamic: true}\n");
+  CHECK(testing::hasIssue(issues, 7, {"viscosity_solve", "body_coupling: strong"}));
   const std::string sheet = "cloth:\n  - {name: sheet, width: 0.08, length: 0.08, resolution_x: 5, "
                             "resolution_y: 5, position: [0.05, 0.05, 0.08], areal_density: 50}\n";
   issues = testing::issuesOf(dir, head + "    viscosity_solve: implicit\n  viscosity_model: laminar\n" + sheet);
