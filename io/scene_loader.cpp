@@ -677,12 +677,12 @@ class Loader {
               "laminar' (the artificial viscosity is explicit)");
       // Cloth and soft-body nodes are unknowns of the solve since session 38 (kernels/viscosity.cl,
       // viscosity_cg_node_*): a light sheet dragged by landing syrup no longer overshoots it, and a soft slab
-      // as dense as the liquid rests under 0.1 m^2/s syrup at 5 ms steps (a 300 kg/m^3 one, which blew up
-      // with the nodes held, swings). Lighter bodies still swing at long steps, with or without the nodes
-      // in the solve: the hammock of scenes/tests/dfsph_hammock_syrup.yaml at 0.5-5 kg/m^2 in 0.01-0.1
-      // m^2/s kept 10-3000x the explicit run's kinetic energy, and begins to at the syrup's impact, where
-      // the runs with and without the node rows agree (docs/dfsph.md, session 38). So cloth, and soft
-      // bodies lighter than the liquid, are refused.
+      // as dense as the liquid rests under 0.1 m^2/s syrup at 5 ms steps. Lighter bodies still swung when
+      // their own (XPBD) step was one 5 ms step: the hammock of scenes/tests/dfsph_hammock_syrup.yaml at
+      // 0.5-2 kg/m^2 in 0.1 m^2/s read its anchors up to 39 % off or blew up, a 300 kg/m^3 slab swung. Split
+      // into 0.5 ms substeps (max_time_step) they rest as with the explicit solve (anchors within 1 %,
+      // docs/dfsph.md, session 38). So cloth, and soft bodies lighter than the liquid, need XPBD substeps of
+      // at most kImplicitNodeStep; longer ones were not measured.
       // Free bodies are unknowns of the solve only with the strong body coupling (its bodies' mobilities);
       // staggered, they would be held in it and take its reaction after it, which overshoots at long steps
       // (a ball released into syrup at 5 ms shot off or blew up, docs/dfsph.md, session 38).
@@ -693,22 +693,28 @@ class Loader {
               "'fluid.dfsph.viscosity_solve: implicit' moves free bodies in its solve only with "
               "'fluid.dfsph.body_coupling: strong' (staggered, a ball released into syrup shot off or blew up: "
               "docs/dfsph.md, session 38); use strong, or the explicit viscosity");
+      constexpr double kImplicitNodeStep = 0.0005;  // (unit: s)
+      auto split = [&](ClothSolver solver, double max_step) {
+        return solver == ClothSolver::Xpbd && max_step > 0.0 && max_step <= kImplicitNodeStep * (1.0 + 1e-9);
+      };
       double rho_liquid = 0.0;
       for (const PhaseSpec& ph : fluid.phases) rho_liquid = std::max(rho_liquid, ph.rest_density);
       if (fluid.phases.empty()) rho_liquid = PhaseSpec().rest_density;  // the default phase (added later)
       std::string light;
-      if (!spec.cloth.empty()) light = "cloth '" + spec.cloth[0].name + "'";
+      for (const ClothSpec& c : spec.cloth)
+        if (light.empty() && !split(c.solver, c.max_time_step)) light = "cloth '" + c.name + "'";
       for (const SoftBodySpec& b : spec.soft_bodies)
-        if (light.empty() && b.density < rho_liquid) {
+        if (light.empty() && b.density < rho_liquid && !split(b.solver, b.max_time_step)) {
           std::ostringstream t;
           t << "soft body '" << b.name << "' (" << b.density << " kg/m^3, lighter than the liquid's " << rho_liquid << ")";
           light = t.str();
         }
       if (!light.empty())
         issue("fluid.dfsph.viscosity_solve", markOf("fluid.dfsph.viscosity_solve"),
-              "'fluid.dfsph.viscosity_solve: implicit' takes soft bodies at least as dense as the liquid, not " + light +
-                  ": at long steps in viscous liquids light sheets and soft bodies kept swinging or blew up "
-                  "(docs/dfsph.md, sessions 37-38); use explicit");
+              "'fluid.dfsph.viscosity_solve: implicit' takes cloth, and soft bodies lighter than the liquid, only "
+              "with their xpbd step split into substeps of at most 0.5 ms ('max_time_step: 0.0005'): not " + light +
+                  ". In one step per fluid step, light sheets and soft bodies swung or blew up in viscous liquids "
+                  "(docs/dfsph.md, session 38); set it, or use the explicit viscosity");
     }
 
     // A background pressure pushes on every wall: with an open wall the fluid would be pushed out of the

@@ -483,9 +483,9 @@ std::vector<KeyDef> buildTable() {
                "step is no longer bound by the viscosity (a towed ball in syrup: the drag within 1-5 % of the "
                "explicit solve's at 4-20x its step; docs/dfsph.md, session 36). The bodies take the reaction of "
                "the same viscous forces; free rigid bodies and cloth and soft-body nodes are unknowns of the solve "
-               "(session 38). Taken with "
-               "soft bodies at least as dense as the liquid, not with cloth or lighter soft bodies: at long steps "
-               "in syrup light sheets and soft bodies still swing or blow up (docs/dfsph.md, sessions 37-38)"));
+               "(session 38). Cloth, and soft bodies lighter than the liquid, need their xpbd step split into "
+               "substeps of at most 0.5 ms (max_time_step: 0.0005; in one step light sheets swung or blew up in "
+               "syrup), and free bodies body_coupling: strong (docs/dfsph.md, session 38)"));
   add(field<InScene>("fluid.dfsph.viscosity_tolerance", [](auto& s) -> auto& { return s.fluid.dfsph.viscosity_tolerance; })
           .unit("1").greaterThan(0).atMost(1)
           .doc("implicit viscosity: the solve stops when its preconditioned residual has fallen to this fraction of "

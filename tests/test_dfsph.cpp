@@ -433,28 +433,32 @@ TEST_CASE("DFSPH settings: bad values are reported at file:line:col", "[dfsph]")
   issues = testing::issuesOf(dir, wcsph);
   CHECK(testing::hasIssue(issues, 7, {"viscosity_solve", "dfsph"}));
   CHECK(testing::issuesOf(dir, head + "    viscosity_solve: implicit\n  viscosity_model: laminar\n").empty());
-  // rigid bodies, free or scripted, are taken, and soft bodies at least as dense as the liquid (session 38:
-  // their nodes are unknowns of the solve); cloth, whatever its mass, and lighter soft bodies not (light
-  // nodes kept swinging or blew up in syrup at long steps, sessions 37-38); with explicit, cloth is taken
+  // rigid bodies, free or scripted, are taken (their coupling strong); cloth, and soft bodies lighter than the
+  // liquid, only with their xpbd step split into substeps of at most 0.5 ms (session 38: in one 5 ms step they
+  // swung or blew up in syrup); soft bodies at least as dense as the liquid in any step; with explicit, cloth
+  // is taken
   const std::string ball = "rigid_bodies:\n  - {name: ball, shape: sphere, radius: 0.02, position: [0.05, 0.05, 0.03], ";
-  CHECK(testing::issuesOf(dir, head + "    viscosity_solve: implicit\n  viscosity_model: laminar\n" + ball +
-                                   "density: 2000, dynamic: true}\n")
-            .empty());
+  const std::string implicit = "    viscosity_solve: implicit\n  viscosity_model: laminar\n";
+  CHECK(testing::issuesOf(dir, head + implicit + ball + "density: 2000, dynamic: true}\n").empty());
   // with the staggered body coupling a free body is not an unknown of the solve: refused (session 38)
   issues = testing::issuesOf(dir, head + "    viscosity_solve: implicit\n    body_coupling: staggered\n"
                                          "  viscosity_model: laminar\n" + ball + "density: 2000, dynamic: true}\n");
   CHECK(testing::hasIssue(issues, 7, {"viscosity_solve", "body_coupling: strong"}));
   const std::string sheet = "cloth:\n  - {name: sheet, width: 0.08, length: 0.08, resolution_x: 5, "
-                            "resolution_y: 5, position: [0.05, 0.05, 0.08], areal_density: 50}\n";
-  issues = testing::issuesOf(dir, head + "    viscosity_solve: implicit\n  viscosity_model: laminar\n" + sheet);
-  CHECK(testing::hasIssue(issues, 7, {"viscosity_solve", "cloth 'sheet'"}));
+                            "resolution_y: 5, position: [0.05, 0.05, 0.08], areal_density: 50";
+  issues = testing::issuesOf(dir, head + implicit + sheet + "}\n");
+  CHECK(testing::hasIssue(issues, 7, {"viscosity_solve", "not cloth 'sheet'", "max_time_step: 0.0005"}));
+  issues = testing::issuesOf(dir, head + implicit + sheet + ", max_time_step: 0.001}\n");
+  CHECK(testing::hasIssue(issues, 7, {"viscosity_solve", "not cloth 'sheet'"}));
+  CHECK(testing::issuesOf(dir, head + implicit + sheet + ", max_time_step: 0.0005}\n").empty());
   const std::string slab = "soft_bodies:\n  - {name: slab, size: [0.1, 0.1, 0.02], position: [0.05, 0.05, 0.08], "
                            "spacing: 0.02, young_modulus: 2e4, density: ";
-  issues = testing::issuesOf(dir, head + "    viscosity_solve: implicit\n  viscosity_model: laminar\n" + slab + "999}\n");
+  issues = testing::issuesOf(dir, head + implicit + slab + "999}\n");
   CHECK(testing::hasIssue(issues, 7, {"viscosity_solve", "soft body 'slab' (999 kg/m^3, lighter than the liquid's 1000)"}));
-  CHECK(testing::issuesOf(dir, head + "    viscosity_solve: implicit\n  viscosity_model: laminar\n" + slab + "1000}\n")
-            .empty());
-  CHECK(testing::issuesOf(dir, head + "  viscosity_model: laminar\n" + sheet).empty());  // explicit: taken
+  CHECK(testing::issuesOf(dir, head + implicit + slab + "999, max_time_step: 0.0005}\n").empty());
+  CHECK(testing::issuesOf(dir, head + implicit + slab + "1000}\n").empty());
+  const std::string sheet_done = sheet + "}\n";
+  CHECK(testing::issuesOf(dir, head + "  viscosity_model: laminar\n" + sheet_done).empty());  // explicit: taken
   // an unknown solver
   issues = testing::issuesOf(dir, "domain: {min: [0, 0, 0], max: [0.1, 0.1, 0.1]}\nfluid:\n  solver: iisph\n");
   CHECK(testing::hasIssue(issues, 3, {"iisph"}));
