@@ -229,8 +229,10 @@ __kernel void viscosity_cg_finish(const SimParams p, __global const float4* vel,
  * (docs/dfsph.md, session 37). As an unknown it moves in the solve as its own step will move it under
  * that force, backward Euler for both sides:
  *     M_k (y_k - w_k) = dt sum_i m_i k_ik (x_i - y_k),
- * M_k the node's mass with its springs implicit (cloth.cl, cloth_node_response, the inverse of its
- * M_k^-1; the strong coupling's response). Its rows join the fluid's M A:
+ * M_k the node's own mass, with its added mass where it has one (the w of cloth_node_response's first
+ * row; its springs are not in it: with their other ends held they made a taut sheet's nodes ~10^4 x
+ * heavier and a hammock blew up, docs/dfsph.md, session 38), divided by g where the fluid sees the node's
+ * mirrored velocity (viscosity_cg_body_* below). Its rows join the fluid's M A:
  *     node row:   (M_k + dt K_k) y_k - dt sum_i m_i k_ik x_i = M_k w_k,    K_k = sum_i m_i k_ik,
  *     fluid row:  ... - dt sum_k m_i k_ik y_k (the boundary's k_ik stays in diag_i),
  * the same coupling -dt m_i k_ik both ways, so the system stays symmetric and positive definite and
