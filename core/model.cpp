@@ -920,28 +920,50 @@ Compiled compile(const SceneSpec& spec, const ResourceLimits& limits) {
   // m. The automatic substep keeps it under 5 % of the shortest rest length L0: h = sqrt(0.05 L0 n m
   // / W). Measured (docs/dfsph.md, session 18): balls_on_cloth.yaml's metal ball (W = 8.1 N) on its
   // sheet (0.3 g nodes, 16 sweeps, 8 mm) gives h = 0.49 ms; it rests within 1 mm of the converged
-  // height at 0.5 ms, 3.7 mm deep at 1 ms, and goes through at 5 ms. No dynamic ball: one step.
+  // height at 0.5 ms, 3.7 mm deep at 1 ms, and goes through at 5 ms.
+  // Under the implicit viscosity a cloth, or a soft body lighter than the liquid, takes substeps of at
+  // most kImplicitViscosityXpbdStep (core/scene_spec.h: in one step light sheets swung or blew up in
+  // syrup; docs/dfsph.md, sessions 38-39). Neither: one step.
   {
     double W = 0.0;
     for (const rigid::RigidBody& b : m.bodies)
       if (b.kind == rigid::BodyKind::Dynamic && b.spec.shape == BodyShape::Sphere)
         W = std::max(W, b.mass * spec.simulation.gravity.norm());
-    std::vector<std::pair<std::string, double>> setting;  // name and max_time_step, cloths then soft bodies
-    for (const ClothSpec& c : spec.cloth) setting.emplace_back(c.name, c.solver == ClothSolver::Xpbd ? c.max_time_step : -1.0);
-    for (const SoftBodySpec& b : spec.soft_bodies) setting.emplace_back(b.name, b.solver == ClothSolver::Xpbd ? b.max_time_step : -1.0);
-    for (std::size_t c = 0; c < setting.size() && c < m.cloth.first_node.size() && W > 0.0; ++c) {
-      if (setting[c].second != 0.0) continue;  // set, or explicit
-      double mass = INFINITY, L0 = INFINITY;
-      for (uint32_t i = m.cloth.first_node[c]; i < m.cloth.first_node[c] + m.cloth.num_nodes[c]; ++i)
-        if (m.cloth.x0[i].w() > 0.0f) mass = std::min(mass, double(m.cloth.mass[i]));
-      for (uint32_t k = m.cloth.first_spring[c]; k < m.cloth.first_spring[c] + m.cloth.num_springs[c]; ++k)
-        L0 = std::min(L0, double(m.cloth.prm[k].x()));
-      if (!std::isfinite(mass) || !std::isfinite(L0)) continue;
-      const double h = std::sqrt(0.05 * L0 * m.cloth.iterations[c] * mass / W);
+    const bool implicit_viscosity = fl.solver == FluidSolver::Dfsph && fl.dfsph.viscosity_solve == ViscositySolve::Implicit;
+    double rho_liquid = 0.0;
+    for (const PhaseSpec& ph : fl.phases) rho_liquid = std::max(rho_liquid, ph.rest_density);
+    struct Setting {
+      std::string name;
+      double max_time_step;  // -1: not XPBD
+      bool light;            // a cloth, or a soft body lighter than the liquid
+    };
+    std::vector<Setting> setting;  // cloths then soft bodies, as m.cloth's bodies
+    for (const ClothSpec& c : spec.cloth) setting.push_back({c.name, c.solver == ClothSolver::Xpbd ? c.max_time_step : -1.0, true});
+    for (const SoftBodySpec& b : spec.soft_bodies)
+      setting.push_back({b.name, b.solver == ClothSolver::Xpbd ? b.max_time_step : -1.0, b.density < rho_liquid});
+    for (std::size_t c = 0; c < setting.size() && c < m.cloth.first_node.size(); ++c) {
+      if (setting[c].max_time_step != 0.0) continue;  // set, or explicit
+      double h = INFINITY;
+      std::string why;
+      if (W > 0.0) {
+        double mass = INFINITY, L0 = INFINITY;
+        for (uint32_t i = m.cloth.first_node[c]; i < m.cloth.first_node[c] + m.cloth.num_nodes[c]; ++i)
+          if (m.cloth.x0[i].w() > 0.0f) mass = std::min(mass, double(m.cloth.mass[i]));
+        for (uint32_t k = m.cloth.first_spring[c]; k < m.cloth.first_spring[c] + m.cloth.num_springs[c]; ++k)
+          L0 = std::min(L0, double(m.cloth.prm[k].x()));
+        if (std::isfinite(mass) && std::isfinite(L0)) {
+          h = std::sqrt(0.05 * L0 * m.cloth.iterations[c] * mass / W);
+          why = "from its lightest node, " + fmt(mass * 1e3) + " g, and the heaviest ball's weight, " + fmt(W) + " N";
+        }
+      }
+      if (implicit_viscosity && setting[c].light && kImplicitViscosityXpbdStep < h) {
+        h = kImplicitViscosityXpbdStep;
+        why = "the implicit viscosity's limit for cloth and bodies lighter than the liquid";
+      }
+      if (!std::isfinite(h)) continue;
       m.cloth.xpbd_dt_limit = std::min(m.cloth.xpbd_dt_limit, h);
-      m.notes.push_back("'" + setting[c].first + "': XPBD substeps of at most " + fmt(h * 1e3) +
-                        " ms (automatic from its lightest node, " + fmt(mass * 1e3) + " g, and the heaviest ball's weight, " +
-                        fmt(W) + " N; max_time_step sets them)");
+      m.notes.push_back("'" + setting[c].name + "': XPBD substeps of at most " + fmt(h * 1e3) + " ms (automatic: " + why +
+                        "; max_time_step sets them)");
     }
   }
   for (const ClothSpec& c : spec.cloth)

@@ -66,6 +66,11 @@ enum class DfsphCoupling { Strong, Staggered };
 /// implicit, a conjugate-gradient solve of backward Euler with Morris' operator L (Weiler et al. 2018
 /// solve implicitly too, with their own operator), which lifts that bound.
 enum class ViscositySolve { Explicit, Implicit };
+/// The implicit viscosity takes cloth, and soft bodies lighter than the liquid, only with their XPBD step split
+/// into substeps of at most this (their automatic max_time_step chooses it; io/scene_loader.cpp refuses a longer
+/// one). In one step per 5 ms fluid step light hammocks and slabs swung or blew up in 0.1 m^2/s syrup; at 0.5 ms
+/// they rest as with the explicit solve (docs/dfsph.md, session 38). Longer substeps were not measured (unit: s).
+constexpr double kImplicitViscosityXpbdStep = 0.0005;
 
 struct SimulationSpec {
   double duration = 2.0;                        ///< simulated time to run (unit: s)
@@ -354,7 +359,8 @@ struct ClothSpec {
   ClothSolver solver = ClothSolver::Xpbd;           ///< xpbd (default, unconditionally stable) or explicit
   int iterations = 8;                               ///< xpbd: Gauss-Seidel sweeps per step (unit: 1)
   /// xpbd: a longer step is taken in equal substeps no longer than this; inf: one step; 0: automatic,
-  /// from the heaviest dynamic ball and the lightest node (core/model.cpp) (unit: s). A fixed number
+  /// from the heaviest dynamic ball and the lightest node, and at most kImplicitViscosityXpbdStep under the
+  /// implicit viscosity (core/model.cpp) (unit: s). A fixed number
   /// of sweeps holds the springs less the longer the step: at 5 ms steps a heavy ball went through a
   /// sheet that holds it at 0.5 ms (docs/dfsph.md, session 18).
   double max_time_step = 0.0;
@@ -396,7 +402,8 @@ struct SoftBodySpec {
   ClothSolver solver = ClothSolver::Xpbd;           ///< xpbd (default, unconditionally stable) or explicit
   int iterations = 8;                               ///< xpbd: Gauss-Seidel sweeps per step (unit: 1)
   /// xpbd: a longer step is taken in equal substeps no longer than this; inf: one step; 0: automatic,
-  /// from the heaviest dynamic ball and the lightest node (core/model.cpp) (unit: s). A fixed number
+  /// from the heaviest dynamic ball and the lightest node, and at most kImplicitViscosityXpbdStep under the
+  /// implicit viscosity when the body is lighter than the liquid (core/model.cpp) (unit: s). A fixed number
   /// of sweeps holds the springs less the longer the step: at 5 ms steps a heavy ball went through a
   /// sheet that holds it at 0.5 ms (docs/dfsph.md, session 18).
   double max_time_step = 0.0;

@@ -682,7 +682,8 @@ class Loader {
       // 0.5-2 kg/m^2 in 0.1 m^2/s read its anchors up to 39 % off or blew up, a 300 kg/m^3 slab swung. Split
       // into 0.5 ms substeps (max_time_step) they rest as with the explicit solve (anchors within 1 %,
       // docs/dfsph.md, session 38). So cloth, and soft bodies lighter than the liquid, need XPBD substeps of
-      // at most kImplicitNodeStep; longer ones were not measured.
+      // at most kImplicitViscosityXpbdStep (core/scene_spec.h); longer ones were not measured. The automatic
+      // max_time_step (0) chooses them (core/model.cpp); a longer one set by hand, or .inf, is refused.
       // Free bodies are unknowns of the solve only with the strong body coupling (its bodies' mobilities);
       // staggered, they would be held in it and take its reaction after it, which overshoots at long steps
       // (a ball released into syrup at 5 ms shot off or blew up, docs/dfsph.md, session 38).
@@ -693,9 +694,8 @@ class Loader {
               "'fluid.dfsph.viscosity_solve: implicit' moves free bodies in its solve only with "
               "'fluid.dfsph.body_coupling: strong' (staggered, a ball released into syrup shot off or blew up: "
               "docs/dfsph.md, session 38); use strong, or the explicit viscosity");
-      constexpr double kImplicitNodeStep = 0.0005;  // (unit: s)
-      auto split = [&](ClothSolver solver, double max_step) {
-        return solver == ClothSolver::Xpbd && max_step > 0.0 && max_step <= kImplicitNodeStep * (1.0 + 1e-9);
+      auto split = [&](ClothSolver solver, double max_step) {  // 0: automatic, which chooses the substeps
+        return solver == ClothSolver::Xpbd && max_step >= 0.0 && max_step <= kImplicitViscosityXpbdStep * (1.0 + 1e-9);
       };
       double rho_liquid = 0.0;
       for (const PhaseSpec& ph : fluid.phases) rho_liquid = std::max(rho_liquid, ph.rest_density);
@@ -712,9 +712,10 @@ class Loader {
       if (!light.empty())
         issue("fluid.dfsph.viscosity_solve", markOf("fluid.dfsph.viscosity_solve"),
               "'fluid.dfsph.viscosity_solve: implicit' takes cloth, and soft bodies lighter than the liquid, only "
-              "with their xpbd step split into substeps of at most 0.5 ms ('max_time_step: 0.0005'): not " + light +
+              "with their xpbd step split into substeps of at most 0.5 ms: not " + light +
                   ". In one step per fluid step, light sheets and soft bodies swung or blew up in viscous liquids "
-                  "(docs/dfsph.md, session 38); set it, or use the explicit viscosity");
+                  "(docs/dfsph.md, session 38); leave 'max_time_step' out (automatic, which chooses them) or set it "
+                  "to at most 0.0005, or use the explicit viscosity");
     }
 
     // A background pressure pushes on every wall: with an open wall the fluid would be pushed out of the

@@ -102,7 +102,8 @@ namespace {
 const char* const kXpbdMaxTimeStepDoc =
     "xpbd: a longer step is taken in equal substeps no longer than this (a fixed number of sweeps holds the springs "
     "less the longer the step; Macklin et al. 2019, small steps); .inf = one step; 0 = automatic: sqrt(0.05 L0 n m / "
-    "W) for rest length L0, n sweeps, lightest free node m and heaviest dynamic ball's weight W (one step without balls)";
+    "W) for rest length L0, n sweeps, lightest free node m and heaviest dynamic ball's weight W (one step without balls), "
+    "and at most 0.5 ms under fluid.dfsph.viscosity_solve: implicit for cloth and soft bodies lighter than the liquid";
 
 template <class T>
 constexpr KeyType keyTypeOf() {
@@ -484,8 +485,9 @@ std::vector<KeyDef> buildTable() {
                "explicit solve's at 4-20x its step; docs/dfsph.md, session 36). The bodies take the reaction of "
                "the same viscous forces; free rigid bodies and cloth and soft-body nodes are unknowns of the solve "
                "(session 38). Cloth, and soft bodies lighter than the liquid, need their xpbd step split into "
-               "substeps of at most 0.5 ms (max_time_step: 0.0005; in one step light sheets swung or blew up in "
-               "syrup), and free bodies body_coupling: strong (docs/dfsph.md, session 38)"));
+               "substeps of at most 0.5 ms (their automatic max_time_step chooses it; a longer one is refused: in "
+               "one step light sheets swung or blew up in syrup), and free bodies body_coupling: strong "
+               "(docs/dfsph.md, session 38)"));
   add(field<InScene>("fluid.dfsph.viscosity_tolerance", [](auto& s) -> auto& { return s.fluid.dfsph.viscosity_tolerance; })
           .unit("1").greaterThan(0).atMost(1)
           .doc("implicit viscosity: the solve stops when its preconditioned residual has fallen to this fraction of "

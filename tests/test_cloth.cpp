@@ -1101,12 +1101,12 @@ TEST_CASE("Cloth with DFSPH and implicit viscosity: a light hammock carries its 
   // scenes/tests/dfsph_hammock_syrup.yaml with a 2 kg/m^2 cloth (0.08 kg) and a liquid of 0.1 m^2/s (10^5 x
   // water's): 0.4 kg of syrup falls 2 cm into it, at DFSPH's 5 ms steps (40x the explicit viscous bound),
   // the nodes unknowns of the viscosity solve and the cloth's xpbd step in 0.5 ms substeps (what the loader
-  // asks for: session 38). At rest the anchors carry the weight of the cloth and the syrup, 4.709 N; over
+  // asks for: session 38; its automatic max_time_step chooses them since session 39). At rest the anchors carry the weight of the cloth and the syrup, 4.709 N; over
   // 1.5-2 s (the explicit solve at its bound has rested by then: -0.7 %, 5.9e-6 J) their mean must be within
   // 5 %, as the hydrostatic tanks' pressures, and no syrup may leave the hammock (below 0.15 m).
-  // Measured (session 38): +0.3 % (4.721 N), 423 steps, the cloth's kinetic energy 2.1e-5 J. Mutations: the
-  // cloth in one step per fluid step (max_time_step 0, automatic: one step here): -39 % (2.85 N, 4.0e-2 J),
-  // fails. (The nodes held in the viscosity solve, with the substeps: -0.9 % but 9.3e-4 J, 44x: this check
+  // Measured (session 38, the substeps set by hand; session 39, automatic: the same): +0.3 % (4.721 N), 423
+  // steps, the cloth's kinetic energy 2.1e-5 J. Mutations: the cloth in one step per fluid step (before
+  // session 39 the automatic step here): -39 % (2.85 N, 4.0e-2 J), fails. (The nodes held in the viscosity solve, with the substeps: -0.9 % but 9.3e-4 J, 44x: this check
   // passes; the landing sheet and the slab tests check the nodes' rows.)
   SceneSpec spec = io::loadScene(std::string(SPHAPTICS_SOURCE_DIR) + "/scenes/tests/dfsph_hammock_syrup.yaml");
   spec.fluid.dfsph.viscosity_solve = ViscositySolve::Implicit;
@@ -1114,8 +1114,9 @@ TEST_CASE("Cloth with DFSPH and implicit viscosity: a light hammock carries its 
   spec.fluid.phases[0].viscosity = 0.1;
   REQUIRE(spec.cloth.size() == 1);
   spec.cloth[0].areal_density = 2.0;
-  spec.cloth[0].max_time_step = 0.0005;
+  REQUIRE(spec.cloth[0].max_time_step == 0.0);  // automatic
   const Compiled comp = compile(spec);
+  REQUIRE(comp.model.cloth.xpbd_dt_limit == kImplicitViscosityXpbdStep);
   ClContext cl;
   Simulation sim(comp.model, comp.initial, cl);
   const Eigen::Vector3d g(0, 0, -9.81);

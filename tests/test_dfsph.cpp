@@ -435,8 +435,8 @@ TEST_CASE("DFSPH settings: bad values are reported at file:line:col", "[dfsph]")
   CHECK(testing::issuesOf(dir, head + "    viscosity_solve: implicit\n  viscosity_model: laminar\n").empty());
   // rigid bodies, free or scripted, are taken (their coupling strong); cloth, and soft bodies lighter than the
   // liquid, only with their xpbd step split into substeps of at most 0.5 ms (session 38: in one 5 ms step they
-  // swung or blew up in syrup); soft bodies at least as dense as the liquid in any step; with explicit, cloth
-  // is taken
+  // swung or blew up in syrup), which their automatic max_time_step chooses (session 39); a longer one set by
+  // hand is refused; soft bodies at least as dense as the liquid in any step; with explicit, cloth is taken
   const std::string ball = "rigid_bodies:\n  - {name: ball, shape: sphere, radius: 0.02, position: [0.05, 0.05, 0.03], ";
   const std::string implicit = "    viscosity_solve: implicit\n  viscosity_model: laminar\n";
   CHECK(testing::issuesOf(dir, head + implicit + ball + "density: 2000, dynamic: true}\n").empty());
@@ -446,17 +446,21 @@ TEST_CASE("DFSPH settings: bad values are reported at file:line:col", "[dfsph]")
   CHECK(testing::hasIssue(issues, 7, {"viscosity_solve", "body_coupling: strong"}));
   const std::string sheet = "cloth:\n  - {name: sheet, width: 0.08, length: 0.08, resolution_x: 5, "
                             "resolution_y: 5, position: [0.05, 0.05, 0.08], areal_density: 50";
-  issues = testing::issuesOf(dir, head + implicit + sheet + "}\n");
-  CHECK(testing::hasIssue(issues, 7, {"viscosity_solve", "not cloth 'sheet'", "max_time_step: 0.0005"}));
+  CHECK(testing::issuesOf(dir, head + implicit + sheet + "}\n").empty());  // automatic
   issues = testing::issuesOf(dir, head + implicit + sheet + ", max_time_step: 0.001}\n");
+  CHECK(testing::hasIssue(issues, 7, {"viscosity_solve", "not cloth 'sheet'", "at most 0.0005"}));
+  issues = testing::issuesOf(dir, head + implicit + sheet + ", max_time_step: .inf}\n");
   CHECK(testing::hasIssue(issues, 7, {"viscosity_solve", "not cloth 'sheet'"}));
   CHECK(testing::issuesOf(dir, head + implicit + sheet + ", max_time_step: 0.0005}\n").empty());
+  issues = testing::issuesOf(dir, head + implicit + sheet + ", solver: explicit}\n");
+  CHECK(testing::hasIssue(issues, 7, {"viscosity_solve", "not cloth 'sheet'"}));
   const std::string slab = "soft_bodies:\n  - {name: slab, size: [0.1, 0.1, 0.02], position: [0.05, 0.05, 0.08], "
                            "spacing: 0.02, young_modulus: 2e4, density: ";
-  issues = testing::issuesOf(dir, head + implicit + slab + "999}\n");
+  issues = testing::issuesOf(dir, head + implicit + slab + "999, max_time_step: 0.001}\n");
   CHECK(testing::hasIssue(issues, 7, {"viscosity_solve", "soft body 'slab' (999 kg/m^3, lighter than the liquid's 1000)"}));
+  CHECK(testing::issuesOf(dir, head + implicit + slab + "999}\n").empty());  // automatic
   CHECK(testing::issuesOf(dir, head + implicit + slab + "999, max_time_step: 0.0005}\n").empty());
-  CHECK(testing::issuesOf(dir, head + implicit + slab + "1000}\n").empty());
+  CHECK(testing::issuesOf(dir, head + implicit + slab + "1000, max_time_step: .inf}\n").empty());
   const std::string sheet_done = sheet + "}\n";
   CHECK(testing::issuesOf(dir, head + "  viscosity_model: laminar\n" + sheet_done).empty());  // explicit: taken
   // an unknown solver
@@ -464,6 +468,47 @@ TEST_CASE("DFSPH settings: bad values are reported at file:line:col", "[dfsph]")
   CHECK(testing::hasIssue(issues, 3, {"iisph"}));
   // and a good one loads
   CHECK(testing::issuesOf(dir, head + "    density_error: 0.001\n    max_iterations: 50\n").empty());
+}
+
+TEST_CASE("DFSPH with implicit viscosity: the automatic xpbd step of cloth and light soft bodies is 0.5 ms substeps",
+          "[dfsph][cloth][soft]") {
+  // The loader takes cloth, and soft bodies lighter than the liquid, under the implicit viscosity only with
+  // xpbd substeps of at most 0.5 ms (session 38); since session 39 their automatic max_time_step (0, the
+  // default) chooses them. Without implicit, or for a soft body as dense as the liquid, the automatic step
+  // stays one step (no ball in the scene); a ball whose own substep is shorter keeps its own.
+  testing::TempDir dir;
+  const std::string head = "domain: {min: [0, 0, 0], max: [0.1, 0.1, 0.1]}\nfluid:\n  particle_spacing: 0.02\n"
+                           "  blocks: [{min: [0, 0, 0], max: [0.1, 0.1, 0.06]}]\n  solver: dfsph\n"
+                           "  viscosity_model: laminar\n";
+  const std::string implicit = "  dfsph: {viscosity_solve: implicit}\n";
+  const std::string sheet = "cloth:\n  - {name: sheet, width: 0.08, length: 0.08, resolution_x: 5, "
+                            "resolution_y: 5, position: [0.05, 0.05, 0.08], areal_density: 2";
+  const std::string slab = "soft_bodies:\n  - {name: slab, size: [0.1, 0.1, 0.02], position: [0.05, 0.05, 0.08], "
+                           "spacing: 0.02, young_modulus: 2e4, density: ";
+  auto limit = [&](const std::string& yaml, std::vector<std::string>* notes = nullptr) {
+    const Compiled c = compile(io::loadScene(dir.write("scene.yaml", yaml).string()));
+    if (notes) *notes = c.model.notes;
+    return c.model.cloth.xpbd_dt_limit;
+  };
+  std::vector<std::string> notes;
+  CHECK(limit(head + implicit + sheet + "}\n", &notes) == kImplicitViscosityXpbdStep);
+  CHECK(std::any_of(notes.begin(), notes.end(), [](const std::string& n) {
+    return n.find("'sheet': XPBD substeps of at most 0.5 ms (automatic: the implicit viscosity") != std::string::npos;
+  }));
+  CHECK(std::isinf(limit(head + sheet + "}\n")));                     // explicit viscosity: one step
+  CHECK(limit(head + implicit + slab + "999}\n") == kImplicitViscosityXpbdStep);
+  CHECK(std::isinf(limit(head + implicit + slab + "1000}\n")));       // as dense as the liquid: one step
+  CHECK(limit(head + implicit + sheet + ", max_time_step: 0.0002}\n") == 0.0002);  // set by hand
+  // a heavy ball on the sheet: its own automatic substep, sqrt(0.05 L0 n m / W), is the shorter
+  const std::string light_sheet = "cloth:\n  - {name: sheet, width: 0.08, length: 0.08, resolution_x: 5, "
+                                  "resolution_y: 5, position: [0.05, 0.05, 0.07], areal_density: 0.02}\n";
+  const std::string ball = "rigid_bodies:\n  - {name: ball, shape: sphere, radius: 0.012, position: [0.05, 0.05, 0.086], "
+                           "density: 8000, dynamic: true}\n";
+  const double with_ball = limit(head + "  dfsph: {viscosity_solve: implicit, body_coupling: strong}\n" + light_sheet + ball);
+  const double ball_only = limit(head + light_sheet + ball);
+  INFO("the ball's substep " << ball_only << " s");
+  REQUIRE(ball_only < kImplicitViscosityXpbdStep);
+  CHECK(with_ball == ball_only);
 }
 
 namespace {
