@@ -281,6 +281,9 @@ int forceChecks(const BenchOptions& opt) {
     const std::string base = ghost || strong || staggered ? "dfsph" : name;
     std::vector<std::string> sets = {"fluid.solver=" + base};
     if (base == "dfsph") sets.push_back("fluid.dfsph.walls=extrapolated");
+    // the rows measure the explicit viscosity (its `auto` default solves syrups implicitly, session 39); the
+    // implicit rows below set their own
+    if (base == "dfsph") sets.push_back("fluid.dfsph.viscosity_solve=explicit");
     if (ghost) sets.push_back("fluid.boundary_velocity=ghost");
     if (strong) sets.push_back("fluid.dfsph.body_coupling=strong");
     if (staggered) sets.push_back("fluid.dfsph.body_coupling=staggered");

@@ -64,8 +64,10 @@ enum class DfsphWalls { Mirrored, Single, Extrapolated };
 enum class DfsphCoupling { Strong, Staggered };
 /// DFSPH's laminar viscosity: explicit (the step is bound by 0.125 h^2 / nu, Morris et al. 1997) or
 /// implicit, a conjugate-gradient solve of backward Euler with Morris' operator L (Weiler et al. 2018
-/// solve implicitly too, with their own operator), which lifts that bound.
-enum class ViscositySolve { Explicit, Implicit };
+/// solve implicitly too, with their own operator), which lifts that bound. auto (the default): implicit where
+/// the explicit bound would be shorter than fluid.dfsph.max_time_step and the scene allows it, explicit
+/// otherwise (core/model.cpp, resolveViscositySolve; the compiled model holds the choice).
+enum class ViscositySolve { Explicit, Implicit, Auto };
 /// The implicit viscosity takes cloth, and soft bodies lighter than the liquid, only with their XPBD step split
 /// into substeps of at most this (their automatic max_time_step chooses it; io/scene_loader.cpp refuses a longer
 /// one). In one step per 5 ms fluid step light hammocks and slabs swung or blew up in 0.1 m^2/s syrup; at 0.5 ms
@@ -165,7 +167,7 @@ struct DfsphSpec {
   double relaxation = 0.5;           ///< Jacobi relaxation omega of both solves' pressure increments (unit: 1)
   /// the laminar viscosity explicit (the step bound 0.125 h^2 / nu applies) or implicit (a conjugate-gradient
   /// solve each step, no viscous step bound; kernels/viscosity.cl, viscosity_cg_*)
-  ViscositySolve viscosity_solve = ViscositySolve::Explicit;
+  ViscositySolve viscosity_solve = ViscositySolve::Auto;
   /// implicit viscosity: the solve stops when its preconditioned residual is this fraction of the step's first
   /// one (its explicit viscous increment), sqrt(r.z / r0.z0) (unit: 1)
   double viscosity_tolerance = 1.0e-3;

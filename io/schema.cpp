@@ -487,7 +487,10 @@ std::vector<KeyDef> buildTable() {
                "(session 38). Cloth, and soft bodies lighter than the liquid, need their xpbd step split into "
                "substeps of at most 0.5 ms (their automatic max_time_step chooses it; a longer one is refused: in "
                "one step light sheets swung or blew up in syrup), and free bodies body_coupling: strong "
-               "(docs/dfsph.md, session 38)"));
+               "(docs/dfsph.md, session 38). auto (the default): implicit where the explicit bound is shorter than "
+               "fluid.dfsph.max_time_step (viscous liquids: nu > 0.125 h^2 / max_time_step, 2.5e-3 m^2/s at h = 1 cm "
+               "and 5 ms) and the scene meets those conditions, explicit otherwise; a note says which and why "
+               "(session 39)"));
   add(field<InScene>("fluid.dfsph.viscosity_tolerance", [](auto& s) -> auto& { return s.fluid.dfsph.viscosity_tolerance; })
           .unit("1").greaterThan(0).atMost(1)
           .doc("implicit viscosity: the solve stops when its preconditioned residual has fallen to this fraction of "

@@ -83,7 +83,8 @@ struct EnumNames<DfsphCoupling> {
 };
 template <>
 struct EnumNames<ViscositySolve> {
-  static constexpr std::pair<ViscositySolve, const char*> values[] = {{ViscositySolve::Explicit, "explicit"},
+  static constexpr std::pair<ViscositySolve, const char*> values[] = {{ViscositySolve::Auto, "auto"},
+                                                                        {ViscositySolve::Explicit, "explicit"},
                                                                         {ViscositySolve::Implicit, "implicit"}};
 };
 template <>

@@ -470,6 +470,66 @@ TEST_CASE("DFSPH settings: bad values are reported at file:line:col", "[dfsph]")
   CHECK(testing::issuesOf(dir, head + "    density_error: 0.001\n    max_iterations: 50\n").empty());
 }
 
+TEST_CASE("DFSPH viscosity_solve auto (the default): implicit only where the explicit viscous bound would set the step",
+          "[dfsph]") {
+  // core/model.cpp, resolveViscositySolve: implicit where 0.125 h^2 / nu < fluid.dfsph.max_time_step and the
+  // scene meets the implicit solve's conditions (free bodies strongly coupled, cloth and light soft bodies in
+  // xpbd substeps of at most 0.5 ms); explicit otherwise, with a note where the bound binds but a condition
+  // fails. Here h = dx = 2 cm: nu = 0.1 m^2/s gives a bound of 0.5 ms, water's 1e-6 one of 50 s.
+  testing::TempDir dir;
+  auto head = [](const std::string& nu, const std::string& dfsph) {
+    return "domain: {min: [0, 0, 0], max: [0.1, 0.1, 0.1]}\nfluid:\n  particle_spacing: 0.02\n"
+           "  blocks: [{min: [0, 0, 0], max: [0.1, 0.1, 0.06]}]\n  solver: dfsph\n  viscosity_model: laminar\n"
+           "  phases: [{name: liquid, rest_density: 1000, viscosity: " + nu + "}]\n  dfsph: {" + dfsph + "}\n";
+  };
+  std::vector<std::string> notes;
+  auto solve = [&](const std::string& yaml) {
+    const Compiled c = compile(io::loadScene(dir.write("scene.yaml", yaml).string()));
+    notes = c.model.notes;
+    return c.model.spec.fluid.dfsph.viscosity_solve;
+  };
+  auto noted = [&](const std::string& part) {
+    return std::any_of(notes.begin(), notes.end(), [&](const std::string& n) { return n.find(part) != std::string::npos; });
+  };
+  CHECK(io::loadScene(dir.write("scene.yaml", head("0.1", "")).string()).fluid.dfsph.viscosity_solve == ViscositySolve::Auto);
+  CHECK(solve(head("0.1", "")) == ViscositySolve::Implicit);
+  CHECK(noted("viscosity solved implicitly (fluid.dfsph.viscosity_solve: auto): the explicit step bound 0.125 h^2 / nu = 0.5 ms"));
+  CHECK(solve(head("1e-6", "")) == ViscositySolve::Explicit);          // water: the bound does not bind
+  CHECK_FALSE(noted("viscosity solved"));
+  CHECK(solve(head("0.1", "max_time_step: 0.0004")) == ViscositySolve::Explicit);  // the bound is longer
+  CHECK(solve(head("0.1", "viscosity_solve: explicit")) == ViscositySolve::Explicit);
+  CHECK(solve(head("1e-6", "viscosity_solve: implicit")) == ViscositySolve::Implicit);
+  std::string artificial = head("0.1", "");
+  artificial.replace(artificial.find("laminar"), 7, "artificial");
+  CHECK(solve(artificial) == ViscositySolve::Explicit);
+  std::string wcsph = head("0.1", "");
+  wcsph.replace(wcsph.find("solver: dfsph"), 13, "solver: wcsph");
+  CHECK(solve(wcsph) == ViscositySolve::Explicit);
+  // what the implicit solve needs: free bodies strongly coupled, cloth in xpbd substeps of at most 0.5 ms
+  const std::string ball = "rigid_bodies:\n  - {name: ball, shape: sphere, radius: 0.02, position: [0.05, 0.05, 0.03], "
+                           "density: 2000, dynamic: true}\n";
+  CHECK(solve(head("0.1", "") + ball) == ViscositySolve::Implicit);
+  CHECK(solve(head("0.1", "body_coupling: staggered") + ball) == ViscositySolve::Explicit);
+  CHECK(noted("viscosity solved explicitly (fluid.dfsph.viscosity_solve: auto)"));
+  CHECK(noted("free bodies with body_coupling: staggered"));
+  const std::string sheet = "cloth:\n  - {name: sheet, width: 0.08, length: 0.08, resolution_x: 5, "
+                            "resolution_y: 5, position: [0.05, 0.05, 0.08], areal_density: 2";
+  CHECK(solve(head("0.1", "") + sheet + "}\n") == ViscositySolve::Implicit);
+  CHECK(noted("'sheet': XPBD substeps of at most 0.5 ms"));
+  CHECK(solve(head("0.1", "") + sheet + ", max_time_step: 0.001}\n") == ViscositySolve::Explicit);
+  CHECK(noted("cloth 'sheet' is not in xpbd substeps of at most 0.5 ms"));
+  // where the bound does not bind, the default runs bitwise as the explicit solve
+  app::RunOptions o = quietRun("tiny_tank.yaml", {"fluid.solver=dfsph", "fluid.viscosity_model=laminar"});
+  o.duration = 0.05;
+  const app::RunResult a = app::runScene(o);
+  o.sets.push_back("fluid.dfsph.viscosity_solve=explicit");
+  const app::RunResult e = app::runScene(o);
+  REQUIRE(a.exit_code == 0);
+  REQUIRE(e.exit_code == 0);
+  CHECK(a.state_hash == e.state_hash);
+  CHECK(a.dispatch_counts.count("viscosity_cg_setup") == 0);
+}
+
 TEST_CASE("DFSPH with implicit viscosity: the automatic xpbd step of cloth and light soft bodies is 0.5 ms substeps",
           "[dfsph][cloth][soft]") {
   // The loader takes cloth, and soft bodies lighter than the liquid, under the implicit viscosity only with
