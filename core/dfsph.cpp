@@ -383,10 +383,108 @@ DfsphSolveResult DfsphSolver::solveMirrored(Kind kind, const SimParams& p, const
   return r;
 }
 
-ViscositySolveResult DfsphSolver::viscositySolve(const SimParams& p, const DfsphFields& f, const cl::Buffer& bvisc_in,
-                                                 uint32_t ghost_mode) {
+namespace {
+// The implicit viscosity's free rigid bodies (DfsphSolver::viscositySolve): six unknowns each, the change dU of
+// the body's unknown from its start, kept on the host in double. A body's row is A_B dU = r_B with
+// A_B = N^-1 / g + dt sum_b K_b G_b^T G_b (N its mobility over the step, body_response.h; G_b maps the body's
+// velocity to its particle b's, v_b = V + w x r_b; K_b = sum_i m_i k_ib the particle's viscous sum), and the
+// conjugate gradients take A_B^-1 as its preconditioner. The per-particle sums come from
+// viscosity_cg_body_gather (f = sum_i m_i k_ib (x_i - u_b), K, and the arm r_b), summed here in particle order.
+struct BodyUnknowns {
   using Vector6 = Eigen::Matrix<double, 6, 1>;
   using Matrix6 = Eigen::Matrix<double, 6, 6>;
+  struct Row {
+    Matrix6 N = Matrix6::Zero();  // the mobility over the step
+    Matrix6 Mg = Matrix6::Zero(), A = Matrix6::Zero(), P = Matrix6::Zero();  // N^-1 / g, the block, its inverse
+    Vector6 x = Vector6::Zero(), r = Vector6::Zero(), z = Vector6::Zero(), d = Vector6::Zero(), q = Vector6::Zero();
+    bool free = false;
+  };
+  std::vector<Row> rows;
+  std::vector<uint32_t> body_of;     // per moving particle
+  std::vector<Eigen::Vector4f> arm;  // per moving particle: r_b (the gather's second output)
+
+  /// The rows from the bodies' response blocks (DFSPH_BODY_STRIDE float4 each): which are free, N, N^-1 / g.
+  void load(const std::vector<Eigen::Vector4f>& data, uint32_t nbod, double g) {
+    rows.assign(nbod, Row());
+    for (uint32_t b = 0; b < nbod; ++b) {
+      const Eigen::Vector4f* d = &data[std::size_t(b) * DFSPH_BODY_STRIDE];
+      rows[b].free = d[0].w() > 0.5f;
+      if (!rows[b].free) continue;
+      Matrix6 N;
+      for (int r = 0; r < 6; ++r) {
+        N.block<1, 3>(r, 0) = d[3 + 2 * r].head<3>().cast<double>().transpose();
+        N.block<1, 3>(r, 3) = d[4 + 2 * r].head<3>().cast<double>().transpose();
+      }
+      rows[b].N = N;
+      rows[b].Mg = (0.5 * (N + N.transpose())).inverse() / g;
+      rows[b].A = rows[b].Mg;
+    }
+  }
+  /// Each body's wrench (sum f, sum r x f) of per-particle forces f at the arms r, in particle order.
+  std::vector<Vector6> wrenches(const std::vector<Eigen::Vector4f>& f, const std::vector<Eigen::Vector4f>& r) const {
+    std::vector<Vector6> w(rows.size(), Vector6::Zero());
+    for (std::size_t k = 0; k < body_of.size(); ++k) {
+      if (!rows[body_of[k]].free) continue;
+      const Eigen::Vector3d f3 = f[k].head<3>().cast<double>(), r3 = r[k].head<3>().cast<double>();
+      w[body_of[k]].head<3>() += f3;
+      w[body_of[k]].tail<3>() += r3.cross(f3);
+    }
+    return w;
+  }
+  /// The start's gathered sums: the coupling block dt K_b G_b^T G_b into A and dt G_b^T f_b into r, per
+  /// particle in order; then z = P r and d = z.
+  void start(const std::vector<Eigen::Vector4f>& fk, double dt) {
+    for (std::size_t k = 0; k < body_of.size(); ++k) {
+      Row& R = rows[body_of[k]];
+      if (!R.free) continue;
+      const Eigen::Vector3d f3 = fk[k].head<3>().cast<double>(), r3 = arm[k].head<3>().cast<double>();
+      Eigen::Matrix3d X;  // [r]x
+      X << 0, -r3.z(), r3.y(), r3.z(), 0, -r3.x(), -r3.y(), r3.x(), 0;
+      const double dtK = dt * fk[k].w();
+      R.A.block<3, 3>(0, 0) += dtK * Eigen::Matrix3d::Identity();
+      R.A.block<3, 3>(0, 3) += -dtK * X;
+      R.A.block<3, 3>(3, 0) += dtK * X;
+      R.A.block<3, 3>(3, 3) += -dtK * X * X;
+      R.r.head<3>() += dt * f3;
+      R.r.tail<3>() += dt * r3.cross(f3);
+    }
+    for (Row& R : rows)
+      if (R.free) {
+        R.P = R.A.inverse();
+        R.z = R.P * R.r;
+        R.d = R.z;
+      }
+  }
+  /// q_B = (N^-1 / g) d_B - dt sum_b G_b^T sum_i m_i k_ib (d_i - G_b d_B), from the gathered sums fk.
+  void apply(const std::vector<Eigen::Vector4f>& fk, double dt) {
+    const std::vector<Vector6> w = wrenches(fk, arm);
+    for (std::size_t b = 0; b < rows.size(); ++b)
+      if (rows[b].free) rows[b].q = rows[b].Mg * rows[b].d - dt * w[b];
+  }
+  double dot(bool rz) const {  // r . z, or d . q
+    double s = 0.0;
+    for (const Row& R : rows)
+      if (R.free) s += rz ? R.r.dot(R.z) : R.d.dot(R.q);
+    return s;
+  }
+  void update(double alpha) {
+    for (Row& R : rows)
+      if (R.free) {
+        R.x += alpha * R.d;
+        R.r -= alpha * R.q;
+        R.z = R.P * R.r;
+      }
+  }
+  void direction(double beta) {
+    for (Row& R : rows)
+      if (R.free) R.d = R.z + beta * R.d;
+  }
+};
+}  // namespace
+
+ViscositySolveResult DfsphSolver::viscositySolve(const SimParams& p, const DfsphFields& f, const cl::Buffer& bvisc_in,
+                                                 uint32_t ghost_mode) {
+  using Vector6 = BodyUnknowns::Vector6;
   // Preconditioned conjugate gradients on M A x = M w (kernels/viscosity.cl), from x = w. The dot
   // products are chunk sums of per-particle values (dfsph_reduce into err_) added in order in double
   // (errorSum), so the run is bitwise deterministic. x is vel_before_: the viscous forces' velocities.
@@ -434,17 +532,10 @@ ViscositySolveResult DfsphSolver::viscositySolve(const SimParams& p, const Dfsph
     clCall("clearing the viscosity's unknown slots",
            [&] { return cl_.queue().enqueueFillBuffer(vnode_, 0u, 0, std::size_t(f.n_boundary) * 4); });
   }
-  // The bodies' rows on the host (six unknowns each, in double): A_B = N^-1 / g + dt sum_b K_b G_b^T G_b,
-  // preconditioned with its inverse; x_B is the change dU of the body's unknown.
-  struct BodyRows {
-    Matrix6 N = Matrix6::Zero();  // the mobility over the step (body_response.h)
-    Matrix6 Mg = Matrix6::Zero(), A = Matrix6::Zero(), P = Matrix6::Zero();  // N^-1 / g, the block, its inverse
-    Vector6 x = Vector6::Zero(), r = Vector6::Zero(), z = Vector6::Zero(), d = Vector6::Zero(), q = Vector6::Zero();
-    bool free = false;
-  };
-  std::vector<BodyRows> rows;
-  std::vector<Eigen::Vector4f> fk, rk;  // per moving particle: the gathered sums (f, K) and r
-  std::vector<uint32_t> body_of;
+  // The bodies' rows on the host (BodyUnknowns above); x_B is the change dU of the body's unknown.
+  BodyUnknowns bodies;
+  std::vector<BodyUnknowns::Row>& rows = bodies.rows;
+  std::vector<Eigen::Vector4f> fk;  // per moving particle: the gathered sums (f, K)
   // The bodies' directions into their slots (bdir, vflag), from rows[].d.
   auto bodyDirections = [&](bool with_base, const cl::Buffer& base, cl::Buffer& out, bool from_x) {
     std::vector<Eigen::Vector4f> dir(std::size_t(nbod) * 2, Eigen::Vector4f::Zero());
@@ -485,25 +576,12 @@ ViscositySolveResult DfsphSolver::viscositySolve(const SimParams& p, const Dfsph
       bdirs_ = makeBuffer(bodies_dir_cap_ * 32);
     }
     std::vector<Eigen::Vector4f> data(std::size_t(nbod) * DFSPH_BODY_STRIDE);
-    body_of.resize(nmov);
+    bodies.body_of.resize(nmov);
     clCall("reading the bodies' responses", [&] {
-      cl_.queue().enqueueReadBuffer(*f.body_of, CL_FALSE, 0, std::size_t(nmov) * 4, body_of.data());
+      cl_.queue().enqueueReadBuffer(*f.body_of, CL_FALSE, 0, std::size_t(nmov) * 4, bodies.body_of.data());
       return cl_.queue().enqueueReadBuffer(*f.body_data, CL_TRUE, 0, data.size() * 16, data.data());
     });
-    rows.resize(nbod);
-    for (uint32_t b = 0; b < nbod; ++b) {
-      const Eigen::Vector4f* d = &data[std::size_t(b) * DFSPH_BODY_STRIDE];
-      rows[b].free = d[0].w() > 0.5f;
-      if (!rows[b].free) continue;
-      Matrix6 N;
-      for (int r = 0; r < 6; ++r) {
-        N.block<1, 3>(r, 0) = d[3 + 2 * r].head<3>().cast<double>().transpose();
-        N.block<1, 3>(r, 3) = d[4 + 2 * r].head<3>().cast<double>().transpose();
-      }
-      rows[b].N = N;
-      rows[b].Mg = (0.5 * (N + N.transpose())).inverse() / g_body;
-      rows[b].A = rows[b].Mg;
-    }
+    bodies.load(data, nbod, g_body);
     // The incremental splitting's start for the bodies, as the fluid's w: each free body's unknown starts
     // at U0 + delta, delta = g dt (a_dry + N F_p), a_dry its acceleration without the fluid (gravity,
     // contact, the external wrench: body_response.h) and F_p the last density pressure's force on it
@@ -521,12 +599,7 @@ ViscositySolveResult DfsphSolver::viscositySolve(const SimParams& p, const Dfsph
         cl_.queue().enqueueReadBuffer(brk_, CL_FALSE, 0, std::size_t(nmov) * 16, r0.data());
         return cl_.queue().enqueueReadBuffer(*f.body_force, CL_TRUE, 0, std::size_t(nmov) * 16, fp.data());
       });
-      std::vector<Vector6> wp(nbod, Vector6::Zero());
-      for (uint32_t k = 0; k < nmov; ++k) {
-        const Eigen::Vector3d f3 = fp[k].head<3>().cast<double>(), r3 = r0[k].head<3>().cast<double>();
-        wp[body_of[k]].head<3>() += f3;
-        wp[body_of[k]].tail<3>() += r3.cross(f3);
-      }
+      const std::vector<Vector6> wp = bodies.wrenches(fp, r0);
       for (uint32_t b = 0; b < nbod; ++b)
         if (rows[b].free) {
           const Eigen::Vector4f* d = &data[std::size_t(b) * DFSPH_BODY_STRIDE];
@@ -565,41 +638,15 @@ ViscositySolveResult DfsphSolver::viscositySolve(const SimParams& p, const Dfsph
     kernels_.call("viscosity_cg_body_gather", nmov, kLocal, p, nmov, f.n_static, *f.bslot, *f.body_of, *f.body_data,
                   *f.bpos, *f.pos, *f.phase, *f.density, *f.cell_start, *f.vel, bvisc, bfk_, brk_);
     fk.resize(nmov);
-    rk.resize(nmov);
+    bodies.arm.resize(nmov);
     clCall("reading the bodies' viscous sums", [&] {
-      cl_.queue().enqueueReadBuffer(brk_, CL_FALSE, 0, std::size_t(nmov) * 16, rk.data());
+      cl_.queue().enqueueReadBuffer(brk_, CL_FALSE, 0, std::size_t(nmov) * 16, bodies.arm.data());
       return cl_.queue().enqueueReadBuffer(bfk_, CL_TRUE, 0, std::size_t(nmov) * 16, fk.data());
     });
-    for (uint32_t k = 0; k < nmov; ++k) {
-      BodyRows& R = rows[body_of[k]];
-      if (!R.free) continue;
-      const Eigen::Vector3d f3 = fk[k].head<3>().cast<double>(), r3 = rk[k].head<3>().cast<double>();
-      const double K = fk[k].w();
-      Eigen::Matrix3d X;  // [r]x
-      X << 0, -r3.z(), r3.y(), r3.z(), 0, -r3.x(), -r3.y(), r3.x(), 0;
-      const double dtK = double(p.dt) * K;
-      R.A.block<3, 3>(0, 0) += dtK * Eigen::Matrix3d::Identity();
-      R.A.block<3, 3>(0, 3) += -dtK * X;
-      R.A.block<3, 3>(3, 0) += dtK * X;
-      R.A.block<3, 3>(3, 3) += -dtK * X * X;
-      R.r.head<3>() += double(p.dt) * f3;
-      R.r.tail<3>() += double(p.dt) * r3.cross(f3);
-    }
-    for (BodyRows& R : rows)
-      if (R.free) {
-        R.P = R.A.inverse();
-        R.z = R.P * R.r;
-        R.d = R.z;
-      }
+    bodies.start(fk, double(p.dt));
   }
-  auto bodyDot = [&](int which) {  // 0: r . z, 1: d . q
-    double s = 0.0;
-    for (const BodyRows& R : rows)
-      if (R.free) s += which == 0 ? R.r.dot(R.z) : R.d.dot(R.q);
-    return s;
-  };
-  auto dotSum = [&](int which) {
-    return errorSum(n) + (with_nodes ? nodeErrorSum(nn) : 0.0) + (with_bodies ? bodyDot(which) : 0.0);
+  auto dotSum = [&](int which) {  // 0: r . z, 1: d . q
+    return errorSum(n) + (with_nodes ? nodeErrorSum(nn) : 0.0) + (with_bodies ? bodies.dot(which == 0) : 0.0);
   };
   double rz = dotSum(0);
   const double rz0 = rz;
@@ -622,27 +669,14 @@ ViscositySolveResult DfsphSolver::viscositySolve(const SimParams& p, const Dfsph
                     *f.bpos, *f.pos, *f.phase, *f.density, *f.cell_start, vd_, bdir_, bfk_, brk_);
       clCall("reading the bodies' viscous sums",
              [&] { return cl_.queue().enqueueReadBuffer(bfk_, CL_TRUE, 0, std::size_t(nmov) * 16, fk.data()); });
-      std::vector<Vector6> w(nbod, Vector6::Zero());
-      for (uint32_t k = 0; k < nmov; ++k) {
-        if (!rows[body_of[k]].free) continue;
-        const Eigen::Vector3d f3 = fk[k].head<3>().cast<double>(), r3 = rk[k].head<3>().cast<double>();
-        w[body_of[k]].head<3>() += f3;
-        w[body_of[k]].tail<3>() += r3.cross(f3);
-      }
-      for (uint32_t b = 0; b < nbod; ++b)
-        if (rows[b].free) rows[b].q = rows[b].Mg * rows[b].d - double(p.dt) * w[b];
+      bodies.apply(fk, double(p.dt));
     }
     const double dq = dotSum(1);
     if (!(dq > 0.0)) break;  // d = 0: nothing left to solve
     const float alpha = static_cast<float>(rz / dq);
     kernels_.call("viscosity_cg_update", n, kLocal, p, alpha, *f.phase, vdiag_, vd_, vq_, vel_before_, vr_, vz_, err_);
     if (with_nodes) kernels_.call("viscosity_cg_node_update", nn, kLocal, nn, alpha, nP_, nd_, nq_, ny_, nr_, nz_, nerr_);
-    for (BodyRows& R : rows)
-      if (R.free) {
-        R.x += double(alpha) * R.d;
-        R.r -= double(alpha) * R.q;
-        R.z = R.P * R.r;
-      }
+    bodies.update(double(alpha));
     const double rz_new = dotSum(0);
     ++res.iterations;
     const float beta = static_cast<float>(rz_new / rz);
@@ -650,8 +684,7 @@ ViscositySolveResult DfsphSolver::viscositySolve(const SimParams& p, const Dfsph
     if (rz <= tol2 * rz0) break;
     kernels_.call("viscosity_cg_direction", n, kLocal, p, beta, vz_, vd_);
     if (with_nodes) kernels_.call("viscosity_cg_node_direction", nn, kLocal, nn, beta, nz_, nd_);
-    for (BodyRows& R : rows)
-      if (R.free) R.d = R.z + double(beta) * R.d;
+    bodies.direction(double(beta));
   }
   res.residual = rz0 > 0.0 ? std::sqrt(std::max(rz, 0.0) / rz0) : 0.0;
   res.converged = res.residual <= spec_.viscosity_tolerance;
