@@ -3,6 +3,8 @@
 // errors of the section. Scenes: scenes/tests/haptic_drag.yaml, scenes/tests/haptic_hold.yaml,
 // scenes/haptic_stir.yaml (DFSPH stability).
 #include "cli/runner.h"
+#include "core/scene_spec.h"
+#include "core/simulation.h"
 #include "tests/haptics_csv.h"
 #include "tests/run_binary.h"
 #include "tests/scene_issues.h"
@@ -72,6 +74,67 @@ TEST_CASE("Haptics: dragging a grabbed ball through still water, the felt force 
   const double ratio = fast.x() / slow.x();
   CHECK(ratio > 2.0);
   CHECK(ratio < 8.0);
+}
+
+TEST_CASE("Haptics: dragging a grabbed ball through syrup, the hand feels Stokes' drag (DFSPH, implicit viscosity by "
+          "default)",
+          "[haptics][physics][dfsph]") {
+  // scenes/tests/haptic_syrup_tow.yaml: the hand drags a neutrally buoyant ball (R = 3 cm = 3 dx) at 1 cm/s
+  // through a closed 20 cm box of syrup (nu = 0.05 m^2/s; Re = 0.012), grabbed at its front point so the pull
+  // is in line with the drag. DFSPH's default (fluid.dfsph.viscosity_solve: auto) solves the viscosity
+  // implicitly at 5 ms steps (the explicit bound is 0.25 ms), the grabbed ball an unknown of the solve.
+  // Stokes: the ball at its own speed U_b feels 6 pi mu R U_b K, K the box's wall factor; the band is the
+  // towed-ball tests' (app::TowCheck: 1.47-3.75, the no-slip surface within R -+ dx/2; the bracket at R
+  // itself 2.04-2.57). The hand feels that drag (felt = gain x coupling force, gain 1) within 5 % of the
+  // fluid's force on the ball (what is left is the ball's own m a). Sideways: below 5 % of the drag.
+  // Measured (session 39, over 0.6-1 s): felt -0.657 N at U_b 9.6 mm/s, ratio 2.44, sideways 0.4 %;
+  // the explicit solve at its 0.25 ms bound reads the felt force within 0.3 % (docs/forces.md, session 39).
+  // Grabbed at its centre instead (the grab takes the closest surface point), the pull and the drag make a
+  // couple: the ball turns and the hand feels a third of the drag sideways (measured; not a fluid defect).
+  // Mutation: haptics.gain 0.5 (the hand feels half the coupling force): ratio 1.24, and felt half the fluid's
+  // force: fails.
+  TempDir tmp;
+  app::RunOptions o;
+  o.scene = (kSourceDir / "scenes" / "tests" / "haptic_syrup_tow.yaml").string();
+  o.out = tmp.path.string();
+  o.quiet = true;
+  const double R = 0.03, mu = 1000.0 * 0.05, from = 0.6;
+  double speed = 0, fluid_x = 0;
+  int frames = 0;
+  bool implicit = false;
+  const app::RunResult r = app::runScene(o, [&](Simulation& sim, const FrameReport& rep) {
+    implicit = sim.model().spec.fluid.dfsph.viscosity_solve == ViscositySolve::Implicit;
+    if (rep.time < from - 1e-9) return;
+    speed += sim.bodies()[0].v.x();
+    fluid_x += sim.bodies()[0].fluid_force.x();
+    ++frames;
+  });
+  REQUIRE(r.exit_code == 0);
+  CHECK(implicit);
+  REQUIRE(frames > 10);
+  speed /= frames;
+  fluid_x /= frames;
+  Eigen::Vector3d felt = Eigen::Vector3d::Zero();
+  int n = 0;
+  for (const Tick& t : readHaptics(tmp.path / "haptics.csv"))
+    if (t.t >= from) {
+      REQUIRE(t.body == 0);  // held all the way
+      felt += t.f;
+      ++n;
+    }
+  REQUIRE(n > 300);
+  felt /= n;
+  const double stokes = 6.0 * M_PI * mu * R * speed;
+  INFO("felt " << felt.transpose() << " N, the fluid's force on the ball along x " << fluid_x << " N, ball speed " << speed
+               << " m/s: felt / 6 pi mu R U = " << -felt.x() / stokes);
+  CHECK(speed > 0.009);  // it follows the hand (1 cm/s) by then
+  CHECK(-felt.x() / stokes > 1.47);
+  CHECK(-felt.x() / stokes < 3.75);
+  CHECK(std::abs(felt.x() - fluid_x) < 0.05 * std::abs(fluid_x));
+  CHECK(std::abs(felt.y()) < 0.05 * std::abs(felt.x()));
+  WARN("ball dragged through syrup by the hand (DFSPH, implicit viscosity): felt " << -felt.x() << " N = " << -felt.x() / stokes
+                                                                                   << " x 6 pi mu R U_b, sideways "
+                                                                                   << std::abs(felt.y() / felt.x()));
 }
 
 TEST_CASE("Haptics: a grabbed ball held under water pulls up with its buoyancy minus its weight",
