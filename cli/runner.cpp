@@ -467,7 +467,10 @@ RunResult runScene(const RunOptions& opt, const std::function<void(Simulation&, 
     // --- Output: run.json says "running", the writers open ---------------------------------
     if (opt.write_output) {
       info.scene_file = spec.source_file;
-      info.scene_json = io::sceneToJson(spec);
+      // the resolved scene: with fluid.dfsph.viscosity_solve's `auto` as the model resolved it (core/model.cpp)
+      SceneSpec resolved = spec;
+      resolved.fluid.dfsph.viscosity_solve = model.spec.fluid.dfsph.viscosity_solve;
+      info.scene_json = io::sceneToJson(resolved);
       info.device = cl.info().str();
       info.stages = sim.stages().str();
       info.notes.insert(info.notes.end(), model.notes.begin(), model.notes.end());

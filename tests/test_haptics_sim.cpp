@@ -15,6 +15,7 @@
 #include <chrono>
 #include <cmath>
 #include <fstream>
+#include <iterator>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -111,6 +112,12 @@ TEST_CASE("Haptics: dragging a grabbed ball through syrup, the hand feels Stokes
   });
   REQUIRE(r.exit_code == 0);
   CHECK(implicit);
+  {  // run.json's scene says what ran: `auto` resolved
+    std::ifstream in(tmp.path / "run.json");
+    const std::string json((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    CHECK(json.find("\"viscosity_solve\": \"implicit\"") != std::string::npos);
+    CHECK(json.find("viscosity solved implicitly (fluid.dfsph.viscosity_solve: auto)") != std::string::npos);
+  }
   REQUIRE(frames > 10);
   speed /= frames;
   fluid_x /= frames;
