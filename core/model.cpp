@@ -362,7 +362,9 @@ ResourceEstimate estimateResources(const SceneSpec& spec, SourceLoc* worst) {
     double limit = sim.cfl * h / c0;
     double nu = 0.0;
     for (const PhaseSpec& p : fl.phases) nu = std::max(nu, p.viscosity);
-    if (fl.viscosity_model == ViscosityModel::Laminar && nu > 0.0) limit = std::min(limit, 0.125 * h * h / nu);
+    // (the implicit viscosity has no viscous bound: set, or resolved from auto when spec is a compiled model's)
+    const bool implicit = fl.solver == FluidSolver::Dfsph && fl.dfsph.viscosity_solve == ViscositySolve::Implicit;
+    if (fl.viscosity_model == ViscosityModel::Laminar && nu > 0.0 && !implicit) limit = std::min(limit, 0.125 * h * h / nu);
     const double steps = (1.0 / sim.frame_rate) / limit;
     e.steps_per_frame = std::isfinite(steps) ? std::max(steps, static_cast<double>(sim.substeps)) : INFINITY;
   } else {
@@ -488,7 +490,7 @@ Compiled compile(const SceneSpec& spec, const ResourceLimits& limits) {
   // --- Resources: refuse a scene that would not fit, before allocating anything ---------------
   {
     SourceLoc where;
-    const ResourceEstimate est = estimateResources(spec, &where);
+    const ResourceEstimate est = estimateResources(m.spec, &where);  // viscosity_solve resolved (above)
     const double machine = machineMemoryBytes();
     const double budget = limits.max_bytes > 0 ? limits.max_bytes : machine;
     if (budget > 0 && !(est.bytes <= budget))
@@ -503,7 +505,8 @@ Compiled compile(const SceneSpec& spec, const ResourceLimits& limits) {
                        "a frame would take about " + fmt(est.steps_per_frame) + " time steps (limit " +
                            fmt(limits.max_steps_per_frame) +
                            "): the CFL limit cfl h / (c0 + |v|) is tiny for the speeds this scene sets "
-                           "(inflow speed, block velocity, speed_of_sound) or the viscosity; lower them");
+                           "(inflow speed, block velocity, speed_of_sound) or the viscosity; lower them (a viscous liquid: "
+                           "DFSPH's implicit viscosity, fluid.dfsph.viscosity_solve, has no viscous bound)");
   }
   if (!(sim.duration * sim.frame_rate >= 0.5))
     fail(sim.loc, "simulation.duration " + fmt(sim.duration) + " s is shorter than half a frame (1 / frame_rate = " +

@@ -483,6 +483,7 @@ TEST_CASE("DFSPH viscosity_solve auto (the default): implicit only where the exp
            "  phases: [{name: liquid, rest_density: 1000, viscosity: " + nu + "}]\n  dfsph: {" + dfsph + "}\n";
   };
   std::vector<std::string> notes;
+  std::vector<InputIssue> issues;
   auto solve = [&](const std::string& yaml) {
     const Compiled c = compile(io::loadScene(dir.write("scene.yaml", yaml).string()));
     notes = c.model.notes;
@@ -518,6 +519,16 @@ TEST_CASE("DFSPH viscosity_solve auto (the default): implicit only where the exp
   CHECK(noted("'sheet': XPBD substeps of at most 0.5 ms"));
   CHECK(solve(head("0.1", "") + sheet + ", max_time_step: 0.001}\n") == ViscositySolve::Explicit);
   CHECK(noted("cloth 'sheet' is not in xpbd substeps of at most 0.5 ms"));
+  // the resource check's step estimate has no viscous bound under the implicit solve: a liquid of 1000 m^2/s
+  // (bound 0.5 us, ~66,000 steps a frame at 30 frames/s... 6.7e5 with the explicit solve, over the 1e5 limit)
+  CHECK(solve(head("1000", "")) == ViscositySolve::Implicit);
+  issues = {};
+  try {
+    compile(io::loadScene(dir.write("scene.yaml", head("1000", "viscosity_solve: explicit")).string()));
+  } catch (const InputError& e) {
+    issues = e.issues();
+  }
+  CHECK(testing::hasIssue(issues, 2, {"a frame would take about", "implicit viscosity"}));
   // where the bound does not bind, the default runs bitwise as the explicit solve
   app::RunOptions o = quietRun("tiny_tank.yaml", {"fluid.solver=dfsph", "fluid.viscosity_model=laminar"});
   o.duration = 0.05;
