@@ -103,7 +103,8 @@ const char* const kXpbdMaxTimeStepDoc =
     "xpbd: a longer step is taken in equal substeps no longer than this (a fixed number of sweeps holds the springs "
     "less the longer the step; Macklin et al. 2019, small steps); .inf = one step; 0 = automatic: sqrt(0.05 L0 n m / "
     "W) for rest length L0, n sweeps, lightest free node m and heaviest dynamic ball's weight W (one step without balls), "
-    "and at most 0.5 ms under fluid.dfsph.viscosity_solve: implicit for cloth and soft bodies lighter than the liquid";
+    "and at most 0.5 ms under the implicit viscosity (fluid.dfsph.viscosity_solve: implicit, or auto where it takes "
+    "implicit) for cloth and soft bodies lighter than the liquid";
 
 template <class T>
 constexpr KeyType keyTypeOf() {
