@@ -1,6 +1,7 @@
 #include "core/model.h"
 
 #include "core/errors.h"
+#include "core/implicit_viscosity.h"
 #include "core/mesh_distance.h"
 #include "kernels/shared/sph_kernel.h"
 
@@ -418,26 +419,16 @@ void resolveViscositySolve(SceneSpec& s, double h, std::vector<std::string>& not
   if (fl.dfsph.viscosity_solve != ViscositySolve::Auto) return;
   fl.dfsph.viscosity_solve = ViscositySolve::Explicit;
   if (fl.solver != FluidSolver::Dfsph || fl.viscosity_model != ViscosityModel::Laminar) return;
-  double nu = 0.0, rho_liquid = 0.0;
-  for (const PhaseSpec& p : fl.phases) {
-    nu = std::max(nu, p.viscosity);
-    rho_liquid = std::max(rho_liquid, p.rest_density);
-  }
+  double nu = 0.0;
+  for (const PhaseSpec& p : fl.phases) nu = std::max(nu, p.viscosity);
   if (!(nu > 0.0)) return;
   const double bound = 0.125 * h * h / nu;
   if (!(bound < fl.dfsph.max_time_step)) return;
-  std::string why_not;
-  const bool dynamic = std::any_of(s.rigid_bodies.begin(), s.rigid_bodies.end(), [](const RigidBodySpec& b) { return b.dynamic; });
-  if (dynamic && fl.dfsph.body_coupling == DfsphCoupling::Staggered) why_not = "free bodies with body_coupling: staggered";
-  auto split = [](ClothSolver solver, double max_step) {
-    return solver == ClothSolver::Xpbd && max_step >= 0.0 && max_step <= kImplicitViscosityXpbdStep * (1.0 + 1e-9);
-  };
-  for (const ClothSpec& c : s.cloth)
-    if (why_not.empty() && !split(c.solver, c.max_time_step))
-      why_not = "cloth '" + c.name + "' is not in xpbd substeps of at most 0.5 ms";
-  for (const SoftBodySpec& b : s.soft_bodies)
-    if (why_not.empty() && b.density < rho_liquid && !split(b.solver, b.max_time_step))
-      why_not = "soft body '" + b.name + "' is lighter than the liquid and not in xpbd substeps of at most 0.5 ms";
+  std::string why_not;  // what the solve needs of the bodies (core/implicit_viscosity.h)
+  if (implicitViscosityStaggeredBodies(s)) why_not = "free bodies with body_coupling: staggered";
+  else if (const ImplicitViscosityLightBody light = implicitViscosityLightBody(s))
+    why_not = light.cloth ? "cloth '" + light.name + "' is not in xpbd substeps of at most 0.5 ms"
+                          : "soft body '" + light.name + "' is lighter than the liquid and not in xpbd substeps of at most 0.5 ms";
   if (!why_not.empty()) {
     notes.push_back("viscosity solved explicitly (fluid.dfsph.viscosity_solve: auto): its step bound " + fmt(bound * 1e3) +
                     " ms sets the step, but " + why_not + " (the implicit solve needs otherwise)");
@@ -981,8 +972,7 @@ Compiled compile(const SceneSpec& spec, const ResourceLimits& limits) {
       if (b.kind == rigid::BodyKind::Dynamic && b.spec.shape == BodyShape::Sphere)
         W = std::max(W, b.mass * spec.simulation.gravity.norm());
     const bool implicit_viscosity = fl.solver == FluidSolver::Dfsph && fl.dfsph.viscosity_solve == ViscositySolve::Implicit;
-    double rho_liquid = 0.0;
-    for (const PhaseSpec& ph : fl.phases) rho_liquid = std::max(rho_liquid, ph.rest_density);
+    const double rho_liquid = densestLiquid(fl);
     struct Setting {
       std::string name;
       double max_time_step;  // -1: not XPBD

@@ -11,6 +11,7 @@
 #include "io/scene_loader.h"
 
 #include "core/errors.h"
+#include "core/implicit_viscosity.h"
 #include "io/obj_io.h"
 #include "io/schema_table.h"
 
@@ -675,47 +676,27 @@ class Loader {
         issue("fluid.dfsph.viscosity_solve", markOf("fluid.dfsph.viscosity_solve"),
               "'fluid.dfsph.viscosity_solve: implicit' solves the laminar viscosity: set 'fluid.viscosity_model: "
               "laminar' (the artificial viscosity is explicit)");
-      // Cloth and soft-body nodes are unknowns of the solve since session 38 (kernels/viscosity.cl,
-      // viscosity_cg_node_*): a light sheet dragged by landing syrup no longer overshoots it, and a soft slab
-      // as dense as the liquid rests under 0.1 m^2/s syrup at 5 ms steps. Lighter bodies still swung when
-      // their own (XPBD) step was one 5 ms step: the hammock of scenes/tests/dfsph_hammock_syrup.yaml at
-      // 0.5-2 kg/m^2 in 0.1 m^2/s read its anchors up to 39 % off or blew up, a 300 kg/m^3 slab swung. Split
-      // into 0.5 ms substeps (max_time_step) they rest as with the explicit solve (anchors within 1 %,
-      // docs/dfsph.md, session 38). So cloth, and soft bodies lighter than the liquid, need XPBD substeps of
-      // at most kImplicitViscosityXpbdStep (core/scene_spec.h); longer ones were not measured. The automatic
-      // max_time_step (0) chooses them (core/model.cpp); a longer one set by hand, or .inf, is refused.
-      // Free bodies are unknowns of the solve only with the strong body coupling (its bodies' mobilities);
-      // staggered, they would be held in it and take its reaction after it, which overshoots at long steps
-      // (a ball released into syrup at 5 ms shot off or blew up, docs/dfsph.md, session 38).
-      const bool dynamic_body = std::any_of(spec.rigid_bodies.begin(), spec.rigid_bodies.end(),
-                                            [](const RigidBodySpec& b) { return b.dynamic; });
-      if (dynamic_body && dfsph.body_coupling == DfsphCoupling::Staggered && usable("fluid.dfsph.body_coupling"))
+      // What the solve needs of the scene's bodies (core/implicit_viscosity.h, with the measurements): free
+      // bodies strongly coupled, and cloth and light soft bodies in XPBD substeps of at most 0.5 ms.
+      if (implicitViscosityStaggeredBodies(spec) && usable("fluid.dfsph.body_coupling"))
         issue("fluid.dfsph.viscosity_solve", markOf("fluid.dfsph.viscosity_solve"),
               "'fluid.dfsph.viscosity_solve: implicit' moves free bodies in its solve only with "
               "'fluid.dfsph.body_coupling: strong' (staggered, a ball released into syrup shot off or blew up: "
               "docs/dfsph.md, session 38); use strong, or the explicit viscosity");
-      auto split = [&](ClothSolver solver, double max_step) {  // 0: automatic, which chooses the substeps
-        return solver == ClothSolver::Xpbd && max_step >= 0.0 && max_step <= kImplicitViscosityXpbdStep * (1.0 + 1e-9);
-      };
-      double rho_liquid = 0.0;
-      for (const PhaseSpec& ph : fluid.phases) rho_liquid = std::max(rho_liquid, ph.rest_density);
-      if (fluid.phases.empty()) rho_liquid = PhaseSpec().rest_density;  // the default phase (added later)
-      std::string light;
-      for (const ClothSpec& c : spec.cloth)
-        if (light.empty() && !split(c.solver, c.max_time_step)) light = "cloth '" + c.name + "'";
-      for (const SoftBodySpec& b : spec.soft_bodies)
-        if (light.empty() && b.density < rho_liquid && !split(b.solver, b.max_time_step)) {
-          std::ostringstream t;
-          t << "soft body '" << b.name << "' (" << b.density << " kg/m^3, lighter than the liquid's " << rho_liquid << ")";
-          light = t.str();
-        }
-      if (!light.empty())
+      if (const ImplicitViscosityLightBody light = implicitViscosityLightBody(spec)) {
+        std::ostringstream t;
+        if (light.cloth)
+          t << "cloth '" << light.name << "'";
+        else
+          t << "soft body '" << light.name << "' (" << light.density << " kg/m^3, lighter than the liquid's "
+            << light.liquid_density << ")";
         issue("fluid.dfsph.viscosity_solve", markOf("fluid.dfsph.viscosity_solve"),
               "'fluid.dfsph.viscosity_solve: implicit' takes cloth, and soft bodies lighter than the liquid, only "
-              "with their xpbd step split into substeps of at most 0.5 ms: not " + light +
+              "with their xpbd step split into substeps of at most 0.5 ms: not " + t.str() +
                   ". In one step per fluid step, light sheets and soft bodies swung or blew up in viscous liquids "
                   "(docs/dfsph.md, session 38); leave 'max_time_step' out (automatic, which chooses them) or set it "
                   "to at most 0.0005, or use the explicit viscosity");
+      }
     }
 
     // A background pressure pushes on every wall: with an open wall the fluid would be pushed out of the
