@@ -431,7 +431,7 @@ void resolveViscositySolve(SceneSpec& s, double h, std::vector<std::string>& not
                           : "soft body '" + light.name + "' is lighter than the liquid and not in xpbd substeps of at most 0.5 ms";
   if (!why_not.empty()) {
     notes.push_back("viscosity solved explicitly (fluid.dfsph.viscosity_solve: auto): its step bound " + fmt(bound * 1e3) +
-                    " ms sets the step, but " + why_not + " (the implicit solve needs otherwise)");
+                    " ms would set the step, but the implicit solve cannot take this scene: " + why_not);
     return;
   }
   fl.dfsph.viscosity_solve = ViscositySolve::Implicit;
