@@ -32,6 +32,10 @@ inline double densestLiquid(const FluidSpec& fluid) {
   return rho;
 }
 
+/// Whether a soft body is lighter than the liquid (rho_liquid: densestLiquid): such a body, as every cloth,
+/// needs the substeps under the implicit viscosity; a denser one rests in it in one step.
+inline bool lighterThanLiquid(const SoftBodySpec& b, double rho_liquid) { return b.density < rho_liquid; }
+
 /// Free rigid bodies with the staggered body coupling: the implicit viscosity cannot move them in its solve.
 inline bool implicitViscosityStaggeredBodies(const SceneSpec& s) {
   return s.fluid.dfsph.body_coupling == DfsphCoupling::Staggered &&
@@ -56,7 +60,7 @@ inline ImplicitViscosityLightBody implicitViscosityLightBody(const SceneSpec& s)
       return r;
     }
   for (const SoftBodySpec& b : s.soft_bodies)
-    if (b.density < r.liquid_density && !implicitViscositySubsteps(b.solver, b.max_time_step)) {
+    if (lighterThanLiquid(b, r.liquid_density) && !implicitViscositySubsteps(b.solver, b.max_time_step)) {
       r.soft = true;
       r.name = b.name;
       r.density = b.density;

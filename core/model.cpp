@@ -981,7 +981,7 @@ Compiled compile(const SceneSpec& spec, const ResourceLimits& limits) {
     std::vector<Setting> setting;  // cloths then soft bodies, as m.cloth's bodies
     for (const ClothSpec& c : spec.cloth) setting.push_back({c.name, c.solver == ClothSolver::Xpbd ? c.max_time_step : -1.0, true});
     for (const SoftBodySpec& b : spec.soft_bodies)
-      setting.push_back({b.name, b.solver == ClothSolver::Xpbd ? b.max_time_step : -1.0, b.density < rho_liquid});
+      setting.push_back({b.name, b.solver == ClothSolver::Xpbd ? b.max_time_step : -1.0, lighterThanLiquid(b, rho_liquid)});
     for (std::size_t c = 0; c < setting.size() && c < m.cloth.first_node.size(); ++c) {
       if (setting[c].max_time_step != 0.0) continue;  // set, or explicit
       double h = INFINITY;
