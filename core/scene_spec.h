@@ -89,6 +89,10 @@ struct SimulationSpec {
   double support_ratio = 2.0;                   ///< kernel support radius / particle spacing (unit: 1)
   TimeStepControl time_step_control = TimeStepControl::Subdivide;  ///< what to do when dt > CFL limit
   double cfl = 0.4;                             ///< Courant number: dt <= cfl * h / (c0 + |v|max) (unit: 1)
+  /// Rigid bodies' contacts and positions in substeps of at most this within each step, the step's forces
+  /// applied once (Simulation::integrateBodies; 0 = one per step). At long steps (DFSPH's, or a rigid-only
+  /// scene's frame substeps) one contact per step damps rolling (docs/forces.md, session 40) (unit: s).
+  double contact_step = 0.0;
   NumericalPolicy numerical_errors = NumericalPolicy::Abort;  ///< NaN, escapes, CFL violations
   SourceLoc loc;
 };

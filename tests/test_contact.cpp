@@ -108,24 +108,13 @@ TEST_CASE("Contact: a ball resting in a static bowl stays put, without jitter or
   CHECK(worst_reaction < 1e-9);
 }
 
-TEST_CASE("Contact: a ball rolling in a static bowl swings with a rolling sphere's period", "[rigid][contact]") {
-  // scenes/tests/ball_rolling_in_bowl.yaml: the ball (r = 3 cm) released 20 degrees up the bowl's inner
-  // sphere (R = 8 cm) rolls without slipping about the bottom. A uniform solid sphere rolling in a
-  // spherical bowl swings with T0 = 2 pi sqrt(7 (R - r) / (5 g)) = 0.531 s (I = 2/5 m r^2: 1 + I / (m r^2)
-  // = 7/5). The period is read from the times the centre crosses the bowl's axis (x = 0.15 m, linear
-  // between frames), two crossings a period, averaged over the run's 1.5 s. Tolerance 4 %: the facets
-  // (the bowl's 7.5-degree rings, the ball's dx/2 edges) scatter twice a single half period over
-  // 0.483-0.604 s at this step and 0.511-0.565 s at 1/7680 s, where the step's share is
-  // gone, i.e. by +-5-8 %, about +-2.5 % for a mean of five half periods; the finite amplitude (20 deg,
-  // decaying) adds up to theta0^2 / 16 = +0.8 %. What it tells apart: sliding without friction, 2 pi sqrt((R - r) / g) =
-  // 0.449 s (-15 %; measured 0.450 s with friction 0), or a hollow sphere's I = 2/3 m r^2 (+9 %). Measured: 0.531 s
-  // (0.539 s over 2 s, 0.523 s over 3 s); at ball_in_bowl.yaml's
-  // step, 1/120 s, the same contact swings at 0.619 s and has nearly stopped by 1.5 s (docs/forces.md, session
-  // 40; not tested here).
-  // Mutation: friction 0 in the scene reads 0.450 s and fails.
-  const app::RunOptions o = sceneOptions("ball_rolling_in_bowl.yaml");
-  const double R = 0.08, r = 0.03, g = 9.81;
-  const double T0 = 2 * M_PI * std::sqrt(7 * (R - r) / (5 * g));
+namespace {
+/// The period of the ball's swing in scenes/tests/ball_rolling_in_bowl.yaml (with `sets`): the times its
+/// centre crosses the bowl's axis (x = 0.15 m, linear between frames), two crossings a period, averaged
+/// over the run (unit: s); 0 with fewer than five crossings (two whole periods).
+double rollingPeriod(const std::vector<std::string>& sets, std::size_t* crossings_out) {
+  app::RunOptions o = sceneOptions("ball_rolling_in_bowl.yaml");
+  o.sets = sets;
   std::vector<double> t, x;
   const app::RunResult res = app::runScene(o, [&](Simulation& sim, const FrameReport&) {
     t.push_back(sim.time());
@@ -135,11 +124,39 @@ TEST_CASE("Contact: a ball rolling in a static bowl swings with a rolling sphere
   std::vector<double> crossings;
   for (std::size_t i = 0; i + 1 < x.size(); ++i)
     if (x[i] * x[i + 1] < 0) crossings.push_back(t[i] - x[i] * (t[i + 1] - t[i]) / (x[i + 1] - x[i]));
-  REQUIRE(crossings.size() >= 5);  // at least two whole periods
-  const double period = 2 * (crossings.back() - crossings.front()) / double(crossings.size() - 1);
-  INFO("period " << period << " s from " << crossings.size() << " axis crossings; rolling sphere " << T0
-                 << " s, sliding " << 2 * M_PI * std::sqrt((R - r) / g) << " s");
-  CHECK(std::abs(period / T0 - 1) < 0.04);
+  *crossings_out = crossings.size();
+  if (crossings.size() < 5) return 0.0;
+  return 2 * (crossings.back() - crossings.front()) / double(crossings.size() - 1);
+}
+}  // namespace
+
+TEST_CASE("Contact: a ball rolling in a static bowl swings with a rolling sphere's period", "[rigid][contact]") {
+  // scenes/tests/ball_rolling_in_bowl.yaml: the ball (r = 3 cm) released 20 degrees up the bowl's inner
+  // sphere (R = 8 cm) rolls without slipping about the bottom. A uniform solid sphere rolling in a
+  // spherical bowl swings with T0 = 2 pi sqrt(7 (R - r) / (5 g)) = 0.531 s (I = 2/5 m r^2: 1 + I / (m r^2)
+  // = 7/5); the period is read from the centre's crossings of the bowl's axis over the run's 1.5 s
+  // (rollingPeriod). Tolerance 4 %: the facets (the bowl's 7.5-degree rings, the ball's dx/2 edges)
+  // scatter twice a single half period over 0.483-0.604 s at 1/1920 s and 0.511-0.565 s at 1/7680 s,
+  // where the step's share is gone, i.e. by +-5-8 %, about +-2.5 % for a mean of five half periods; the
+  // finite amplitude (20 deg, decaying) adds up to theta0^2 / 16 = +0.8 %. What it tells apart: sliding
+  // without friction, 2 pi sqrt((R - r) / g) = 0.449 s (-15 %; measured 0.450 s with friction 0), a hollow
+  // sphere's I = 2/3 m r^2 (+9 %), and a contact that damps rolling: one contact solve per 1/120 s step
+  // swings at 0.619 s (+16 %) and stops within ~1.5 s (docs/forces.md, session 40).
+  // - at the scene's short steps (1/1920 s), one contact solve a step: measured 0.531 s;
+  // - at 1/120 s steps with `simulation.contact_step: 0.0005` (contacts and positions in 17 substeps
+  //   of each step, its forces applied once): measured 0.526 s.
+  // Mutations: friction 0 in the scene reads 0.450 s and fails the first; contact_step 0 in the second
+  // reads 0.619 s and fails.
+  const double R = 0.08, r = 0.03, g = 9.81;
+  const double T0 = 2 * M_PI * std::sqrt(7 * (R - r) / (5 * g));
+  INFO("rolling sphere " << T0 << " s, sliding " << 2 * M_PI * std::sqrt((R - r) / g) << " s");
+  std::size_t n = 0;
+  const double short_steps = rollingPeriod({}, &n);
+  INFO("1/1920 s steps: period " << short_steps << " s from " << n << " axis crossings");
+  CHECK(std::abs(short_steps / T0 - 1) < 0.04);
+  const double substeps = rollingPeriod({"simulation.substeps=2", "simulation.contact_step=0.0005"}, &n);
+  INFO("1/120 s steps, contact_step 0.5 ms: period " << substeps << " s from " << n << " axis crossings");
+  CHECK(std::abs(substeps / T0 - 1) < 0.04);
 }
 
 TEST_CASE("Contact: a box dropped on a box and a ball dropped on a box come to rest on them", "[rigid][contact]") {
