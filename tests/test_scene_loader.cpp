@@ -548,7 +548,7 @@ TEST_CASE("the schema text lists every key with type, default, unit and range", 
   const std::vector<std::string> expected = {
       "simulation", "simulation.duration", "simulation.frame_rate", "simulation.substeps", "simulation.gravity",
       "simulation.gravity_ramp", "simulation.settle_time", "simulation.settle_damping", "simulation.kernel", "simulation.support_ratio", "simulation.time_step_control",
-      "simulation.cfl", "simulation.numerical_errors", "domain", "domain.min", "domain.max", "domain.closed",
+      "simulation.cfl", "simulation.contact_step", "simulation.numerical_errors", "domain", "domain.min", "domain.max", "domain.closed",
       "domain.closed.x_min", "domain.closed.x_max", "domain.closed.y_min", "domain.closed.y_max",
       "domain.closed.z_min", "domain.closed.z_max", "domain.boundary_layers", "fluid", "fluid.solver", "fluid.dfsph",
       "fluid.dfsph.density_error", "fluid.dfsph.divergence_error", "fluid.dfsph.min_iterations",
