@@ -1098,18 +1098,17 @@ void Simulation::integrateBodies(double dt) {
   }
   added_mass_.clear();
   // Contacts and positions in substeps of at most simulation.contact_step (0: one per step), the forces'
-  // velocity change above applied once: one contact solve per long step takes the velocity's part into
-  // the facet it meets each time, which along a curved surface damps rolling (a ball in the bowl at
-  // 1/120 s steps swung 16 % slow and stopped within 1.5 s; with 0.5 ms contact substeps within 2 % of a
-  // rolling sphere's period: docs/forces.md, session 40).
+  // velocity change above applied once. One contact solve per long step damps rolling (a ball in the bowl
+  // at 1/120 s steps swung 16 % slow and stopped within 1.5 s; with 0.5 ms contact substeps within 2 % of a
+  // rolling sphere's period: docs/forces.md, session 40). With substeps, contact_force is the step's mean.
   const double hmax = model_.spec.simulation.contact_step;
   const int k = hmax > 0.0 ? std::max(1, static_cast<int>(std::ceil(dt / hmax - 1e-9))) : 1;
   const double h = dt / k;
-  std::vector<Eigen::Vector3d> contact_force(bodies_.size(), Eigen::Vector3d::Zero());  // the step's mean
+  std::vector<Eigen::Vector3d> mean_contact;  // k > 1 only: one step is bitwise as before
+  if (k > 1) mean_contact.assign(bodies_.size(), Eigen::Vector3d::Zero());
   for (int j = 0; j < k; ++j) {
     contacts_->solve(model_.bodies, bodies_, walls, g, h);
-    if (k > 1)
-      for (std::size_t b = 0; b < bodies_.size(); ++b) contact_force[b] += (h / dt) * bodies_[b].contact_force;
+    for (std::size_t b = 0; b < mean_contact.size(); ++b) mean_contact[b] += (h / dt) * bodies_[b].contact_force;
     for (std::size_t b = 0; b < bodies_.size(); ++b) {
       if (heldBody(b)) {
         bodies_[b].v.setZero();
@@ -1123,8 +1122,7 @@ void Simulation::integrateBodies(double dt) {
     }
     contacts_->correctPositions(model_.bodies, bodies_, h);
   }
-  if (k > 1)
-    for (std::size_t b = 0; b < bodies_.size(); ++b) bodies_[b].contact_force = contact_force[b];
+  for (std::size_t b = 0; b < mean_contact.size(); ++b) bodies_[b].contact_force = mean_contact[b];
 }
 
 // --- Cloth (core/cloth.h, kernels/cloth.cl) ----------------------------------------------------
