@@ -570,7 +570,13 @@ TEST_CASE("Forces with DFSPH and no-slip ghost velocities: the Stokes drag of a 
   //    4.5, bench): inside the bracket at R itself (2.04 .. 2.57), so converged within it. With
   //    `boundary_velocity: wall` at the walls and body, 1.69 (the no-slip surface ~0.3 dx inside).
   //  - Falling (stokes_fall.yaml): (m - rho V) g / (6 pi mu R U), measured 2.13 (2.20 at
-  //    R / dx = 3.75, bench), as WCSPH's 2.07 / 2.12; 1.66 / 1.79 without ghost velocities.
+  //    R / dx = 3.75, bench), as WCSPH's 2.07 / 2.12; 1.66 / 1.79 without ghost velocities. Since
+  //    session 41 the explicit fall is the bench's (`sphaptics bench --force-checks fall --force-solvers dfsph-ghost`), not this test's:
+  //    at the explicit viscous bound it took 81 s of the test's 154 (the tow 50 s), the implicit runs 5-10 s
+  //    each. The implicit falls below are held to the explicit *tow*: the same sphere at the centre of the
+  //    same cube at Re << 1, whose Stokes resistance is the same for motion along x and along z (the
+  //    cube's symmetry), so tow and fall read one wall factor K. Measured with the explicit solve at
+  //    R / dx = 3: tow 2.093, fall 2.066 (1.3 % apart: the scheme's own tow-fall difference).
   // Halving the coupling force (kernels/rigid.cl, rigid_fluid_forces): the tow's drag halves
   // (below the band) and the falling ball's buoyancy and drag halve, U more than doubles (ratio
   // below the band); measured in the note of session 10.
@@ -587,20 +593,13 @@ TEST_CASE("Forces with DFSPH and no-slip ghost velocities: the Stokes drag of a 
                       << t.side_y / t.drag << " of it; " << t.wall_seconds << " s");
   CHECK(t.drag / t.stokes > t.expected_lo);
   CHECK(t.drag / t.stokes < t.expected_hi);
-  const app::FallCheck f = app::fallingBall(scenePath("stokes_fall.yaml"), 0.01, ghost);
-  INFO(f.message);
-  REQUIRE(f.exit_code == 0);
-  INFO("falling: U " << f.speed << " m/s, (m - rho V) g / 6 pi mu R U = " << f.ratio << " (expected " << f.expected_lo
-                     << " .. " << f.expected_hi << "); " << f.wall_seconds << " s");
-  CHECK(f.ratio > f.expected_lo);
-  CHECK(f.ratio < f.expected_hi);
-
   // The implicit viscosity (fluid.dfsph.viscosity_solve: implicit) at steps of 2.5 ms, 10x the explicit
-  // viscous bound 0.125 h^2 / nu = 0.25 ms: the same band, and within 5 % of the explicit solve's drag and
-  // fall (the same resolution and boundary: what is left is the time discretisation; the bracket at R is
+  // viscous bound 0.125 h^2 / nu = 0.25 ms: the same band, and tow and fall within 5 % of the explicit
+  // tow's drag (the same resolution and boundary: what is left is the time discretisation, and for the
+  // fall the 1.3 % above; the bracket at R is
   // 2.04 .. 2.57, +-12 % about its middle, and the step may cost less than half of that; the explicit
   // tow's own mean moves by ~2 % with the window's per-step noise). Measured: towed 2.149 against 2.093
-  // explicit, the falling ball 0.01888 against 0.01878 m/s, in about a seventh of the wall time; with the
+  // explicit, the falling ball 2.056 (0.01888 m/s; the explicit fall 0.01878), in about a seventh of the wall time; with the
   // plain splitting (viscosity, then the density solve) the tow reads 1.885, 10 % low (docs/dfsph.md,
   // session 36).
   std::vector<std::string> implicit_sets = tow_sets;
@@ -619,31 +618,31 @@ TEST_CASE("Forces with DFSPH and no-slip ghost velocities: the Stokes drag of a 
   const app::FallCheck fi = app::fallingBall(scenePath("stokes_fall.yaml"), 0.01, fall_implicit);
   INFO(fi.message);
   REQUIRE(fi.exit_code == 0);
-  INFO("falling, implicit viscosity at 2.5 ms: U " << fi.speed << " m/s, ratio " << fi.ratio << " (explicit " << f.ratio
-                                                  << "); " << fi.wall_seconds << " s against " << f.wall_seconds << " s");
+  INFO("falling, implicit viscosity at 2.5 ms: U " << fi.speed << " m/s, ratio " << fi.ratio << " (explicit tow " << t.drag / t.stokes
+                                                  << "); " << fi.wall_seconds << " s");
   CHECK(fi.ratio > fi.expected_lo);
   CHECK(fi.ratio < fi.expected_hi);
-  CHECK(std::abs(fi.ratio / f.ratio - 1.0) < 0.05);
+  CHECK(std::abs(fi.ratio / (t.drag / t.stokes) - 1.0) < 0.05);
   // Free bodies are unknowns of the implicit viscosity solve (session 38; kernels/viscosity.cl,
   // viscosity_cg_body_*), their start taking their weight and the last pressure's force as the fluid's
   // incremental start does. Held at their velocity during the solve and given its reaction after it (up to
   // session 37), a ball overshot at long steps: this one, released at DFSPH's default 5 ms step, jumped to
   // 0.38 m/s upward where it falls at 0.019, and a 300 kg/m^3 one blew up at its release at 2.5 ms. At the
-  // default step (20x the explicit bound) the falling ball must stay within 5 % of the explicit solve, and a
-  // 300 kg/m^3 ball must rise inside the same band ((rho V - m) g / 6 pi mu R U).
-  // Measured: falling 2.076 against the explicit 2.066 (+0.5 %; 2.056 at 2.5 ms), rising 2.233 at 0.0122 m/s,
-  // ~5.7 s each against the explicit fall's 33-65 s. Mutation: the bodies held in the solve: the falling
-  // ball's ratio 2.617 (+27 %), and the rising one blew up (exit 4): fails.
+  // default step (20x the explicit bound) the falling ball must stay within 5 % of the explicit solve (its
+  // tow, above), and a 300 kg/m^3 ball must rise inside the same band ((rho V - m) g / 6 pi mu R U).
+  // Measured: falling 2.076 against the explicit tow's 2.093 (-0.8 %; the explicit fall 2.066; 2.056 at
+  // 2.5 ms), rising 2.233 at 0.0122 m/s, ~5.7 s each against the explicit fall's 33-81 s. Mutation: the bodies
+  // held in the solve: the falling ball's ratio 2.617 (+25 % on the tow), and the rising one blew up (exit 4): fails.
   std::vector<std::string> fall5 = ghost;
   fall5.push_back("fluid.dfsph.viscosity_solve=implicit");
   const app::FallCheck f5 = app::fallingBall(scenePath("stokes_fall.yaml"), 0.01, fall5);
   INFO(f5.message);
   REQUIRE(f5.exit_code == 0);
-  INFO("falling, implicit viscosity at 5 ms: U " << f5.speed << " m/s, ratio " << f5.ratio << " (explicit " << f.ratio
+  INFO("falling, implicit viscosity at 5 ms: U " << f5.speed << " m/s, ratio " << f5.ratio << " (explicit tow " << t.drag / t.stokes
                                                 << "); " << f5.wall_seconds << " s");
   CHECK(f5.ratio > f5.expected_lo);
   CHECK(f5.ratio < f5.expected_hi);
-  CHECK(std::abs(f5.ratio / f.ratio - 1.0) < 0.05);
+  CHECK(std::abs(f5.ratio / (t.drag / t.stokes) - 1.0) < 0.05);
   std::vector<std::string> rise5 = fall5;
   rise5.push_back("rigid_bodies[0].density=300");
   const app::FallCheck r5 = app::fallingBall(scenePath("stokes_fall.yaml"), 0.01, rise5);
@@ -653,7 +652,7 @@ TEST_CASE("Forces with DFSPH and no-slip ghost velocities: the Stokes drag of a 
                                                                 << r5.wall_seconds << " s");
   CHECK(r5.ratio > r5.expected_lo);
   CHECK(r5.ratio < r5.expected_hi);
-  WARN("Stokes fall, implicit viscosity at 5 ms: falling ratio " << f5.ratio << " (explicit " << f.ratio << "), rising 300 kg/m^3 "
+  WARN("Stokes fall, implicit viscosity at 5 ms: falling ratio " << f5.ratio << " (explicit tow " << t.drag / t.stokes << "), rising 300 kg/m^3 "
                                                                  << r5.ratio << " (band " << r5.expected_lo << " .. " << r5.expected_hi
                                                                  << ")");
 }
