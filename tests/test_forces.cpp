@@ -385,9 +385,7 @@ TEST_CASE("Forces: a dense ball falls through a viscous liquid at the Stokes ter
   CHECK(c.ratio < c.expected_hi);
 }
 
-TEST_CASE("Forces with DFSPH and extrapolated walls: a free body feels its held force and a dense ball sinks as added "
-          "mass and a sphere's drag allow",
-          "[forces]") {
+TEST_CASE("Forces with DFSPH and extrapolated walls: a free body feels its held force", "[forces]") {
   // The WCSPH checks above with `fluid.solver: dfsph`, `fluid.dfsph.walls: extrapolated` (the
   // wall's pressure extrapolated from the fluid, Adami et al. 2012 eq. 27, as WCSPH's walls; the
   // viscous terms see the walls' own velocities and, since session 10, the no-slip ghost velocities
@@ -395,7 +393,7 @@ TEST_CASE("Forces with DFSPH and extrapolated walls: a free body feels its held 
   // DFSPH), R / dx = 3, with the same closed forms and tolerances:
   //  - the neutral ball of release_ball.yaml: held force against rho g V and free against held,
   //    8 % (measured 0.95 and 1.03);
-  //  - the dense ball of sink_ball.yaml: every step inside the envelope of added mass (C_m 0.375 ..
+  //  - (until session 41; now the next tests' at rest) the dense ball of sink_ball.yaml: every step inside the envelope of added mass (C_m 0.375 ..
   //    0.725) and drag (C_d 0 .. 0.97) with the hold's ringing as margin, past 0.4 m/s at 0.2 s
   //    (measured 0.582 m/s against 0.589 .. 0.812, inside the margin; mean C_d 1.41; before
   //    session 10's ghost velocities at the body, 0.573 m/s and 1.6; session 12's default
@@ -426,7 +424,9 @@ TEST_CASE("Forces with DFSPH and extrapolated walls: a free body feels its held 
   INFO("held " << r.held_force << " N, free " << r.free_force << " N, buoyancy " << r.buoyancy << " N");
   CHECK(std::abs(r.free_force - r.held_force) < 0.08 * r.buoyancy);
   CHECK(std::abs(r.held_force - r.buoyancy) < 0.08 * r.buoyancy);
-  checkSinkingBall("sink_ball.yaml", 0.01, dfsph);
+  // The dense ball of sink_ball.yaml (the start-up's ringing tank) was checked here until session 41; the
+  // same ball released into a tank at rest, with DFSPH at R / dx = 3 and 4, is the next tests' and
+  // checks the same envelope without the start-up's margin (this run: ~10 s of the suite's time).
 }
 
 TEST_CASE("Forces: a dense ball released into a tank at rest sinks as added mass and a sphere's drag allow, without the "
