@@ -46,6 +46,7 @@ struct SurfaceIndex::Impl {
   Eigen::Vector3i dims{0, 0, 0};
   std::vector<uint32_t> start;  // cell -> first entry in items (CSR)
   std::vector<uint32_t> items;  // triangle indices
+  std::vector<Eigen::Vector3d> tlo, thi;  // each triangle's bounding box (unit: m)
 
   Eigen::Vector3i cellOf(const Eigen::Vector3d& p) const {
     Eigen::Vector3i c;
@@ -95,6 +96,10 @@ SurfaceIndex::SurfaceIndex(const TriMesh& mesh) : impl_(std::make_unique<Impl>()
   m.start = count;
   m.items.resize(count[ncell]);
   for (uint32_t ti = 0; ti < m.tris.size(); ++ti) forCells(m.tris[ti], [&](std::size_t c) { m.items[count[c]++] = ti; });
+  for (const auto& t : m.tris) {
+    m.tlo.push_back(m.v[t[0]].cwiseMin(m.v[t[1]]).cwiseMin(m.v[t[2]]));
+    m.thi.push_back(m.v[t[0]].cwiseMax(m.v[t[1]]).cwiseMax(m.v[t[2]]));
+  }
 }
 
 SurfaceIndex::~SurfaceIndex() = default;
@@ -123,7 +128,11 @@ SurfaceIndex::Nearest SurfaceIndex::nearest(const Eigen::Vector3d& p, double max
           if (std::max({std::abs(i - c.x()), std::abs(j - c.y()), std::abs(k - c.z())}) != r) continue;  // shell only
           const std::size_t f = m.flat(i, j, k);
           for (uint32_t s = m.start[f]; s < m.start[f + 1]; ++s) {
-            const auto& t = m.tris[m.items[s]];
+            // A triangle whose bounding box is farther than the best so far cannot replace it (nor a
+            // triangle met again in a later cell): skipped without its closest point.
+            const uint32_t ti = m.items[s];
+            if ((m.tlo[ti] - p).cwiseMax(p - m.thi[ti]).cwiseMax(0.0).squaredNorm() > best2) continue;
+            const auto& t = m.tris[ti];
             TriangleFeature feature;
             const Eigen::Vector3d q = closestPointOnTriangle(p, m.v[t[0]], m.v[t[1]], m.v[t[2]], &feature);
             const double d2 = (q - p).squaredNorm();
@@ -138,8 +147,20 @@ SurfaceIndex::Nearest SurfaceIndex::nearest(const Eigen::Vector3d& p, double max
         }
       }
     }
-    // Done when everything unvisited is farther than the best so far (or than the reach).
-    const double bound = std::max(static_cast<double>(r) * m.cell, outside);
+    // Done when everything unvisited is farther than the best so far (or than the reach). Unvisited
+    // cells are at least r cells away; with p inside the grid, at least as far as the nearest face of
+    // the block of cells visited, on the sides where the block has not reached the grid's edge
+    // (nothing lies beyond it): a search within a short reach then ends after ring 0 where p is that
+    // far inside its cell (session 41: the same nearest point, ~90 % of a mesh-contact solve's time).
+    double bound = std::max(static_cast<double>(r) * m.cell, outside);
+    if (outside == 0.0) {
+      double block = std::numeric_limits<double>::infinity();
+      for (int a = 0; a < 3; ++a) {
+        if (c[a] - r > 0) block = std::min(block, p[a] - (m.lo[a] + (c[a] - r) * m.cell));
+        if (c[a] + r + 1 < m.dims[a]) block = std::min(block, m.lo[a] + (c[a] + r + 1) * m.cell - p[a]);
+      }
+      bound = std::max(bound, block);
+    }
     if (best2 <= bound * bound) break;
   }
   if (found) best.distance = std::sqrt(best2);

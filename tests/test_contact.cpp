@@ -142,16 +142,19 @@ TEST_CASE("Contact: a ball rolling in a static bowl swings with a rolling sphere
   // without friction, 2 pi sqrt((R - r) / g) = 0.449 s (-15 %; measured 0.450 s with friction 0), a hollow
   // sphere's I = 2/3 m r^2 (+9 %), and a contact that damps rolling: one contact solve per 1/120 s step
   // swings at 0.619 s (+16 %) and stops within ~1.5 s (docs/forces.md, session 40).
-  // Run at 1/120 s steps with `simulation.contact_step: 0.0005` (contacts and positions in 17 substeps of
-  // each step, its forces applied once): measured 0.526 s. Until session 41 the test also ran the scene's
-  // own short steps (1/1920 s, one contact solve a step; measured 0.531 s), which is the same contact
-  // solve at about the same interval and cost as long again (~20 s of the suite's time); that run is
-  // kept in docs/forces.md (session 40). Mutations: friction 0 in the scene reads 0.450 s and fails;
-  // contact_step 0 reads 0.619 s and fails.
+  // - at the scene's short steps (1/1920 s), one contact solve a step: measured 0.531 s;
+  // - at 1/120 s steps with `simulation.contact_step: 0.0005` (contacts and positions in 17 substeps
+  //   of each step, its forces applied once): measured 0.526 s.
+  // Mutations: friction 0 in the scene reads 0.450 s and fails the first (and 0.453 s, the second);
+  // contact_step 0 in the second reads 0.619 s and fails. (~2 s for both runs since session 41's nearest-
+  // point search, 20 s each before.)
   const double R = 0.08, r = 0.03, g = 9.81;
   const double T0 = 2 * M_PI * std::sqrt(7 * (R - r) / (5 * g));
   INFO("rolling sphere " << T0 << " s, sliding " << 2 * M_PI * std::sqrt((R - r) / g) << " s");
   std::size_t n = 0;
+  const double short_steps = rollingPeriod({}, &n);
+  INFO("1/1920 s steps: period " << short_steps << " s from " << n << " axis crossings");
+  CHECK(std::abs(short_steps / T0 - 1) < 0.04);
   const double substeps = rollingPeriod({"simulation.substeps=2", "simulation.contact_step=0.0005"}, &n);
   INFO("1/120 s steps, contact_step 0.5 ms: period " << substeps << " s from " << n << " axis crossings");
   CHECK(std::abs(substeps / T0 - 1) < 0.04);
