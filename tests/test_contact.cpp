@@ -146,7 +146,7 @@ TEST_CASE("Contact: a ball rolling in a static bowl swings with a rolling sphere
   // - at 1/120 s steps with `simulation.contact_step: 0.0005` (contacts and positions in 17 substeps
   //   of each step, its forces applied once): measured 0.526 s.
   // Mutations: friction 0 in the scene reads 0.450 s and fails the first (and 0.453 s, the second);
-  // contact_step 0 in the second reads 0.619 s and fails. (~2 s for both runs since session 41's nearest-
+  // contact_step 0 in the second reads 0.619 s and fails. (~4.6 s for both runs since session 41's nearest-
   // point search, 20 s each before.)
   const double R = 0.08, r = 0.03, g = 9.81;
   const double T0 = 2 * M_PI * std::sqrt(7 * (R - r) / (5 * g));
