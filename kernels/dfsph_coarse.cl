@@ -315,12 +315,18 @@ __kernel void dfsph_coarse_assemble(const SimParams p, const int4 bd, __global c
                                     __global const uint* agg, __global const uint* mcount, __global const uint* cell,
                                     __global const int* num, __global const float4* fr, __global const uint2* mask,
                                     const float scale, __global float* kval, __global int* kcol) {
-  /* rows spread over the work-groups: group g takes rows g, g + G, g + 2 G, ... (G groups). The
-   * launch covers the most rows there can be, but the aggregates found are numbered from 0, so
-   * `d = global id` left every row in the first groups and, on a CPU that hands each thread a run
-   * of consecutive work-groups, all the work on one thread (measured, session 20) */
-  const uint d = get_local_id(0) * get_num_groups(0) + get_group_id(0);
-  if (d >= mcount[0]) return;
+  /* rows spread over the work-groups in contiguous runs: group g takes rows g B .. g B + B - 1, B =
+   * ceil(m / G) (G groups, m aggregates). The launch covers the most rows there can be, but the
+   * aggregates found are numbered from 0, so `d = global id` left every row in the first groups and,
+   * on a CPU that hands each thread a run of consecutive work-groups, all the work on one thread
+   * (measured, session 20). Session 20's spread (rows g, g + G, g + 2 G, ...) gave a group rows far
+   * apart; in a run, neighbouring rows (box order: x fastest) read mostly the same particles' terms,
+   * which then stay in the cache (sessions 43-44). */
+  const uint m = mcount[0];
+  const uint per = (m + get_num_groups(0) - 1u) / get_num_groups(0);
+  if (get_local_id(0) >= per) return;
+  const uint d = get_group_id(0) * per + get_local_id(0);
+  if (d >= m) return;
   const int3 cd = dfsph_coarse_coords(bd, cell[d]);
   float row[125];
   for (int o = 0; o < 125; ++o) row[o] = 0.0f;
@@ -447,11 +453,25 @@ inline void dfsph_coarse_matvec(const uint l, const uint m, __global const float
                                 __global const float* v, __global float* y, const uint n_bodies,
                                 __global const float4* cwv, __global const float4* data, __local float8* red8) {
   for (uint k = l; k < m; k += DFSPH_COARSE_WG) {
+    /* eight slots at a time (slots 0..119, then 120..124), summed in slot order as fused multiply-adds;
+     * a slot with no column (kcol -1) holds kval 0 (dfsph_coarse_assemble) and reads v[0] */
+    __global const int* kc = kcol + (size_t)k * 125;
+    __global const float* kv = kval + (size_t)k * 125;
     float s = 0.0f;
-    for (int o = 0; o < 125; ++o) {
-      const int c = kcol[(size_t)k * 125 + o];
-      if (c >= 0) s += kval[(size_t)k * 125 + o] * v[c];
+    for (int o = 0; o < 120; o += 8) {
+      const int8 c = max(vload8(0, kc + o), (int8)(0));
+      const float8 a = vload8(0, kv + o);
+      const float8 x = (float8)(v[c.s0], v[c.s1], v[c.s2], v[c.s3], v[c.s4], v[c.s5], v[c.s6], v[c.s7]);
+      s = fma(a.s0, x.s0, s);
+      s = fma(a.s1, x.s1, s);
+      s = fma(a.s2, x.s2, s);
+      s = fma(a.s3, x.s3, s);
+      s = fma(a.s4, x.s4, s);
+      s = fma(a.s5, x.s5, s);
+      s = fma(a.s6, x.s6, s);
+      s = fma(a.s7, x.s7, s);
     }
+    for (int o = 120; o < 125; ++o) s = fma(kv[o], v[max(kc[o], 0)], s);
     y[k] = s;
   }
   for (uint B = 0; B < n_bodies; ++B) {
