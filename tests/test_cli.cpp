@@ -382,3 +382,50 @@ TEST_CASE("cli: bench --accuracy-set and --accuracy-until reach the accuracy run
   CHECK(contains(series, "# scene overrides of every run: simulation.frame_rate=120"));
   CHECK(contains(readFile(tmp.path / "b" / "accuracy.csv"), "# scene overrides of every run: simulation.frame_rate=120"));
 }
+
+TEST_CASE("cli: the bench's accuracy plot draws every solver, wall model and Courant number", "[cli]") {
+  // scripts/plot_bench.py, as `bench` runs it on accuracy.csv. Until session 45 it drew only the
+  // series wcsph / dfsph at Courant 0.4 and 0.2, and wrote an empty figure for anything else (a
+  // Courant sweep, dfsph-extrapolated): the rows below are such a sweep (session 45's 50k figures)
+  // and one WCSPH size series.
+  TempDir tmp;
+  const fs::path csv = tmp.path / "accuracy.csv", png = tmp.path / "accuracy.png";
+  {
+    std::ofstream out(csv);
+    out << "# sphaptics accuracy benchmark (test rows)\n"
+           "solver,particles,dx_m,cfl,steps,eos,mean_rel_error,max_rel_error,points,wall_s,particle_steps_per_s,"
+           "wall_crossings,iterations_per_step\n"
+           "dfsph-extrapolated,53312,0.00892857,0.4,303,-,0.018364,0.0525468,11,30.3569,532121,0,8.24752\n"
+           "dfsph-extrapolated,53312,0.00892857,0.6,209,-,0.0182499,0.0545501,11,28.6662,388688,0,15.3971\n"
+           "dfsph-extrapolated,53312,0.00892857,0.8,162,-,0.018903,0.0537637,11,28.5564,302438,0,21.8519\n"
+           "wcsph,4000,0.02,0.25,900,linear,0.03,0.05,11,2.5,1e6,0,0\n"
+           "wcsph,12000,0.014,0.25,1300,linear,0.025,0.045,11,9.5,1e6,0,0\n";
+  }
+  const fs::path log = tmp.path / "plot.log";
+  const auto plot = [&](const fs::path& in) {
+    const std::string cmd = "/usr/bin/python3 " + sph::testing::shellQuote((kSourceDir / "scripts/plot_bench.py").string()) +
+                            " " + sph::testing::shellQuote(in.string()) + " " + sph::testing::shellQuote(png.string()) +
+                            " >" + sph::testing::shellQuote(log.string()) + " 2>&1";
+    const int status = std::system(cmd.c_str());
+    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  };
+  const int code = plot(csv);
+  const std::string text = readFile(log);
+  INFO("plot_bench.py:\n" << text);
+  REQUIRE(code == 0);
+  CHECK(contains(text, "series: DFSPH, extrapolated walls, Courant 0.4: 1 runs"));
+  CHECK(contains(text, "series: DFSPH, extrapolated walls, Courant 0.6: 1 runs"));
+  CHECK(contains(text, "series: DFSPH, extrapolated walls, Courant 0.8: 1 runs"));
+  CHECK(contains(text, "series: WCSPH, linear EOS, Courant 0.25: 2 runs"));
+  CHECK(contains(text, "plotted 5 runs in 4 series"));
+  REQUIRE(fs::exists(png));
+  CHECK(fs::file_size(png) > 10000);
+
+  // a file with no run is an error, not an empty figure
+  fs::remove(png);
+  const fs::path empty = tmp.path / "empty.csv";
+  std::ofstream(empty) << "solver,particles,dx_m,cfl,steps,eos,mean_rel_error,max_rel_error,points,wall_s\n";
+  CHECK(plot(empty) == 1);
+  CHECK(contains(readFile(log), "holds no accuracy run to plot"));
+  CHECK_FALSE(fs::exists(png));
+}
