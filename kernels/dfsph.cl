@@ -208,8 +208,8 @@ __kernel void dfsph_factor(const SimParams p, __global const float4* pos, __glob
 
 /* D delta_i / Dt (B&K 2017 eq. 2, number density): the rate at which the neighbours close in; the
  * walls' part from the factor pass's sums gw (v_i . G_b - sum_b psi_b v_b . gradW_ib). */
-inline float dfsph_density_rate(const SimParams* p, const uint i, __global const float4* pos,
-                                __global const float4* vel, __global const uint* lists, const uint nf,
+inline __attribute__((always_inline)) float dfsph_density_rate(const SimParams* p, const uint i,
+                                __global const float4* pos, __global const float4* vel, __global const uint* lists, const uint nf,
                                 const float4 gw) {
   const float H = p->support;
   const float3 xi = pos[i].xyz, vi = vel[i].xyz;
@@ -330,17 +330,19 @@ __kernel void dfsph_warm_filter(const SimParams p, __global const float4* pos, _
 /* The pressure force of the top of this file on particle i (unit: N), for the pressures `pr`.
  * Performance: the fluid neighbours' positions and p_j / delta_j^2 come packed in one float4 each,
  * xt_j = (x_j, p_j / delta_j^2) (written with the pressures by dfsph_source and dfsph_jacobi), one
- * gather per neighbour instead of five (position, phase, mass, density, pressure). */
-inline float3 dfsph_force(const SimParams* p, const uint i, __global const float4* xt, __global const uint* phase,
-                          __global const float* density, __global const float* pr, __global const uint* nbr,
-                          const uint nf, __global const float4* bpos, __global const uint* blist, const uint nb,
+ * gather per neighbour instead of five (position, phase, mass, density, pressure). Inlined by force
+ * (pocl left it a call from its two kernels, with its set-up, ~10 constants spilled to the stack, run
+ * per particle: the pressure passes are ~10 % faster inlined, session 46; so is dfsph_density_rate). */
+inline __attribute__((always_inline)) float3 dfsph_force(const SimParams* p, const uint i, __global const float4* xt,
+                          __global const uint* phase, __global const float* density, __global const float* pr,
+                          __global const uint* nbr, const uint nf, __global const float4* bpos, __global const uint* blist, const uint nb,
                           const float wall, __global const float* bpr, const int use_bp, const float4 gw) {
   const float H = p->support;
   const float3 xi = xt[i].xyz;
   const float di = density[i] / p->phase_mass[phase[i]];
   const float ti = pr[i] / (di * di); /* p_i / delta_i^2 */
-  /* i's fluid list, narrow or wide (shared/neighbours.h), made here rather than passed in: this
-   * function is not inlined, and a list passed by value cost ~10 % of the pass (performance) */
+  /* i's fluid list, narrow or wide (shared/neighbours.h), made here rather than passed in: when this
+   * function was not inlined, a list passed by value cost ~10 % of the pass (performance) */
   const SphList list = sph_list(p, nbr, i);
   /* fluid neighbours eight at a time, the last group padded (as dfsph_density_rate) */
   float8 fx = (float8)(0.0f), fy = fx, fz = fx;

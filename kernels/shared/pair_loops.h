@@ -126,6 +126,15 @@ inline float sph_list_density(const float3 xi, __global const uint* lists, const
  * below K: a slot written for a candidate outside R is overwritten by the next one inside.
  * With `outs` (a narrow fluid list, shared/neighbours.h) the entries go there as offsets k - base
  * (base = the particle's own index; the caller checks that they fit) instead of to `out`. */
+/* The two 16-float loads below return float16, which clang flags on a CPU without AVX-512 ("AVX vector
+ * return of type 'float16' without 'avx512f' enabled changes the ABI"): harmless here (the function is
+ * compiled into one program and inlined), but pocl printed "2 warnings generated." to the user's stderr
+ * at every kernel build. Four 8-float loads instead avoid it but made the list build ~7 % slower on
+ * such a CPU (session 46), so the warning is silenced for this function only. */
+#ifdef __clang__
+#pragma clang diagnostic push
+#pragma clang diagnostic ignored "-Wpsabi"
+#endif
 inline uint sph_collect_row(const float3 xi, __global const float4* pts, const uint begin, const uint end,
                             const float R2, const uint self, __global uint* out, __global short* outs,
                             const int base, const uint K, uint count) {
@@ -168,6 +177,9 @@ inline uint sph_collect_row(const float3 xi, __global const float4* pts, const u
   }
   return count;
 }
+#ifdef __clang__
+#pragma clang diagnostic pop
+#endif
 
 /* ---- pressure and viscosity between fluid particles ------------------------------------------
  * Over this step's list (neighbours within H, from the density pass) of particle i:
