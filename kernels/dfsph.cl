@@ -72,7 +72,7 @@
  * q_b = vel[b] (when `vel` is not null), or with the scalars s[b] (when `s` is not null):
  * sum_b psi_b s_b gradW_ib in xyz instead. Eight at a time (shared/pair_loops.h), lanes summed in
  * a fixed order, then the rest one by one. */
-inline float4 dfsph_wall_sums(const float3 xi, __global const uint* list, const uint nb, __global const float4* bpos,
+SPH_HOT float4 dfsph_wall_sums(const float3 xi, __global const uint* list, const uint nb, __global const float4* bpos,
                               __global const float4* bvel, __global const float* s, const float H) {
   float8 gx = (float8)(0.0f), gy = gx, gz = gx, fl = gx;
   uint k = 0;
@@ -208,7 +208,7 @@ __kernel void dfsph_factor(const SimParams p, __global const float4* pos, __glob
 
 /* D delta_i / Dt (B&K 2017 eq. 2, number density): the rate at which the neighbours close in; the
  * walls' part from the factor pass's sums gw (v_i . G_b - sum_b psi_b v_b . gradW_ib). */
-inline __attribute__((always_inline)) float dfsph_density_rate(const SimParams* p, const uint i,
+SPH_HOT float dfsph_density_rate(const SimParams* p, const uint i,
                                 __global const float4* pos, __global const float4* vel, __global const uint* lists, const uint nf,
                                 const float4 gw) {
   const float H = p->support;
@@ -331,9 +331,8 @@ __kernel void dfsph_warm_filter(const SimParams p, __global const float4* pos, _
  * Performance: the fluid neighbours' positions and p_j / delta_j^2 come packed in one float4 each,
  * xt_j = (x_j, p_j / delta_j^2) (written with the pressures by dfsph_source and dfsph_jacobi), one
  * gather per neighbour instead of five (position, phase, mass, density, pressure). Inlined by force
- * (pocl left it a call from its two kernels, with its set-up, ~10 constants spilled to the stack, run
- * per particle: the pressure passes are ~10 % faster inlined, session 46; so is dfsph_density_rate). */
-inline __attribute__((always_inline)) float3 dfsph_force(const SimParams* p, const uint i, __global const float4* xt,
+ * (SPH_HOT, shared/pair_loops.h). */
+SPH_HOT float3 dfsph_force(const SimParams* p, const uint i, __global const float4* xt,
                           __global const uint* phase, __global const float* density, __global const float* pr,
                           __global const uint* nbr, const uint nf, __global const float4* bpos, __global const uint* blist, const uint nb,
                           const float wall, __global const float* bpr, const int use_bp, const float4 gw) {

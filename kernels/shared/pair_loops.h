@@ -15,6 +15,11 @@
 #define SPHAPTICS_PAIR_LOOPS_H
 #ifdef __OPENCL_VERSION__
 
+/* The pair-loop helpers that kernels call with per-particle set-up (constants, the list): inlined by
+ * force. pocl left them as calls, and each call spilled its ~10 loop constants to the stack once per
+ * particle: the pressure passes ran ~10 % faster inlined (session 46, docs/dfsph.md). */
+#define SPH_HOT inline __attribute__((always_inline))
+
 /* ---- kernels for eight distances at once ---------------------------------------------------- */
 inline float8 sph_w8(const float8 r, const float H) {
   const float inv_h = 1.0f / H;
@@ -79,7 +84,7 @@ inline float sph_hsum8(const float8 a) {
  * no data-dependent branch; a narrow fluid list (shared/neighbours.h) goes to `outs` instead, in the
  * same form. With out = outs = 0 the list is this step's list already (DFSPH's lists
  * built at H, core/simulation.cpp buildGrid): only the sum (and *out_n is not the count). */
-inline float sph_list_density(const float3 xi, __global const uint* lists, const uint i, const uint K,
+SPH_HOT float sph_list_density(const float3 xi, __global const uint* lists, const uint i, const uint K,
                               const int wide, const uint n, __global const float4* pts,
                               const int weighted, const float H, __global uint* out, __global short* outs,
                               uint* out_n) {
@@ -135,7 +140,7 @@ inline float sph_list_density(const float3 xi, __global const uint* lists, const
 #pragma clang diagnostic push
 #pragma clang diagnostic ignored "-Wpsabi"
 #endif
-inline uint sph_collect_row(const float3 xi, __global const float4* pts, const uint begin, const uint end,
+SPH_HOT uint sph_collect_row(const float3 xi, __global const float4* pts, const uint begin, const uint end,
                             const float R2, const uint self, __global uint* out, __global short* outs,
                             const int base, const uint K, uint count) {
   uint k = begin;
@@ -204,7 +209,7 @@ typedef struct {
   float3 av; /* viscous acceleration (unit: m/s^2) */
 } SphPairSums;
 
-inline SphPairSums sph_pair_sums(const SimParams* p, const uint i, __global const float4* pos,
+SPH_HOT SphPairSums sph_pair_sums(const SimParams* p, const uint i, __global const float4* pos,
                                  __global const float4* vel, __global const uint* phase,
                                  __global const float* density, __global const float* pterm,
                                  __global const uint* nbr, const uint n, const int pressure, const int viscous) {
