@@ -73,7 +73,7 @@
  * sum_b psi_b s_b gradW_ib in xyz instead. Eight at a time (shared/pair_loops.h), lanes summed in
  * a fixed order, then the rest one by one. */
 SPH_HOT float4 dfsph_wall_sums(const float3 xi, __global const uint* list, const uint nb, __global const float4* bpos,
-                              __global const float4* bvel, __global const float* s, const float H) {
+                               __global const float4* bvel, __global const float* s, const float H) {
   float8 gx = (float8)(0.0f), gy = gx, gz = gx, fl = gx;
   uint k = 0;
   for (; k + 8 <= nb; k += 8) {
@@ -208,9 +208,9 @@ __kernel void dfsph_factor(const SimParams p, __global const float4* pos, __glob
 
 /* D delta_i / Dt (B&K 2017 eq. 2, number density): the rate at which the neighbours close in; the
  * walls' part from the factor pass's sums gw (v_i . G_b - sum_b psi_b v_b . gradW_ib). */
-SPH_HOT float dfsph_density_rate(const SimParams* p, const uint i,
-                                __global const float4* pos, __global const float4* vel, __global const uint* lists, const uint nf,
-                                const float4 gw) {
+SPH_HOT float dfsph_density_rate(const SimParams* p, const uint i, __global const float4* pos,
+                                 __global const float4* vel, __global const uint* lists, const uint nf,
+                                 const float4 gw) {
   const float H = p->support;
   const float3 xi = pos[i].xyz, vi = vel[i].xyz;
   const SphList nbr = sph_list(p, lists, i); /* made here, not passed in by value (as dfsph_force) */
@@ -332,10 +332,10 @@ __kernel void dfsph_warm_filter(const SimParams p, __global const float4* pos, _
  * xt_j = (x_j, p_j / delta_j^2) (written with the pressures by dfsph_source and dfsph_jacobi), one
  * gather per neighbour instead of five (position, phase, mass, density, pressure). Inlined by force
  * (SPH_HOT, shared/pair_loops.h). */
-SPH_HOT float3 dfsph_force(const SimParams* p, const uint i, __global const float4* xt,
-                          __global const uint* phase, __global const float* density, __global const float* pr,
-                          __global const uint* nbr, const uint nf, __global const float4* bpos, __global const uint* blist, const uint nb,
-                          const float wall, __global const float* bpr, const int use_bp, const float4 gw) {
+SPH_HOT float3 dfsph_force(const SimParams* p, const uint i, __global const float4* xt, __global const uint* phase,
+                           __global const float* density, __global const float* pr, __global const uint* nbr,
+                           const uint nf, __global const float4* bpos, __global const uint* blist, const uint nb,
+                           const float wall, __global const float* bpr, const int use_bp, const float4 gw) {
   const float H = p->support;
   const float3 xi = xt[i].xyz;
   const float di = density[i] / p->phase_mass[phase[i]];

@@ -85,9 +85,9 @@ inline float sph_hsum8(const float8 a) {
  * same form. With out = outs = 0 the list is this step's list already (DFSPH's lists
  * built at H, core/simulation.cpp buildGrid): only the sum (and *out_n is not the count). */
 SPH_HOT float sph_list_density(const float3 xi, __global const uint* lists, const uint i, const uint K,
-                              const int wide, const uint n, __global const float4* pts,
-                              const int weighted, const float H, __global uint* out, __global short* outs,
-                              uint* out_n) {
+                               const int wide, const uint n, __global const float4* pts,
+                               const int weighted, const float H, __global uint* out, __global short* outs,
+                               uint* out_n) {
   const SphList list = sph_list_k(lists, i, K, wide); /* made here, not passed in by value */
   const float H2 = H * H;
   float8 acc = (float8)(0.0f);
@@ -141,8 +141,8 @@ SPH_HOT float sph_list_density(const float3 xi, __global const uint* lists, cons
 #pragma clang diagnostic ignored "-Wpsabi"
 #endif
 SPH_HOT uint sph_collect_row(const float3 xi, __global const float4* pts, const uint begin, const uint end,
-                            const float R2, const uint self, __global uint* out, __global short* outs,
-                            const int base, const uint K, uint count) {
+                             const float R2, const uint self, __global uint* out, __global short* outs,
+                             const int base, const uint K, uint count) {
   uint k = begin;
   for (; k + 8 <= end; k += 8) {
     const uint8 j = (uint8)(k) + (uint8)(0, 1, 2, 3, 4, 5, 6, 7);
@@ -210,9 +210,9 @@ typedef struct {
 } SphPairSums;
 
 SPH_HOT SphPairSums sph_pair_sums(const SimParams* p, const uint i, __global const float4* pos,
-                                 __global const float4* vel, __global const uint* phase,
-                                 __global const float* density, __global const float* pterm,
-                                 __global const uint* nbr, const uint n, const int pressure, const int viscous) {
+                                  __global const float4* vel, __global const uint* phase,
+                                  __global const float* density, __global const float* pterm,
+                                  __global const uint* nbr, const uint n, const int pressure, const int viscous) {
   const float H = p->support;
   const float3 xi = pos[i].xyz;
   const float pi_term = pressure ? pterm[i] : 0.0f;
