@@ -144,12 +144,12 @@ __kernel void dfsph_factor(const SimParams p, __global const float4* pos, __glob
   const float mi = p.phase_mass[phase[i]];
   const SphList list = sph_list(&p, nbr, i); /* narrow or wide (shared/neighbours.h) */
   /* sums of gradients over fluid and boundary, and sum_j |gradW_ij|^2 / m_j; fluid pairs eight at
-   * a time (shared/pair_loops.h), the last group padded (sph_list8_tail), lanes summed in a fixed order */
+   * a time (shared/pair_loops.h), lanes summed in a fixed order, then the rest one by one */
   float8 sx = (float8)(0.0f), sy = sx, sz = sx, s8 = sx, r8 = sx;
   const uint nf = nbr_count[i];
   uint k = 0;
-  for (; k < nf; k += 8) {
-    const uint8 j = sph_list8_tail(list, k, nf); /* the last 1-7 with self lanes, which add 0 */
+  for (; k + 8 <= nf; k += 8) {
+    const uint8 j = sph_list8(list, k);
     SPH_LOAD8(x, pos, j);
     const float8 dx = xi.x - SPH_LANES8(x, x), dy = xi.y - SPH_LANES8(x, y), dz = xi.z - SPH_LANES8(x, z);
     const float8 F = sph_grad_factor8(sqrt(dx * dx + dy * dy + dz * dz), H);
@@ -174,6 +174,15 @@ __kernel void dfsph_factor(const SimParams p, __global const float4* pos, __glob
   float3 gf = (float3)(sph_hsum8(sx), sph_hsum8(sy), sph_hsum8(sz));
   float s2 = sph_hsum8(s8);
   float rate = sph_hsum8(r8);
+  for (; k < nf; ++k) {
+    const uint j = sph_list1(list, k);
+    const float3 d = xi - pos[j].xyz;
+    const float Fk = sph_grad_factor(SPH_KERNEL, length(d), H);
+    const float3 g = Fk * d;
+    gf += g;
+    s2 += dot(g, g) / (one_mass ? mi : p.phase_mass[phase[j]]);
+    if (with_rate) rate += Fk * dot(vi - vel[j].xyz, d);
+  }
   const float4 gw = dfsph_wall_sums(xi, bnbr + (size_t)i * K, bnbr_count[i], bpos, bvel, 0, H);
   gwall[i] = gw;
   /* with_rate: D delta_i / Dt of `vel` (dfsph_density_rate: the same pairs, order and arithmetic,
@@ -214,19 +223,24 @@ SPH_HOT float dfsph_density_rate(const SimParams* p, const uint i, __global cons
   const float H = p->support;
   const float3 xi = pos[i].xyz, vi = vel[i].xyz;
   const SphList nbr = sph_list(p, lists, i); /* made here, not passed in by value (as dfsph_force) */
-  /* fluid neighbours eight at a time (shared/pair_loops.h: pocl leaves such loops scalar), the last
-   * 1-7 as one more group with self lanes, which add 0 (shared/neighbours.h, sph_list8_tail), the
-   * lanes summed in a fixed order */
+  /* fluid neighbours eight at a time (shared/pair_loops.h: pocl leaves such loops scalar), the
+   * lanes summed in a fixed order, then the rest one by one */
   float8 acc = (float8)(0.0f);
-  for (uint k = 0; k < nf; k += 8) {
-    const uint8 j = sph_list8_tail(nbr, k, nf);
+  uint k = 0;
+  for (; k + 8 <= nf; k += 8) {
+    const uint8 j = sph_list8(nbr, k);
     SPH_LOAD8(x, pos, j);
     SPH_LOAD8(v, vel, j);
     const float8 dx = xi.x - SPH_LANES8(x, x), dy = xi.y - SPH_LANES8(x, y), dz = xi.z - SPH_LANES8(x, z);
     const float8 F = sph_grad_factor8(sqrt(dx * dx + dy * dy + dz * dz), H);
     acc += F * ((vi.x - SPH_LANES8(v, x)) * dx + (vi.y - SPH_LANES8(v, y)) * dy + (vi.z - SPH_LANES8(v, z)) * dz);
   }
-  const float rate = sph_hsum8(acc);
+  float rate = sph_hsum8(acc);
+  for (; k < nf; ++k) {
+    const uint j = sph_list1(nbr, k);
+    const float3 d = xi - pos[j].xyz;
+    rate += sph_grad_factor(SPH_KERNEL, length(d), H) * dot(vi - vel[j].xyz, d);
+  }
   return rate + (dot(vi, gw.xyz) - gw.w);
 }
 
@@ -343,10 +357,11 @@ SPH_HOT float3 dfsph_force(const SimParams* p, const uint i, __global const floa
   /* i's fluid list, narrow or wide (shared/neighbours.h), made here rather than passed in: when this
    * function was not inlined, a list passed by value cost ~10 % of the pass (performance) */
   const SphList list = sph_list(p, nbr, i);
-  /* fluid neighbours eight at a time, the last group padded (as dfsph_density_rate) */
+  /* fluid neighbours eight at a time (as dfsph_density_rate), then the rest one by one */
   float8 fx = (float8)(0.0f), fy = fx, fz = fx;
-  for (uint k = 0; k < nf; k += 8) {
-    const uint8 j = sph_list8_tail(list, k, nf);
+  uint k = 0;
+  for (; k + 8 <= nf; k += 8) {
+    const uint8 j = sph_list8(list, k);
     SPH_LOAD8(x, xt, j);
     const float8 dx = xi.x - SPH_LANES8(x, x), dy = xi.y - SPH_LANES8(x, y), dz = xi.z - SPH_LANES8(x, z);
     const float8 F = sph_grad_factor8(sqrt(dx * dx + dy * dy + dz * dz), H);
@@ -356,6 +371,11 @@ SPH_HOT float3 dfsph_force(const SimParams* p, const uint i, __global const floa
     fz -= c * dz;
   }
   float3 f = (float3)(sph_hsum8(fx), sph_hsum8(fy), sph_hsum8(fz));
+  for (; k < nf; ++k) {
+    const float4 xj = xt[sph_list1(list, k)];
+    const float3 d = xi - xj.xyz;
+    f -= (ti + xj.w) * sph_grad_factor(SPH_KERNEL, length(d), H) * d;
+  }
   /* walls: wall = 2 mirrors the pressure (p_b = p_i, delta_b = delta_i), wall = 1 is Akinci's
    * single term (p_b = 0 in the symmetric sum); extrapolated (use_bp): wall = 1 and the wall
    * particle's own pressure p_b (Adami et al. 2012 eq. 27, bpr) in the symmetric sum, over delta_i^2 */
@@ -406,10 +426,11 @@ __kernel void dfsph_jacobi(const SimParams p, __global const float4* pos, __glob
     return;
   }
   const SphList list = sph_list(&p, nbr, i); /* narrow or wide (shared/neighbours.h) */
-  /* sum_j (a_i - a_j) . gradW_ij: eight at a time, the last group padded (as dfsph_density_rate) */
+  /* sum_j (a_i - a_j) . gradW_ij: eight at a time, then the rest (as dfsph_density_rate) */
   float8 acc = (float8)(0.0f);
-  for (uint k = 0; k < nf; k += 8) {
-    const uint8 j = sph_list8_tail(list, k, nf);
+  uint k = 0;
+  for (; k + 8 <= nf; k += 8) {
+    const uint8 j = sph_list8(list, k);
     SPH_LOAD8(x, pos, j);
     SPH_LOAD8(a, accel, j);
     const float8 dx = xi.x - SPH_LANES8(x, x), dy = xi.y - SPH_LANES8(x, y), dz = xi.z - SPH_LANES8(x, z);
@@ -417,6 +438,11 @@ __kernel void dfsph_jacobi(const SimParams p, __global const float4* pos, __glob
     acc += F * ((ai.x - SPH_LANES8(a, x)) * dx + (ai.y - SPH_LANES8(a, y)) * dy + (ai.z - SPH_LANES8(a, z)) * dz);
   }
   float Ap = sph_hsum8(acc);
+  for (; k < nf; ++k) {
+    const uint j = sph_list1(list, k);
+    const float3 d = xi - pos[j].xyz;
+    Ap += sph_grad_factor(SPH_KERNEL, length(d), H) * dot(ai - accel[j].xyz, d);
+  }
   Ap += dot(ai, gwall[i].xyz); /* sum_b psi_b a_i . gradW_ib = a_i . G_b */
   /* nodes: the cloth nodes' pressure accelerations (dfsph_node_accel; 0 for the other boundary
    * particles), - sum_b psi_b a_b . gradW_ib */
@@ -527,10 +553,11 @@ __kernel void dfsph_apply_increments(const SimParams p, __global const float4* x
   float3 f = (float3)(0.0f);           /* pressure force (unit: N) */
   const uint nf = nbr_count[i];
   const SphList list = sph_list(&p, nbr, i); /* narrow or wide (shared/neighbours.h) */
-  /* fluid neighbours eight at a time, the last group padded (as dfsph_density_rate) */
+  /* fluid neighbours eight at a time (as dfsph_density_rate), then the rest one by one */
   float8 fx = (float8)(0.0f), fy = fx, fz = fx;
-  for (uint k = 0; k < nf; k += 8) {
-    const uint8 j = sph_list8_tail(list, k, nf);
+  uint k = 0;
+  for (; k + 8 <= nf; k += 8) {
+    const uint8 j = sph_list8(list, k);
     SPH_LOAD8(x, xt, j); /* position and p_j / delta_j^2, packed (dfsph_force) */
     const float8 dx = xi.x - SPH_LANES8(x, x), dy = xi.y - SPH_LANES8(x, y), dz = xi.z - SPH_LANES8(x, z);
     const float8 F = sph_grad_factor8(sqrt(dx * dx + dy * dy + dz * dz), H);
@@ -540,6 +567,11 @@ __kernel void dfsph_apply_increments(const SimParams p, __global const float4* x
     fz -= c * dz;
   }
   f = (float3)(sph_hsum8(fx), sph_hsum8(fy), sph_hsum8(fz));
+  for (; k < nf; ++k) {
+    const float4 xj = xt[sph_list1(list, k)];
+    const float3 d = xi - xj.xyz;
+    f -= (ti + xj.w) * sph_grad_factor(SPH_KERNEL, length(d), H) * d;
+  }
   f -= 2.0f * ti * gwall[i].xyz; /* walls mirror the pressure: sum_b psi_b 2 t_i gradW_ib = 2 t_i G_b */
   vel[i] += (float4)(p.dt / mi * f, 0.0f);
   pacc[i] += pinc[i];

@@ -83,17 +83,6 @@ inline uint8 sph_list8(const SphList l, const uint k) {
 }
 inline uint sph_list1(const SphList l, const uint k) { return l.w ? l.w[k] : (uint)(l.i + (int)l.s[k]); }
 
-/* Entries k..k+7 of a list of n, the lanes at or past n replaced by the particle itself (i), so that a
- * list's last 1-7 entries run as one more group of eight instead of one by one (performance: the
- * one-by-one tail cost a quarter of a pass, its kernel's two pieces a mispredicted branch each).
- * Only for pair terms that vanish at x_ij = 0 (a gradient times x_ij, or a dot with it): a self
- * lane then adds exactly zero. The slots past n are read (they lie within the particle's K slots:
- * k + 8 <= K whenever k < n <= K) but never used as indices. */
-inline uint8 sph_list8_tail(const SphList l, const uint k, const uint n) {
-  const int8 lane = (int8)((int)k) + (int8)(0, 1, 2, 3, 4, 5, 6, 7);
-  return select((uint8)((uint)l.i), sph_list8(l, k), lane < (int8)((int)n));
-}
-
 /* The narrow offset of candidate j from particle i (valid where it fits: the build checks). */
 #define SPH_NARROW_OFFSET8(J, I) convert_short8(as_int8(J) - (int8)((int)(I)))
 

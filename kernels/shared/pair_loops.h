@@ -1,6 +1,6 @@
 /* Neighbour-list loops of the density and force passes (device side only), eight candidates per
- * iteration in float8 vectors, then the remainder one by one (DFSPH's pair passes take it as one more
- * group instead, shared/neighbours.h sph_list8_tail; these loops keep WCSPH's results as they were).
+ * iteration in float8 vectors, then the remainder one by one (session 46 tried the remainder as one more
+ * group padded with the particle itself, and did not keep it: docs/dfsph.md).
  *
  * Why by hand: pocl runs a work-group's work-items in a loop on each CPU core and leaves these
  * inner loops scalar (their trip counts differ per particle, and the list compaction carries a
