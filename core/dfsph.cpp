@@ -85,8 +85,9 @@ DfsphSolver::DfsphSolver(ClContext& cl, KernelSet& kernels, std::size_t capacity
   pdens_ = makeBuffer(capacity * 4);
   scratch_a_ = makeBuffer(capacity * 4);
   scratch_b_ = makeBuffer(capacity * 4);
-  // The last density pressure, for a warm start averaged over two steps (warm_average > 0).
-  const std::size_t np = spec.warm_average > 0.0 ? capacity : 0;
+  // The last density pressure, for a warm start averaged over two steps (warm_average > 0, or
+  // warm_average_rest > 0 for the steps at rest).
+  const std::size_t np = averaging() ? capacity : 0;
   previous_ = makeBuffer(np * 4);
   previous_out_ = makeBuffer(np * 4);
   vel_before_ = makeBuffer(capacity * 16);
@@ -125,7 +126,7 @@ DfsphSolver::DfsphSolver(ClContext& cl, KernelSet& kernels, std::size_t capacity
       q.enqueueFillBuffer(*b, 0.0f, 0, std::max<std::size_t>(capacity, 4) * 4);
     // warm_average's last pressures too: a particle an inflow emits later averages with 0, not with
     // whatever the buffer held (a bowl filled by an inflow blew up at 0.03 s before this; session 29)
-    if (spec.warm_average > 0.0)
+    if (averaging())
       for (cl::Buffer* b : {&previous_, &previous_out_}) q.enqueueFillBuffer(*b, 0.0f, 0, std::max<std::size_t>(capacity, 4) * 4);
     return q.finish();
   });
@@ -235,7 +236,7 @@ void DfsphSolver::boundaryPressure(Kind kind, const SimParams& p, const DfsphFie
                 wall_weight_, wall_sum_);
 }
 
-void DfsphSolver::source(Kind kind, const SimParams& p, const DfsphFields& f, cl::Buffer& pressure) {
+void DfsphSolver::source(Kind kind, const SimParams& p, const DfsphFields& f, cl::Buffer& pressure, bool at_rest) {
   // The pressure is kept in Pa, not rescaled when dt changes: the hydrostatic pressure that most
   // of it is does not depend on dt (the reference implementation keeps p dt^2, which would scale a
   // resting column's pressure by (dt_prev / dt)^2 after each change of step).
@@ -249,7 +250,13 @@ void DfsphSolver::source(Kind kind, const SimParams& p, const DfsphFields& f, cl
   rate_in_source_ = false;
   // The density solve's warm start averaged over the last two steps (kernels/dfsph.cl,
   // dfsph_warm_average): p <- p + gamma (p_prev - p), and p_prev <- the unaveraged p for the next step.
-  if (!div && spec_.warm_start && spec_.warm_average > 0.0 && p.n_fluid > 0) {
+  // gamma is warm_average, or warm_average_rest where the step is at rest if that is larger: restarted
+  // in full, the part of p the last solve added for its own step's error is applied again a step late,
+  // a period-2 swing; at rest, where the loose default bound leaves it in place, it decided by rounding
+  // whether the 0.2 m tank was calm or rang by 1-2 kPa between steps (docs/dfsph.md, session 47). The
+  // last pressure is kept in every step, so the first step at rest averages with the step before it.
+  if (!div && spec_.warm_start && averaging() && p.n_fluid > 0) {
+    const double gamma = std::max(spec_.warm_average, at_rest ? restAverage() : 0.0);
     const std::size_t bytes = std::size_t(p.n_fluid) * 4;
     clCall("keeping the last density pressure", [&] {
       auto& q = cl_.queue();
@@ -257,8 +264,9 @@ void DfsphSolver::source(Kind kind, const SimParams& p, const DfsphFields& f, cl
       return q.enqueueCopyBuffer(pressure, previous_out_, 0, 0, bytes);
     });
     have_previous_ = true;
-    kernels_.call("dfsph_warm_average", p.n_fluid, kLocal, static_cast<uint32_t>(p.n_fluid), pressure, previous_,
-                  static_cast<float>(spec_.warm_average));
+    if (gamma > 0.0)
+      kernels_.call("dfsph_warm_average", p.n_fluid, kLocal, static_cast<uint32_t>(p.n_fluid), pressure, previous_,
+                    static_cast<float>(gamma));
     std::swap(previous_, previous_out_);
   }
   // The density solve's warm start filtered (kernels/dfsph.cl, dfsph_warm_filter): the last pressure
@@ -763,7 +771,10 @@ DfsphSolveResult DfsphSolver::solve(Kind kind, const SimParams& p, const DfsphFi
   const int min_it = std::max(1, div ? spec_.divergence_min_iterations : spec_.min_iterations);
   const int max_it = div ? spec_.divergence_max_iterations : spec_.max_iterations;
   // The source from the velocities the solve starts with, and the starting pressure.
-  source(kind, p, f, pressure);
+  // A density solve at rest: its step's fastest particle moved less than coarse_rest_travel dx in the
+  // last step (the tank at rest: 0.01-0.03 dx per step; a dam break 0.2-0.4 dx).
+  const bool rest = !div && f.max_speed * p.dt < spec_.coarse_rest_travel * dx_;
+  source(kind, p, f, pressure, rest);
   // Relaxed Jacobi iterations on the pressures (velocities fixed), until the average error of the
   // pressures found is within the bound; at least min_it (at least one), at most max_it. The error
   // is read (a wait for the device) only where it can stop the solve: not before min_it.
@@ -801,7 +812,7 @@ DfsphSolveResult DfsphSolver::solve(Kind kind, const SimParams& p, const DfsphFi
   //   layers, gravity ramped in, 5 ms steps: from 0.24 s every correction raised the error, 1.5e-3
   //   -> 3.1e-3, 1.6e-3 -> 3.9e-3, ..., the stall rule made 25 of them in the step's 100 iterations,
   //   the error reached 4e-2 and the run ended in NaN at 0.245 s; docs/dfsph.md "Session 13").
-  const bool at_rest = coarse() && !div && f.max_speed * p.dt < spec_.coarse_rest_travel * dx_;
+  const bool at_rest = coarse() && rest;
   DfsphSolveResult r;
   bool again = false;
   bool error_read = false;

@@ -168,6 +168,17 @@ struct DfsphSpec {
   /// rest) is in both. 0 = the last pressure alone (kernels/dfsph.cl, dfsph_warm_average; docs/dfsph.md,
   /// session 29); walls single or extrapolated (unit: 1)
   double warm_average = 0.0;
+  /// the same average in the density solves of steps at rest (the two-level solve's rest test: the fastest
+  /// particle moved less than coarse_rest_travel dx in the last step), where the larger of the two applies.
+  /// Restarted in full at rest, the last solve's push for its own error returns a step late as a period-2
+  /// swing that the loose default bound leaves in place. The 0.2 m tank at rest, 24 small changes to its
+  /// settings, two builds that round differently (48 runs): calm from 1 s (< 95 Pa between steps) in 23 with
+  /// 0, 47 with 0.5, 48 with 0.6 and 0.75, at 2.0-2.2 density iterations per step against 2.8-3.1; at the
+  /// tight bound 1e-5 (24 runs) steps above the bound in 3 runs with 0, none with 0.6, 7 of 12 with 0.75
+  /// (docs/dfsph.md, session 47). Moving flows keep the full restart (the 50k dam break took 6 % more
+  /// iterations per step with the average); 0 = off. Not where pressure_cfl is set: the deep column that
+  /// bound rests took steps over its pressure scale with it (core/dfsph.h, restAverage) (unit: 1)
+  double warm_average_rest = 0.6;
   double relaxation = 0.5;           ///< Jacobi relaxation omega of both solves' pressure increments (unit: 1)
   /// the laminar viscosity explicit (the step bound 0.125 h^2 / nu applies) or implicit (a conjugate-gradient
   /// solve each step, no viscous step bound; kernels/viscosity.cl, viscosity_cg_*)
