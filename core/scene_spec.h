@@ -174,7 +174,7 @@ struct DfsphSpec {
   /// swing that the loose default bound leaves in place. The 0.2 m tank at rest, 24 small changes to its
   /// settings, two builds that round differently (48 runs): calm from 1 s (< 95 Pa between steps) in 23 with
   /// 0, 47 with 0.5, 48 with 0.6 and 0.75, at 2.0-2.2 density iterations per step against 2.8-3.1; at the
-  /// tight bound 1e-5 (24 runs) steps above the bound in 3 runs with 0, none with 0.6, 7 of 12 with 0.75
+  /// tight bound 1e-5 (24 runs) steps above the bound in 4 runs with 0, none with 0.6, 6 of 12 with 0.75
   /// (docs/dfsph.md, session 47). Moving flows keep the full restart (the 50k dam break took 6 % more
   /// iterations per step with the average); 0 = off. Not where pressure_cfl is set: the deep column that
   /// bound rests took steps over its pressure scale with it (core/dfsph.h, restAverage) (unit: 1)
