@@ -419,6 +419,10 @@ TEST_CASE("DFSPH settings: bad values are reported at file:line:col", "[dfsph]")
   CHECK(testing::hasIssue(issues, 7, {"warm_average"}));
   issues = testing::issuesOf(dir, head + "    warm_average: -0.5\n");
   CHECK(testing::hasIssue(issues, 7, {"warm_average"}));
+  issues = testing::issuesOf(dir, head + "    warm_average_rest: 1.5\n");
+  CHECK(testing::hasIssue(issues, 7, {"warm_average_rest"}));
+  issues = testing::issuesOf(dir, head + "    warm_average_rest: -0.5\n");
+  CHECK(testing::hasIssue(issues, 7, {"warm_average_rest"}));
   // implicit viscosity: its tolerance in (0, 1], at least one iteration, the laminar model, and DFSPH
   issues = testing::issuesOf(dir, head + "    viscosity_tolerance: 0\n");
   CHECK(testing::hasIssue(issues, 7, {"viscosity_tolerance"}));
