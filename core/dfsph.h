@@ -238,6 +238,12 @@ class DfsphSolver {
   bool divergence_ran_ = false;            // the divergence solve runs (its wall pressure counts)
   bool rate_in_source_ = false;            // source_ holds the divergence solve's density rate (factors())
   double prev_dt_div_ = 0.0, prev_dt_dens_ = 0.0;  // step of the last solve of each kind (unit: s)
+  // Chebyshev semi-iteration (spec chebyshev): on in this solve (a moving step), the iterations of its
+  // sequence so far, the last weight, and the iterate before the last
+  bool cheb_on_ = false;
+  int cheb_k_ = 0;
+  double cheb_w_ = 1.0;
+  cl::Buffer cheb_;
   cl::Buffer vel_before_;                  // velocities before the density solve, or the implicit viscosity's v' (unit: m/s)
   bool viscous_kept_ = false;              // vel_before_ holds this step's implicit viscosity solution
   cl::Buffer vdiag_, vr_, vz_, vd_, vq_;   // implicit viscosity: the diagonal of A, residual, preconditioned residual, direction, M A d

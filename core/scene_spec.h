@@ -180,6 +180,13 @@ struct DfsphSpec {
   /// bound rests took steps over its pressure scale with it (core/dfsph.h, restAverage) (unit: 1)
   double warm_average_rest = 0.6;
   double relaxation = 0.5;           ///< Jacobi relaxation omega of both solves' pressure increments (unit: 1)
+  /// Chebyshev semi-iteration on the density solve's relaxed Jacobi iterates (Golub & Varga 1961; Wang 2015
+  /// for position-based dynamics): rho is the estimated spectral radius of the relaxed iteration, and after
+  /// the first iteration each iterate is x_{k-1} + w_k (x_jac - x_{k-1}), w_2 = 2 / (2 - rho^2),
+  /// w_{k+1} = 4 / (4 - rho^2 w_k), projected on p >= 0. In moving steps only (a step at rest, coarse_rest_travel,
+  /// keeps plain Jacobi and the two-level solve); a coarse correction restarts the sequence. 0 = off (unit: 1)
+  double chebyshev = 0.9;
+  double divergence_chebyshev = 0.7;  ///< the same for the divergence solve (unit: 1)
   /// the laminar viscosity explicit (the step bound 0.125 h^2 / nu applies) or implicit (a conjugate-gradient
   /// solve each step, no viscous step bound; kernels/viscosity.cl, viscosity_cg_*)
   ViscositySolve viscosity_solve = ViscositySolve::Auto;

@@ -412,7 +412,8 @@ __kernel void dfsph_jacobi(const SimParams p, __global const float4* pos, __glob
                            __global const uint* bnbr_count, const uint min_neighbours, const float omega,
                            const int two_sided, __global float* pressure, __global float* err,
                            __global const uint* phase, __global const float* density, __global float4* xt,
-                           __global const float4* gwall, const int nodes, __global const float4* bacc) {
+                           __global const float4* gwall, const int nodes, __global const float4* bacc,
+                           const float cheb, __global float* pold) {
   const uint i = get_global_id(0);
   if (i >= p.n_fluid) return;
   const uint K = p.max_neighbours;
@@ -450,7 +451,12 @@ __kernel void dfsph_jacobi(const SimParams p, __global const float4* pos, __glob
   const float r = source[i] + p.dt * p.dt * p.rest_volume * Ap;
   const float inc = omega * r * alpha[i] / (p.dt * p.dt * p.rest_volume);
   const float p0 = pressure[i];
-  const float p1 = fmax(p0 + inc, 0.0f);
+  float p1 = fmax(p0 + inc, 0.0f);
+  if (cheb != 0.0f && cheb != 1.0f) {
+    const float pm = pold[i];
+    p1 = fmax(pm + cheb * (p1 - pm), 0.0f);
+  }
+  if (cheb != 0.0f) pold[i] = p0;
   pressure[i] = p1;
   err[i] = (two_sided && p0 > 0.0f) ? fabs(r) : fmax(r, 0.0f);
   /* the packed position and p / delta^2 that the next pressure-force pass gathers (dfsph_force) */

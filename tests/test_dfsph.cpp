@@ -423,6 +423,11 @@ TEST_CASE("DFSPH settings: bad values are reported at file:line:col", "[dfsph]")
   CHECK(testing::hasIssue(issues, 7, {"warm_average_rest"}));
   issues = testing::issuesOf(dir, head + "    warm_average_rest: -0.5\n");
   CHECK(testing::hasIssue(issues, 7, {"warm_average_rest"}));
+  // a Chebyshev spectral radius outside [0, 1) (1 would let the weights grow to 2: no contraction left)
+  issues = testing::issuesOf(dir, head + "    chebyshev: 1\n");
+  CHECK(testing::hasIssue(issues, 7, {"chebyshev"}));
+  issues = testing::issuesOf(dir, head + "    divergence_chebyshev: -0.1\n");
+  CHECK(testing::hasIssue(issues, 7, {"divergence_chebyshev"}));
   // implicit viscosity: its tolerance in (0, 1], at least one iteration, the laminar model, and DFSPH
   issues = testing::issuesOf(dir, head + "    viscosity_tolerance: 0\n");
   CHECK(testing::hasIssue(issues, 7, {"viscosity_tolerance"}));
