@@ -290,9 +290,9 @@ TEST_CASE("DFSPH dam break with the Chebyshev semi-iteration (the default): the 
   // tolerance as the WCSPH test; every step of the default within its error bound (the run's profile); and
   // fewer density iterations per step, the method's purpose. Measured (session 48, this scene, Courant 0.8):
   // 120 steps, 8.54 density iterations per step, front mean 2.13 % / max 5.78 %; plain Jacobi 121 steps,
-  // 18.7 per step, 2.01 % / 5.66 %, one step unconverged. The 50k dam breaks: docs/dfsph.md, session 48. Mutations: the weights'
-  // recurrence w_{k+1} = 4 / (4 - rho^2 w_k) replaced by w = 1 (plain Jacobi) reads the plain run's count
-  // and fails the iteration check.
+  // 18.7 per step, 2.01 % / 5.66 %, one step unconverged. The 50k dam breaks: docs/dfsph.md, session 48. Mutation (run): the
+  // kernel's weight forced to 1 (plain Jacobi) reads 18.6 iterations per step and one unconverged step: two
+  // checks fail.
   const DamResult c = damBreak({"fluid.dfsph.cfl=0.8"});
   const DamResult j = damBreak({"fluid.dfsph.cfl=0.8", "fluid.dfsph.chebyshev=0", "fluid.dfsph.divergence_chebyshev=0"});
   REQUIRE(c.exit_code == 0);
