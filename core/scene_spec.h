@@ -183,8 +183,9 @@ struct DfsphSpec {
   /// Chebyshev semi-iteration on the density solve's relaxed Jacobi iterates (Golub & Varga 1961; Wang 2015
   /// for position-based dynamics): rho is the estimated spectral radius of the relaxed iteration, and after
   /// the first iteration each iterate is x_{k-1} + w_k (x_jac - x_{k-1}), w_2 = 2 / (2 - rho^2),
-  /// w_{k+1} = 4 / (4 - rho^2 w_k), projected on p >= 0. In moving steps only (a step at rest, coarse_rest_travel,
-  /// keeps plain Jacobi and the two-level solve); a coarse correction restarts the sequence. 0 = off (unit: 1)
+  /// w_{k+1} = 4 / (4 - rho^2 w_k), projected on p >= 0. In moving steps only (the fastest particle moved at least
+  /// 0.1 dx in the last step, core/dfsph.cpp kChebyshevTravel; a step at rest keeps plain Jacobi and the two-level
+  /// solve); a coarse correction restarts the sequence. 0 = off (unit: 1)
   double chebyshev = 0.9;
   double divergence_chebyshev = 0.7;  ///< the same for the divergence solve (unit: 1)
   /// the laminar viscosity explicit (the step bound 0.125 h^2 / nu applies) or implicit (a conjugate-gradient

@@ -498,8 +498,9 @@ std::vector<KeyDef> buildTable() {
           .doc("Chebyshev semi-iteration on the density solve's relaxed Jacobi iterates (Golub & Varga 1961; Wang "
                "2015): the estimated spectral radius rho of the relaxed iteration. After the first iteration each "
                "iterate is x_{k-1} + w_k (x_jacobi - x_{k-1}), w_2 = 2 / (2 - rho^2), w_{k+1} = 4 / (4 - rho^2 w_k), "
-               "projected on p >= 0; a coarse correction restarts the sequence. Moving steps only: a step at rest "
-               "(coarse_rest_travel) keeps plain Jacobi and the two-level solve. 0 = off (docs/dfsph.md, session 48)"));
+               "projected on p >= 0; a coarse correction restarts the sequence. Moving steps only (the fastest "
+               "particle moved at least 0.1 dx in the last step): a step at rest keeps plain Jacobi and the two-level "
+               "solve. 0 = off (docs/dfsph.md, session 48)"));
   add(field<InScene>("fluid.dfsph.divergence_chebyshev", [](auto& s) -> auto& { return s.fluid.dfsph.divergence_chebyshev; })
           .unit("1").atLeast(0).lessThan(1)
           .doc("the same Chebyshev semi-iteration for the divergence solve (moving steps only); 0 = off"));

@@ -404,8 +404,10 @@ __kernel void dfsph_pressure_accel(const SimParams p, __global const float4* xt,
  * p_i <- max(p_i + omega r_i alpha_i / (dt^2 V0), 0), err_i = max(r_i, 0) before the update (as the
  * reference). Divergence solve: a particle with fewer than `min_neighbours` neighbours (free
  * surface, splashes) has a density rate that is not that of a full support; it takes no pressure
- * and its error is not counted (as the reference). Reads the neighbours' accelerations, writes
- * only particle i. */
+ * and its error is not counted (as the reference). Chebyshev semi-iteration (core/dfsph.cpp, iterate()):
+ * with the weight cheb other than 0 or 1 the new pressure is max(pold_i + cheb (p_jacobi - pold_i), 0), pold_i
+ * the iterate before the last; with cheb != 0 pold_i keeps this iteration's starting p_i for the next one
+ * (cheb 0: plain Jacobi, pold untouched). Reads the neighbours' accelerations, writes only particle i. */
 __kernel void dfsph_jacobi(const SimParams p, __global const float4* pos, __global const float4* accel,
                            __global const float* alpha, __global const float* source, __global const uint* nbr,
                            __global const uint* nbr_count, __global const float4* bpos, __global const uint* bnbr,
