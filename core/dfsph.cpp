@@ -261,7 +261,7 @@ void DfsphSolver::source(Kind kind, const SimParams& p, const DfsphFields& f, cl
   // whether the 0.2 m tank was calm or rang by 1-2 kPa between steps (docs/dfsph.md, session 47). The
   // last pressure is kept in every step, so the first step at rest averages with the step before it.
   if (!div && averaging() && p.n_fluid > 0) {  // averaging() includes warm_start
-    const double gamma = std::max(spec_.warm_average, at_rest ? restAverage() : 0.0);
+    const double gamma = std::max(spec_.warm_average, at_rest ? spec_.warm_average_rest : 0.0);
     const std::size_t bytes = std::size_t(p.n_fluid) * 4;
     clCall("keeping the last density pressure", [&] {
       auto& q = cl_.queue();

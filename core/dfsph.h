@@ -167,12 +167,7 @@ class DfsphSolver {
   void source(Kind kind, const SimParams& p, const DfsphFields& f, cl::Buffer& pressure, bool at_rest);
   /// The density solve's warm start is averaged over two steps in some steps (warm_average,
   /// warm_average_rest): the last pressure is kept.
-  bool averaging() const { return spec_.warm_start && (spec_.warm_average > 0.0 || restAverage() > 0.0); }
-  /// warm_average_rest's gamma, 0 where the pressure step bound is set (pressure_cfl > 0): the 0.28 m
-  /// column that bound rests (tests/test_dfsph.cpp) took steps over its pressure scale in 7 of 7 runs
-  /// with 0.6 at rest (a plain and a smoothed average alike) against 1 of 7 with the full restart,
-  /// and swung (docs/dfsph.md, session 47).
-  double restAverage() const { return spec_.pressure_cfl > 0.0 ? 0.0 : spec_.warm_average_rest; }
+  bool averaging() const { return spec_.warm_start && (spec_.warm_average > 0.0 || spec_.warm_average_rest > 0.0); }
   /// One relaxed Jacobi iteration: pressure accelerations, then the pressures and their errors.
   void iterate(Kind kind, const SimParams& p, const DfsphFields& f, cl::Buffer& pressure);
   /// v += dt a^p of the pressures found.

@@ -176,8 +176,9 @@ struct DfsphSpec {
   /// 0, 47 with 0.5, 48 with 0.6 and 0.75, at 2.0-2.2 density iterations per step against 2.8-3.1; at the
   /// tight bound 1e-5 (24 runs) steps above the bound in 4 runs with 0, none with 0.6, 6 of 12 with 0.75
   /// (docs/dfsph.md, session 47). Moving flows keep the full restart (the 50k dam break took 6 % more
-  /// iterations per step with the average); 0 = off. Not where pressure_cfl is set: the deep column that
-  /// bound rests took steps over its pressure scale with it (core/dfsph.h, restAverage) (unit: 1)
+  /// iterations per step with the average); 0 = off. It takes margin from the pressure's own step scale:
+  /// the deep column under pressure_cfl 0.7 swung with it (session 47), under 0.5 (the default) it rests
+  /// (session 50) (unit: 1)
   double warm_average_rest = 0.6;
   double relaxation = 0.5;           ///< Jacobi relaxation omega of both solves' pressure increments (unit: 1)
   /// Chebyshev semi-iteration on the density solve's relaxed Jacobi iterates (Golub & Varga 1961; Wang 2015
@@ -200,7 +201,10 @@ struct DfsphSpec {
   double coarse_rest_travel = 0.1;   ///< two-level solve: a step whose fastest particle moved less than this many spacings dx in the last step is at rest: its density solve takes a correction after the first iteration (unit: 1)
   int coarse_reuse = 0;              ///< two-level solve: an assembled coarse operator serves the corrections of this many steps while the fastest particle moves less than 0.25 dx and the step changes by less than 25 % (K ~ dt^2 scaled); 0 = assembled for every correction (core/dfsph_coarse.cpp, session 24) (unit: 1)
   int coarse_rest_start = 1;         ///< two-level solve: a density solve at rest (coarse_rest_travel) still above its bound after this many iterations takes another correction then and every coarse_interval after; 0 = never (unit: 1)
-  double cfl = 0.4;                  ///< Courant number: dt <= cfl * dx / |v|max (unit: 1)
+  /// Courant number: dt <= cfl * dx / |v|max. 0.8, twice the reference's 0.4, since session 50: with the
+  /// Chebyshev semi-iteration (session 48) the longer step costs fewer iterations than it saves steps, and
+  /// with pressure_cfl (below) it stays stable (docs/dfsph.md, session 50) (unit: 1)
+  double cfl = 0.8;
   double max_time_step = 0.005;      ///< largest step (unit: s)
   /// adaptive step from the density solve's work: a step whose density solve took more than n
   /// iterations bounds the next steps by 0.9 of its length, one that took fewer than n / 2 lets the
@@ -210,8 +214,12 @@ struct DfsphSpec {
   /// pressure acts on the particle-scale (non-compressive) modes of the lattice, which the density
   /// solve does not hold and the step integrates explicitly: a resting column of depth H bounces once
   /// dt sqrt(g H) / dx passes ~0.9 (measured, docs/dfsph.md session 15); 0.7 holds deep columns at
-  /// rest; 0 = off, the default for now (docs/dfsph.md says why) (unit: 1)
-  double pressure_cfl = 0.0;
+  /// rest. 0.5 by default since session 50: at cfl 0.8 a 28 cm tank filling under its gravity ramp blew
+  /// up without it (15 m/s at 0.6 s), and 0.5 leaves the margin the warm start averaged at rest
+  /// (warm_average_rest) takes: the 0.28 m column rested in 3 of 3 ramps with both (0.6: 1 of 3; 0.7:
+  /// swung, session 47); the 50k dam break takes 193 steps instead of 146 without it, 17 % more wall
+  /// time (docs/dfsph.md, session 50); 0 = off (unit: 1)
+  double pressure_cfl = 0.5;
   /// dynamic bodies' fictitious mass C rho0 V in their translation (Baek & Karniadakis 2012), and the
   /// inertia (M / m) I in their rotation (session 16), against the added-mass instability of light
   /// bodies; its force and torque count in the body's fluid force and torque, the force's reaction goes

@@ -487,8 +487,9 @@ std::vector<KeyDef> buildTable() {
                "default bound leaves in place: a 0.2 m tank at rest rang by up to 3.7 kPa between steps in half of "
                "48 runs with small changes to its settings, and was calm in all 48 with 0.6, in fewer iterations "
                "(and at the bound 1e-5 converged in every step where 0 and 0.75 did not always). Moving flows keep "
-               "the full restart (an averaged one cost the 50k dam break 6 % more iterations per step). Not where "
-               "pressure_cfl is set (the deep column that bound rests took steps over its pressure scale with it); "
+               "the full restart (an averaged one cost the 50k dam break 6 % more iterations per step). It takes "
+               "margin from the pressure's own step scale: a deep column under pressure_cfl 0.7 swung with it, under "
+               "0.5 (the default) it rests; "
                "0 = off (docs/dfsph.md, session 47)"));
   add(field<InScene>("fluid.dfsph.relaxation", [](auto& s) -> auto& { return s.fluid.dfsph.relaxation; })
           .unit("1").greaterThan(0).atMost(1)
@@ -565,7 +566,8 @@ std::vector<KeyDef> buildTable() {
                "after: tight density bounds at rest converge in few iterations (docs/dfsph.md, session 12); moving "
                "flows take none; 0 = never (one correction per step at rest, as before session 12)"));
   add(field<InScene>("fluid.dfsph.cfl", [](auto& s) -> auto& { return s.fluid.dfsph.cfl; })
-          .unit("1").greaterThan(0).atMost(1).doc("Courant number of the adaptive step: dt <= cfl * dx / |v|max"));
+          .unit("1").greaterThan(0).atMost(1).doc("Courant number of the adaptive step: dt <= cfl * dx / |v|max; 0.8 "
+                                                     "since session 50, twice the reference's 0.4 (docs/dfsph.md)"));
   add(field<InScene>("fluid.dfsph.max_time_step", [](auto& s) -> auto& { return s.fluid.dfsph.max_time_step; })
           .unit("s").greaterThan(0).doc("largest time step; frames end exactly (the last steps of a frame are evened out)"));
   add(field<InScene>("fluid.dfsph.step_iterations", [](auto& s) -> auto& { return s.fluid.dfsph.step_iterations; })
@@ -580,7 +582,9 @@ std::vector<KeyDef> buildTable() {
           .doc("step bound from the largest pressure: dt <= pressure_cfl * dx / sqrt(max p_i / rho_i) (the last "
                "step's pressures): the pressure drives the particle lattice's own modes, which the density solve "
                "does not hold, so a deep column at rest bounces at long steps (from dt sqrt(g H) / dx ~ 0.9, "
-               "measured: docs/dfsph.md, session 15); 0.7 holds deep columns at rest; 0 = off (the default for now)"));
+               "measured: docs/dfsph.md, session 15); 0.7 holds deep columns at rest; 0.5 by default since session 50 "
+               "(with cfl 0.8 a 28 cm tank filling under its gravity ramp blew up without it, and the warm start "
+               "averaged at rest needs the margin below 0.7); 0 = off"));
   add(field<InScene>("fluid.dfsph.body_added_mass", [](auto& s) -> auto& { return s.fluid.dfsph.body_added_mass; })
           .unit("1").atLeast(0).atMost(10)
           .doc("fictitious mass C rho0 V of each dynamic body in its translation, (m + M) a_n = F_n + M a_{n-1} "

@@ -16,16 +16,23 @@ trap 'rm -rf "$work"' EXIT
 export OMP_NUM_THREADS=${OMP_NUM_THREADS:-2}
 now() { date +%s.%N; }
 echo "code,config,run,wall_s,simulated_s,steps,density_iterations_per_step"
+# The reference at twice its Courant number too (its step is cflFactor 0.4 diameter / |v|max, so
+# cflFactor 2 is sphaptics' fluid.dfsph.cfl 0.8, the default since session 50): ratios at equal steps.
+sed 's/"cflFactor": 1,/"cflFactor": 2,/' "$PEER_SCENES/dambreak50k_dfsph.json" > "$work/dambreak50k_dfsph_cfl0.8.json"
+grep -q '"cflFactor": 2,' "$work/dambreak50k_dfsph_cfl0.8.json" || { echo "no cflFactor 1 in $PEER_SCENES/dambreak50k_dfsph.json" >&2; exit 1; }
 for k in $(seq 1 "$reps"); do
-  for c in dambreak50k_dfsph dambreak50k_dfsph_akinci; do
-    t0=$(now); "$PEER_BIN" --no-gui --stopAt 0.5 --output-dir "$work/peer" "$PEER_SCENES/$c.json" > "$work/peer.log" 2>&1; t1=$(now)
+  for c in dambreak50k_dfsph dambreak50k_dfsph_akinci dambreak50k_dfsph_cfl0.8; do
+    json=$PEER_SCENES/$c.json
+    [ -f "$json" ] || json=$work/$c.json
+    t0=$(now); "$PEER_BIN" --no-gui --stopAt 0.5 --output-dir "$work/peer" "$json" > "$work/peer.log" 2>&1; t1=$(now)
     it=$(sed -n 's/.*Average number: DFSPH - iterations: \([0-9.]*\).*/\1/p' "$work/peer.log" | tail -1)
     steps=$(sed -n 's/.*Total number: DFSPH - iterations: \([0-9]*\).*/\1/p' "$work/peer.log" | tail -1)
     steps=$(awk -v n="$steps" -v a="$it" 'BEGIN { if (a > 0) printf "%.0f", n / a }')
     echo "splishsplash,$c,$k,$(echo "$t1 - $t0" | bc),0.5,$steps,$it"
   done
   # the three wall models at the scene's settings (the reference's: Courant number 0.4), then the default walls
-  # at the Courant number 0.8 (session 48: with the Chebyshev semi-iteration the longer step pays)
+  # at the Courant number 0.8, sphaptics' default since session 50 (session 48: with the Chebyshev
+  # semi-iteration the longer step pays)
   for w in single extrapolated mirrored extrapolated_cfl0.8; do
     extra=(--set fluid.dfsph.walls=${w%_cfl*})
     case $w in *_cfl*) extra+=(--set fluid.dfsph.cfl=${w#*_cfl}) ;; esac

@@ -477,9 +477,18 @@ TEST_CASE("Forces with DFSPH: a dense ball released into a tank at rest sinks as
   // walls on the lattice (session 13) the tank is at rest at the release and the ball inside.
   // Measured (bench, session 13): v(0.2 s) 0.617 m/s in 0.599 .. 0.817, 0 m/s outside, held-
   // subtracted mean C_d 0.85 (band top 0.91).
-  // Cost: 52 s CPU, 30 s wall here. Mutation: the body's fluid force halved (core/simulation.cpp,
-  // the reduced sums): 1.116 m/s at 0.2 s, 0.25 m/s above the envelope's fast side: fails.
-  const app::SinkCheck c = checkSinkingBall("sink_ball_rest.yaml", 0.0075, {"fluid.solver=dfsph"});
+  // Session 50: that pass was the tank's noise. DFSPH's automatic body_ambient_pressure is `keep` (the
+  // plain pair sum, session 33: the towed Stokes ball reads 4 % under its band with subtract), whose
+  // closure error is a drag while the ball moves (the R / dx 3 tests above). In a calm tank (the pressure
+  // step bound 0.8) `keep` read 0.596 m/s at 0.2 s against the slow side 0.599, and 0.599 with 1 ms
+  // steps: the drag just past a sphere's, converged in the step; main's defaults then (cfl 0.4, no
+  // pressure bound) read 0.629 on a tank whose particles still moved at ~0.2 m/s; cfl 0.8 without the
+  // pressure bound 0.488 on a noisier one. So this test names `subtract`, as the R / dx 3 one does.
+  // Measured (this check, session 50's defaults: cfl 0.8, pressure_cfl 0.5): v(0.2 s) 0.700 m/s in
+  // 0.600 .. 0.820, 0 outside; 86 s wall here (the bound's shorter steps in this 28 cm tank).
+  // Mutation (run): the pressure step bound off (pressure_cfl 0): 0.50 m/s, the tank noisy: fails.
+  const app::SinkCheck c = checkSinkingBall("sink_ball_rest.yaml", 0.0075,
+                                            {"fluid.solver=dfsph", "fluid.body_ambient_pressure=subtract"});
   WARN("R/dx 4 at rest: v(0.2 s) " << c.v_end << " m/s in " << c.v_lo << " .. " << c.v_hi << "; " << c.worst
                                    << " outside; " << c.wall_seconds << " s");
 }
