@@ -30,9 +30,9 @@ for k in $(seq 1 "$reps"); do
     steps=$(awk -v n="$steps" -v a="$it" 'BEGIN { if (a > 0) printf "%.0f", n / a }')
     echo "splishsplash,$c,$k,$(echo "$t1 - $t0" | bc),0.5,$steps,$it"
   done
-  # the three wall models at the scene's settings (the reference's: Courant number 0.4), then the default walls
-  # at the Courant number 0.8, sphaptics' default since session 50 (session 48: with the Chebyshev
-  # semi-iteration the longer step pays)
+  # the three wall models at the scene's settings (the reference's: Courant number 0.4; the pressure step
+  # bound at sphaptics' default, 0.5 since session 50), then the default walls at the Courant number 0.8:
+  # sphaptics' defaults since session 50 (session 48: with the Chebyshev semi-iteration the longer step pays)
   for w in single extrapolated mirrored extrapolated_cfl0.8; do
     extra=(--set fluid.dfsph.walls=${w%_cfl*})
     case $w in *_cfl*) extra+=(--set fluid.dfsph.cfl=${w#*_cfl}) ;; esac
