@@ -486,7 +486,9 @@ TEST_CASE("Forces with DFSPH: a dense ball released into a tank at rest sinks as
   // pressure bound 0.488 on a noisier one. So this test names `subtract`, as the R / dx 3 one does.
   // Measured (this check, session 50's defaults: cfl 0.8, pressure_cfl 0.5): v(0.2 s) 0.700 m/s in
   // 0.600 .. 0.820, 0 outside; 86 s wall here (the bound's shorter steps in this 28 cm tank).
-  // Mutation (run): the pressure step bound off (pressure_cfl 0): 0.50 m/s, the tank noisy: fails.
+  // Mutations (run): the pressure step bound off (pressure_cfl 0): 0.50 m/s, the tank noisy: fails; the
+  // body's fluid force halved (core/simulation.cpp, the reduced sums; session 50): 1.165 m/s, 0.35 m/s above
+  // the envelope's fast side: fails.
   const app::SinkCheck c = checkSinkingBall("sink_ball_rest.yaml", 0.0075,
                                             {"fluid.solver=dfsph", "fluid.body_ambient_pressure=subtract"});
   WARN("R/dx 4 at rest: v(0.2 s) " << c.v_end << " m/s in " << c.v_lo << " .. " << c.v_hi << "; " << c.worst
