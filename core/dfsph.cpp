@@ -1,5 +1,7 @@
 #include "core/dfsph.h"
 
+#include <stdexcept>
+
 #include "core/errors.h"
 #include "kernels/shared/body_response.h"
 
@@ -169,7 +171,7 @@ const cl::Buffer& DfsphSolver::stepPressure(std::size_t n) {
   return scratch_a_;
 }
 
-void DfsphSolver::factors(const SimParams& p, const DfsphFields& f, bool divergence_next) {
+void DfsphSolver::factors(const SimParams& p, const DfsphFields& f, bool divergence_next, bool with_density) {
   ++steps_;  // one factor pass per step (core/dfsph_coarse.cpp finds the aggregates once per step)
   coarse_travel_ += f.max_speed * p.dt;  // the fastest particle's travel over the steps (coarse_reuse)
   // Before a divergence solve (walls single or extrapolated: dfsph_source), the factor pass also
@@ -182,6 +184,8 @@ void DfsphSolver::factors(const SimParams& p, const DfsphFields& f, bool diverge
   cloth_ = f.n_nodes > 0 && !mirrored();
   bodies_ = f.n_bodies > 0 && !mirrored();
   nodes_ = cloth_ || bodies_;
+  if (with_density && nodes_)
+    throw std::logic_error("DfsphSolver::factors: the density pass cannot run with the factors while nodes move inside the solves");
   if (nodes_) {
     if (!bminv_()) {
       bminv_ = makeBuffer(std::size_t(f.n_boundary) * 48);
@@ -211,7 +215,8 @@ void DfsphSolver::factors(const SimParams& p, const DfsphFields& f, bool diverge
   }
   kernels_.call("dfsph_factor", p.n_fluid, kLocal, p, *f.pos, *f.phase, *f.density, *f.snbr, *f.snbr_count, *f.bpos,
                 *f.sbnbr, *f.sbnbr_count, wallFactor(), alpha_, *f.bvel, gwall_, rate_in_source_ ? 1 : 0, *f.vel,
-                source_, one_mass_ ? 1 : 0, nodes_ ? 1 : 0, nodes_ ? bminv_ : gwall_);
+                source_, one_mass_ ? 1 : 0, nodes_ ? 1 : 0, nodes_ ? bminv_ : gwall_, with_density ? 1 : 0,
+                *f.pressure, *f.pterm, f.stamp, *f.bmark);
   // Extrapolated walls: the fluid near each wall particle, listed once per step for the wall
   // pressure of every iteration (positions do not change during the solves).
   // Only the wall particles with fluid near them (the active ones) take a pressure in the

@@ -117,7 +117,10 @@ class DfsphSolver {
   void reorder(std::size_t n, const cl::Buffer& sorted);
   /// Factors alpha (B&K 2017 eq. 9); every step, after the density pass. `divergence_next`: a
   /// divergence solve follows on the current velocities (its density rate is summed here too).
-  void factors(const SimParams& p, const DfsphFields& f, bool divergence_next);
+  /// `with_density`: the same pass is the step's density pass (kernels/dfsph.cl, dfsph_factor: f's
+  /// density, pressure, pterm and boundary marks, bitwise compute_density's); only where f's lists are
+  /// this step's, and with no cloth nodes or bodies inside the solves (whose slots are filled first).
+  void factors(const SimParams& p, const DfsphFields& f, bool divergence_next, bool with_density = false);
   /// Divergence solve (B&K 2017 Alg. 2) on the current velocities.
   DfsphSolveResult divergenceSolve(const SimParams& p, const DfsphFields& f);
   /// v* = v + dt a (acc cleared), then the density solve (B&K 2017 Alg. 3).

@@ -694,6 +694,17 @@ void Simulation::buildGrid() {
 void Simulation::computeDensity() {
   StageTimer timer(*this, Stage::Density);
   ++stamp_;  // marks the boundary particles within H of fluid this step (for boundary_pressure)
+  // DFSPH with this step's lists: the factor pass sums the density too (kernels/dfsph.cl, dfsph_factor,
+  // bitwise compute_density's values), one neighbour pass fewer per step (performance; docs/dfsph.md,
+  // session 51). Not with cloth nodes or bodies inside the solves, whose responses (clothResponse,
+  // bodyResponse, after the density) the factor pass reads.
+  factors_done_ = false;
+  if (dfsph_ && step_lists_ && !strongCloth() && !strongBodies() &&
+      (on(Stage::DivergenceSolve) || on(Stage::DensitySolve))) {
+    dfsph_->factors(params_, dfsphFields(), on(Stage::DivergenceSolve), true);
+    factors_done_ = true;
+    return;
+  }
   // the lists (this step's already when buildGrid built them at H: then only the sums)
   const cl::Buffer& nbr = step_lists_ ? snbr_ : nbr_;
   const cl::Buffer& nbr_count = step_lists_ ? snbr_count_ : nbr_count_;
@@ -809,7 +820,7 @@ DfsphFields Simulation::dfsphFields() {
 void Simulation::divergenceSolve() {
   StageTimer timer(*this, Stage::DivergenceSolve);
   const DfsphFields f = dfsphFields();
-  dfsph_->factors(params_, f, true);
+  if (!factors_done_) dfsph_->factors(params_, f, true);  // else with the density (computeDensity)
   const DfsphSolveResult r = dfsph_->divergenceSolve(params_, f);
   dfsph_frame_.divergence_iterations += r.iterations;
   dfsph_frame_.divergence_error = std::max(dfsph_frame_.divergence_error, r.error);
@@ -823,7 +834,7 @@ void Simulation::divergenceSolve() {
 void Simulation::densitySolve() {
   StageTimer timer(*this, Stage::DensitySolve);
   const DfsphFields f = dfsphFields();
-  if (!on(Stage::DivergenceSolve)) dfsph_->factors(params_, f, false);  // else computed this step already
+  if (!on(Stage::DivergenceSolve) && !factors_done_) dfsph_->factors(params_, f, false);  // else computed this step already
   const DfsphSolveResult r = dfsph_->densitySolve(params_, f);
   dfsph_->finish(params_, f);
   dfsph_frame_.density_iterations += r.iterations;

@@ -348,6 +348,7 @@ class Simulation {
   double travel_since_build_ = 0.0;  // sum over steps of max speed * dt (unit: m)
   double last_step_travel_ = 0.0;    // the last step's max speed * dt (unit: m)
   bool step_lists_ = false;          // DFSPH: the lists were built at H into the step lists (buildGrid)
+  bool factors_done_ = false;        // DFSPH: this step's factors came with the density (computeDensity)
   PrefixSum prefix_sum_;
   std::unique_ptr<SurfaceMesher> mesher_;  // isosurface stage, created on first use
   // Bodies other than spheres and cutters that the cloth nodes collide with (host side, once per

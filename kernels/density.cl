@@ -49,22 +49,6 @@ __kernel void compute_density(const SimParams p, __global const float4* pos, __g
    * entry write the same value */
   for (uint k = 0; k < sb; ++k) bmark[sbnbr[(size_t)i * K + k]] = stamp;
 
-  /* mass density and equation of state */
-  const uint ph = phase[i];
-  const float rho = p.phase_mass[ph] * nd;
-  const float rho0 = p.phase_rest_density[ph];
-  float pr;
-  if (p.eos == SPH_EOS_TAIT) {
-    const float ratio = rho / rho0;
-    const float r2 = ratio * ratio;
-    pr = p.c0 * p.c0 * rho0 / 7.0f * (r2 * r2 * r2 * ratio - 1.0f);
-  } else {
-    pr = p.c0 * p.c0 * (rho - rho0);
-  }
-  /* fluid.background_pressure (Morris, Fox & Zhu 1997; 0 unless the scene sets it: WCSPH, closed domain) */
-  pr += p.background_pressure;
-  if (p.clamp_negative_pressure) pr = fmax(pr, 0.0f);
-  density[i] = rho;
-  pressure[i] = pr;
-  pterm[i] = pr / (nd * nd); /* p / delta^2, what the pressure force reads of each neighbour */
+  /* mass density and equation of state (shared/pair_loops.h) */
+  density[i] = sph_density_state(&p, phase[i], nd, pressure, pterm, i);
 }

@@ -129,12 +129,13 @@ inline float dfsph_node_sum(const float3 xi, __global const uint* list, const ui
  * (B&K 2017 eq. 2) of the velocities `vel` into rate_out, from the same pairs: one neighbour pass
  * fewer per step (performance; dfsph_source reads it). */
 __kernel void dfsph_factor(const SimParams p, __global const float4* pos, __global const uint* phase,
-                           __global const float* density, __global const uint* nbr, __global const uint* nbr_count,
+                           __global float* density, __global const uint* nbr, __global const uint* nbr_count,
                            __global const float4* bpos, __global const uint* bnbr,
                            __global const uint* bnbr_count, const float wall, __global float* alpha,
                            __global const float4* bvel, __global float4* gwall, const int with_rate,
                            __global const float4* vel, __global float* rate_out, const int one_mass,
-                           const int nodes, __global const float4* bminv) {
+                           const int nodes, __global const float4* bminv, const int with_density,
+                           __global float* pressure, __global float* pterm, const uint stamp, __global uint* bmark) {
   const uint i = get_global_id(0);
   if (i >= p.n_fluid) return;
   const uint K = p.max_neighbours;
@@ -145,14 +146,17 @@ __kernel void dfsph_factor(const SimParams p, __global const float4* pos, __glob
   const SphList list = sph_list(&p, nbr, i); /* narrow or wide (shared/neighbours.h) */
   /* sums of gradients over fluid and boundary, and sum_j |gradW_ij|^2 / m_j; fluid pairs eight at
    * a time (shared/pair_loops.h), lanes summed in a fixed order, then the rest one by one */
-  float8 sx = (float8)(0.0f), sy = sx, sz = sx, s8 = sx, r8 = sx;
+  float8 sx = (float8)(0.0f), sy = sx, sz = sx, s8 = sx, r8 = sx, w8 = sx;
   const uint nf = nbr_count[i];
   uint k = 0;
   for (; k + 8 <= nf; k += 8) {
     const uint8 j = sph_list8(list, k);
     SPH_LOAD8(x, pos, j);
     const float8 dx = xi.x - SPH_LANES8(x, x), dy = xi.y - SPH_LANES8(x, y), dz = xi.z - SPH_LANES8(x, z);
-    const float8 F = sph_grad_factor8(sqrt(dx * dx + dy * dy + dz * dz), H);
+    const float8 r2 = dx * dx + dy * dy + dz * dz;
+    const float8 F = sph_grad_factor8(sqrt(r2), H);
+    /* with_density: the number density's fluid sum, as sph_list_density (the same r, order and arithmetic) */
+    if (with_density) w8 += sph_w8(sqrt(r2), H);
     const float8 ax = F * dx, ay = F * dy, az = F * dz;
     sx += ax;
     sy += ay;
@@ -174,10 +178,12 @@ __kernel void dfsph_factor(const SimParams p, __global const float4* pos, __glob
   float3 gf = (float3)(sph_hsum8(sx), sph_hsum8(sy), sph_hsum8(sz));
   float s2 = sph_hsum8(s8);
   float rate = sph_hsum8(r8);
+  float wf = sph_hsum8(w8);
   for (; k < nf; ++k) {
     const uint j = sph_list1(list, k);
     const float3 d = xi - pos[j].xyz;
     const float Fk = sph_grad_factor(SPH_KERNEL, length(d), H);
+    if (with_density) wf += sph_w(SPH_KERNEL, sqrt(dot(d, d)), H);
     const float3 g = Fk * d;
     gf += g;
     s2 += dot(g, g) / (one_mass ? mi : p.phase_mass[phase[j]]);
@@ -210,7 +216,23 @@ __kernel void dfsph_factor(const SimParams p, __global const float4* pos, __glob
     }
   }
   const float D = dot(gf + wall * gb, gf + gb) / mi + s2 + wall * sn;
-  const float delta = density[i] / mi;
+  /* with_density: this pass is the step's density pass too (compute_density, kernels/density.cl: the
+   * same sums in the same order, so bitwise its density, pressure, p / delta^2 and boundary marks), one
+   * neighbour pass fewer per step where the lists are this step's (core/simulation.cpp, computeDensity) */
+  float rho;
+  if (with_density) {
+    uint sb = 0;
+    float nd = sph_w(SPH_KERNEL, 0.0f, H);
+    nd += wf;
+    nd += sph_list_density(xi, bnbr, i, K, 1, bnbr_count[i], bpos, 1, H, 0, 0, &sb);
+    const uint nb = bnbr_count[i];
+    for (uint q = 0; q < nb; ++q) bmark[bnbr[(size_t)i * K + q]] = stamp;
+    rho = sph_density_state(&p, phase[i], nd, pressure, pterm, i);
+    density[i] = rho;
+  } else {
+    rho = density[i];
+  }
+  const float delta = rho / mi;
   /* a particle without neighbours takes no pressure */
   alpha[i] = D > 0.0f ? delta * delta / D : 0.0f;
 }

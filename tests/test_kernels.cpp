@@ -935,6 +935,57 @@ TEST_CASE("compute_density: density, EOS and p / delta^2 equal the brute-force r
   }
 }
 
+// DFSPH's factor pass sums the density too where the lists are this step's (core/simulation.cpp,
+// computeDensity; performance): it must give compute_density's values exactly, so that the two paths
+// leave every particle bitwise the same, and the factors of the density it computed.
+TEST_CASE("dfsph_factor with the density: compute_density's density, pressure, p / delta^2 and marks, bitwise",
+          "[kernels][dfsph]") {
+  const DensityCase cases[] = {
+      {SPH_KERNEL_CUBIC_SPLINE, 2.0f, true, SPH_EOS_LINEAR, false},
+      {SPH_KERNEL_WENDLAND_C2, 3.0f, true, SPH_EOS_TAIT, true},
+      {SPH_KERNEL_CUBIC_SPLINE, 2.0f, false, SPH_EOS_TAIT, false},
+  };
+  for (const DensityCase& c : cases) {
+    INFO(kindName(c.kind) << ", H = " << c.ratio << " dx, boundary " << c.boundary << ", eos " << c.eos);
+    const Scene s = makeScene(c.kind, c.ratio, c.boundary, c.eos, c.clamp, 5);
+    Device d(kernelSet(c.kind, false), s);
+    REQUIRE(runDensity(d).overflow == 0u);  // Verlet lists, then compute_density writes this step's lists
+    const std::size_t n = d.n, nbc = std::max<std::size_t>(d.nb, 1);
+    // compute_density on this step's lists, as the simulation runs it where the fused pass would (step_lists)
+    write(d.bmark, std::vector<uint32_t>(nbc, 0u));
+    d.ks.call("compute_density", n, kLocal, d.P, d.pos[d.cur], d.phase[d.cur], d.bpos, d.snbr, d.snbr_count, d.sbnbr,
+              d.sbnbr_count, d.density, d.pressure, d.pterm, d.snbr, d.snbr_count, d.sbnbr, d.sbnbr_count, d.stamp,
+              d.bmark, 1);
+    const std::vector<float> density = fromDevice<float>(d.density, n), pressure = fromDevice<float>(d.pressure, n),
+                             pterm = fromDevice<float>(d.pterm, n);
+    const std::vector<uint32_t> marks = fromDevice<uint32_t>(d.bmark, nbc);
+    const cl::Buffer alpha = zeros<float>(n), alpha2 = zeros<float>(n), rate = zeros<float>(n);
+    const cl::Buffer gwall = zeros<F4>(n);
+    auto factor = [&](int with_density, const cl::Buffer& a) {
+      d.ks.call("dfsph_factor", n, kLocal, d.P, d.pos[d.cur], d.phase[d.cur], d.density, d.snbr, d.snbr_count, d.bpos,
+                d.sbnbr, d.sbnbr_count, 1.0f, a, d.bvel, gwall, 1, d.vel[d.cur], rate, 0, 0, gwall, with_density,
+                d.pressure, d.pterm, d.stamp, d.bmark);
+    };
+    factor(0, alpha);  // the factors of compute_density's density
+    // the outputs overwritten with values the pass must replace, the marks cleared
+    write(d.density, std::vector<float>(n, -7.0f));
+    write(d.pressure, std::vector<float>(n, -7.0f));
+    write(d.pterm, std::vector<float>(n, -7.0f));
+    write(d.bmark, std::vector<uint32_t>(nbc, 0u));
+    factor(1, alpha2);
+    auto same = [](const std::vector<float>& a, const std::vector<float>& b) {
+      return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * 4) == 0;
+    };
+    CHECK(same(fromDevice<float>(d.density, n), density));
+    CHECK(same(fromDevice<float>(d.pressure, n), pressure));
+    CHECK(same(fromDevice<float>(d.pterm, n), pterm));
+    CHECK(fromDevice<uint32_t>(d.bmark, nbc) == marks);
+    CHECK(same(fromDevice<float>(alpha2, n), fromDevice<float>(alpha, n)));
+    // the scene exercises the marks where it has a boundary
+    if (c.boundary) CHECK(std::count(marks.begin(), marks.end(), d.stamp) > 0);
+  }
+}
+
 // ---------------------------------------------------------------------------------------------
 // Forces
 // ---------------------------------------------------------------------------------------------

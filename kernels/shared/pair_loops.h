@@ -365,5 +365,30 @@ inline float3 sph_boundary_share_dv(const SimParams* p, const uint i, __global c
   return dv;
 }
 
+/* ---- density pass: the end of it ----------------------------------------------------------------
+ * From a particle's number density nd (self, fluid and boundary sums): its mass density, the equation
+ * of state's pressure and p / delta^2 (density.cl, compute_density; and kernels/dfsph.cl, dfsph_factor,
+ * which sums the density with the factor when the lists are this step's). Linear p = c0^2 (rho - rho0)
+ * (the paper's p = k (rho - rho0) with k = c0^2), or Tait p = B ((rho / rho0)^7 - 1), B = c0^2 rho0 / 7
+ * (Monaghan 1994); plus fluid.background_pressure (Morris, Fox & Zhu 1997; 0 unless the scene sets it). */
+inline float sph_density_state(const SimParams* p, const uint ph, const float nd, __global float* pressure,
+                               __global float* pterm, const uint i) {
+  const float rho = p->phase_mass[ph] * nd;
+  const float rho0 = p->phase_rest_density[ph];
+  float pr;
+  if (p->eos == SPH_EOS_TAIT) {
+    const float ratio = rho / rho0;
+    const float r2 = ratio * ratio;
+    pr = p->c0 * p->c0 * rho0 / 7.0f * (r2 * r2 * r2 * ratio - 1.0f);
+  } else {
+    pr = p->c0 * p->c0 * (rho - rho0);
+  }
+  pr += p->background_pressure;
+  if (p->clamp_negative_pressure) pr = fmax(pr, 0.0f);
+  pressure[i] = pr;
+  pterm[i] = pr / (nd * nd); /* p / delta^2, what the pressure force reads of each neighbour */
+  return rho;
+}
+
 #endif
 #endif
