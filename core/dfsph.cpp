@@ -184,8 +184,8 @@ void DfsphSolver::factors(const SimParams& p, const DfsphFields& f, bool diverge
   cloth_ = f.n_nodes > 0 && !mirrored();
   bodies_ = f.n_bodies > 0 && !mirrored();
   nodes_ = cloth_ || bodies_;
-  if (with_density && nodes_)
-    throw std::logic_error("DfsphSolver::factors: the density pass cannot run with the factors while nodes move inside the solves");
+  if (with_density && cloth_)
+    throw std::logic_error("DfsphSolver::factors: the density pass cannot run with the factors while cloth nodes move inside the solves");
   if (nodes_) {
     if (!bminv_()) {
       bminv_ = makeBuffer(std::size_t(f.n_boundary) * 48);

@@ -119,7 +119,7 @@ class DfsphSolver {
   /// divergence solve follows on the current velocities (its density rate is summed here too).
   /// `with_density`: the same pass is the step's density pass (kernels/dfsph.cl, dfsph_factor: f's
   /// density, pressure, pterm and boundary marks, bitwise compute_density's); only where f's lists are
-  /// this step's, and with no cloth nodes or bodies inside the solves (whose slots are filled first).
+  /// this step's, and with no cloth nodes inside the solves (whose slots and velocities are set first).
   void factors(const SimParams& p, const DfsphFields& f, bool divergence_next, bool with_density = false);
   /// Divergence solve (B&K 2017 Alg. 2) on the current velocities.
   DfsphSolveResult divergenceSolve(const SimParams& p, const DfsphFields& f);

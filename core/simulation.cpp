@@ -696,10 +696,11 @@ void Simulation::computeDensity() {
   ++stamp_;  // marks the boundary particles within H of fluid this step (for boundary_pressure)
   // DFSPH with this step's lists: the factor pass sums the density too (kernels/dfsph.cl, dfsph_factor,
   // bitwise compute_density's values), one neighbour pass fewer per step (performance; docs/dfsph.md,
-  // session 51). Not with cloth nodes or bodies inside the solves, whose responses (clothResponse,
-  // bodyResponse, after the density) the factor pass reads.
+  // session 51). Not with cloth nodes inside the solves: clothResponse (after the density) gives the
+  // factor pass their responses and changes the fluid's velocities (their added mass's reaction). The
+  // bodies' responses (bodyResponse) are read only in the solves.
   factors_done_ = false;
-  if (dfsph_ && step_lists_ && !strongCloth() && !strongBodies() &&
+  if (dfsph_ && step_lists_ && !strongCloth() &&
       (on(Stage::DivergenceSolve) || on(Stage::DensitySolve))) {
     dfsph_->factors(params_, dfsphFields(), on(Stage::DivergenceSolve), true);
     factors_done_ = true;
