@@ -1,7 +1,5 @@
 #include "core/dfsph.h"
 
-#include <stdexcept>
-
 #include "core/errors.h"
 #include "kernels/shared/body_response.h"
 
@@ -9,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 #include <vector>
 
 namespace sph {
