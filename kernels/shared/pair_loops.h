@@ -53,8 +53,40 @@ inline float8 sph_grad_factor8(const float8 r, const float H) {
 
 /* Lane-wise gathers. */
 #define SPH_GATHER8(A, J) ((float8)(A[J.s0], A[J.s1], A[J.s2], A[J.s3], A[J.s4], A[J.s5], A[J.s6], A[J.s7]))
+/* One component of eight float4 as a float8 (lane l from P##l). With clang (pocl, and the GPU
+ * compilers built on it) as a 4 x 8 transpose of shuffles: the float4 are paired into four float8
+ * (p0|p4, p1|p5, p2|p6, p3|p7), interleaved within each 128-bit half, and the halves' pairs picked:
+ * twelve shuffles for all four components, which the compiler shares between the components a loop
+ * reads (performance: written lane by lane, pocl's LLVM built each component from inserts and blends,
+ * ~22 instructions per array; the values are the same either way, only moved). */
+#ifdef __clang__
+#define SPH_T8_AB(P) __builtin_shufflevector((P##0), (P##4), 0, 1, 2, 3, 4, 5, 6, 7), \
+                     __builtin_shufflevector((P##1), (P##5), 0, 1, 2, 3, 4, 5, 6, 7)
+#define SPH_T8_CD(P) __builtin_shufflevector((P##2), (P##6), 0, 1, 2, 3, 4, 5, 6, 7), \
+                     __builtin_shufflevector((P##3), (P##7), 0, 1, 2, 3, 4, 5, 6, 7)
+/* lo: lanes (a.x, b.x, a.y, b.y) of each half; hi: (a.z, b.z, a.w, b.w) */
+inline float8 sph_unpack_lo8(const float8 a, const float8 b) {
+  return __builtin_shufflevector(a, b, 0, 8, 1, 9, 4, 12, 5, 13);
+}
+inline float8 sph_unpack_hi8(const float8 a, const float8 b) {
+  return __builtin_shufflevector(a, b, 2, 10, 3, 11, 6, 14, 7, 15);
+}
+/* first (x or z) or second (y or w) pair of each half of two unpacked vectors */
+inline float8 sph_pick_first8(const float8 s, const float8 t) {
+  return __builtin_shufflevector(s, t, 0, 1, 8, 9, 4, 5, 12, 13);
+}
+inline float8 sph_pick_second8(const float8 s, const float8 t) {
+  return __builtin_shufflevector(s, t, 2, 3, 10, 11, 6, 7, 14, 15);
+}
+#define SPH_LANES8_x(P) sph_pick_first8(sph_unpack_lo8(SPH_T8_AB(P)), sph_unpack_lo8(SPH_T8_CD(P)))
+#define SPH_LANES8_y(P) sph_pick_second8(sph_unpack_lo8(SPH_T8_AB(P)), sph_unpack_lo8(SPH_T8_CD(P)))
+#define SPH_LANES8_z(P) sph_pick_first8(sph_unpack_hi8(SPH_T8_AB(P)), sph_unpack_hi8(SPH_T8_CD(P)))
+#define SPH_LANES8_w(P) sph_pick_second8(sph_unpack_hi8(SPH_T8_AB(P)), sph_unpack_hi8(SPH_T8_CD(P)))
+#define SPH_LANES8(P, C) SPH_LANES8_##C(P)
+#else
 #define SPH_LANES8(P, C) \
   ((float8)((P##0).C, (P##1).C, (P##2).C, (P##3).C, (P##4).C, (P##5).C, (P##6).C, (P##7).C))
+#endif
 #define SPH_LOAD8(NAME, ARR, J)                                                          \
   const float4 NAME##0 = ARR[J.s0], NAME##1 = ARR[J.s1], NAME##2 = ARR[J.s2], NAME##3 = ARR[J.s3]; \
   const float4 NAME##4 = ARR[J.s4], NAME##5 = ARR[J.s5], NAME##6 = ARR[J.s6], NAME##7 = ARR[J.s7]
