@@ -92,30 +92,7 @@ inline float8 sph_pick_second8(const float8 s, const float8 t) {
   const float4 NAME##4 = ARR[J.s4], NAME##5 = ARR[J.s5], NAME##6 = ARR[J.s6], NAME##7 = ARR[J.s7]
 
 /* Appends the lanes of J whose IN is 1 to OUT at N, in lane order: every lane is stored and N
- * advances only for those inside, so there is no data-dependent branch. Slots N..N+7 may be written
- * (the callers have that room); those past the new N hold no entry and the next append overwrites them.
- * With AVX-512 (pocl on such a CPU) one compress of the lanes inside, one store of all eight and a
- * population count (performance: lane by lane, each lane's extract, store and add made the list build
- * ~40 cycles per group of eight candidates); else lane by lane. The lists are the same either way. */
-#if defined(__clang__) && defined(__AVX512F__) && defined(__AVX512VL__)
-typedef int sph_v8si __attribute__((vector_size(32)));
-inline int sph_in_mask8(const int8 in) { return __builtin_ia32_movmskps256(as_float8(-in)); }
-inline int8 sph_compress8(const int8 a, const int mask) {
-  const sph_v8si c = __builtin_ia32_compresssi256_mask(as_int8(a), (int8)(0), (unsigned char)mask);
-  return as_int8(c);
-}
-__attribute__((overloadable)) inline uint sph_append8(__global uint* out, const uint n, const uint8 j, const int8 in) {
-  const int mask = sph_in_mask8(in);
-  vstore8(as_uint8(sph_compress8(as_int8(j), mask)), 0, out + n);
-  return n + popcount(mask);
-}
-__attribute__((overloadable)) inline uint sph_append8(__global short* out, const uint n, const short8 o, const int8 in) {
-  const int mask = sph_in_mask8(in);
-  vstore8(convert_short8(sph_compress8(convert_int8(o), mask)), 0, out + n);
-  return n + popcount(mask);
-}
-#define SPH_APPEND8(OUT, N, J, IN) ((N) = sph_append8((OUT), (N), (J), (IN)))
-#else
+ * advances only for those inside, so there is no data-dependent branch. */
 #define SPH_APPEND8(OUT, N, J, IN)  \
   do {                              \
     OUT[N] = J.s0; N += IN.s0;      \
@@ -127,7 +104,6 @@ __attribute__((overloadable)) inline uint sph_append8(__global short* out, const
     OUT[N] = J.s6; N += IN.s6;      \
     OUT[N] = J.s7; N += IN.s7;      \
   } while (0)
-#endif
 
 inline float sph_hsum8(const float8 a) {
   return ((a.s0 + a.s1) + (a.s2 + a.s3)) + ((a.s4 + a.s5) + (a.s6 + a.s7));
