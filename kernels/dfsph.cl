@@ -368,6 +368,7 @@ __kernel void dfsph_warm_filter(const SimParams p, __global const float4* pos, _
  * xt_j = (x_j, p_j / delta_j^2) (written with the pressures by dfsph_source and dfsph_jacobi), one
  * gather per neighbour instead of five (position, phase, mass, density, pressure). Inlined by force
  * (SPH_HOT, shared/pair_loops.h). */
+SPH_PSABI_QUIET
 SPH_HOT float3 dfsph_force(const SimParams* p, const uint i, __global const float4* xt, __global const uint* phase,
                            __global const float* density, __global const float* pr, __global const uint* nbr,
                            const uint nf, __global const float4* bpos, __global const uint* blist, const uint nb,
@@ -379,9 +380,25 @@ SPH_HOT float3 dfsph_force(const SimParams* p, const uint i, __global const floa
   /* i's fluid list, narrow or wide (shared/neighbours.h), made here rather than passed in: when this
    * function was not inlined, a list passed by value cost ~10 % of the pass (performance) */
   const SphList list = sph_list(p, nbr, i);
-  /* fluid neighbours eight at a time (as dfsph_density_rate), then the rest one by one */
+  /* fluid neighbours sixteen at a time (shared/pair_loops.h, SPH_LOAD16), their terms added to the
+   * eight-wide sums a half at a time: the same operations in the same order as eight at a time, so
+   * bitwise the same sums (performance: docs/dfsph.md, session 52); then eight at a time, then the rest
+   * one by one, the lanes summed in a fixed order */
   float8 fx = (float8)(0.0f), fy = fx, fz = fx;
   uint k = 0;
+  for (; k + 16 <= nf; k += 16) {
+    const uint16 j = sph_list16(list, k);
+    SPH_LOAD16(x, xt, j);
+    const float16 dx = xi.x - x_x, dy = xi.y - x_y, dz = xi.z - x_z;
+    SPH_GRAD_FACTOR16(F, sqrt(dx * dx + dy * dy + dz * dz), H);
+    const float16 c = (ti + x_w) * F;
+    fx -= c.lo * dx.lo;
+    fy -= c.lo * dy.lo;
+    fz -= c.lo * dz.lo;
+    fx -= c.hi * dx.hi;
+    fy -= c.hi * dy.hi;
+    fz -= c.hi * dz.hi;
+  }
   for (; k + 8 <= nf; k += 8) {
     const uint8 j = sph_list8(list, k);
     SPH_LOAD8(x, xt, j);
@@ -405,6 +422,7 @@ SPH_HOT float3 dfsph_force(const SimParams* p, const uint i, __global const floa
   if (use_bp) f -= dfsph_wall_sums(xi, blist, nb, bpos, 0, bpr, H).xyz / (di * di);
   return f;
 }
+SPH_PSABI_LOUD
 
 /* Pressure accelerations a_i^p = f_i / m_i of the current pressures (unit: m/s^2). */
 __kernel void dfsph_pressure_accel(const SimParams p, __global const float4* xt, __global const uint* phase,
@@ -430,6 +448,7 @@ __kernel void dfsph_pressure_accel(const SimParams p, __global const float4* xt,
  * with the weight cheb other than 0 or 1 the new pressure is max(pold_i + cheb (p_jacobi - pold_i), 0), pold_i
  * the iterate before the last; with cheb != 0 pold_i keeps this iteration's starting p_i for the next one
  * (cheb 0: plain Jacobi, pold untouched). Reads the neighbours' accelerations, writes only particle i. */
+SPH_PSABI_QUIET
 __kernel void dfsph_jacobi(const SimParams p, __global const float4* pos, __global const float4* accel,
                            __global const float* alpha, __global const float* source, __global const uint* nbr,
                            __global const uint* nbr_count, __global const float4* bpos, __global const uint* bnbr,
@@ -451,9 +470,19 @@ __kernel void dfsph_jacobi(const SimParams p, __global const float4* pos, __glob
     return;
   }
   const SphList list = sph_list(&p, nbr, i); /* narrow or wide (shared/neighbours.h) */
-  /* sum_j (a_i - a_j) . gradW_ij: eight at a time, then the rest (as dfsph_density_rate) */
+  /* sum_j (a_i - a_j) . gradW_ij: sixteen at a time, then eight, then the rest (as dfsph_force) */
   float8 acc = (float8)(0.0f);
   uint k = 0;
+  for (; k + 16 <= nf; k += 16) {
+    const uint16 j = sph_list16(list, k);
+    SPH_LOAD16(x, pos, j);
+    SPH_LOAD16(a, accel, j);
+    const float16 dx = xi.x - x_x, dy = xi.y - x_y, dz = xi.z - x_z;
+    SPH_GRAD_FACTOR16(F, sqrt(dx * dx + dy * dy + dz * dz), H);
+    const float16 t = (ai.x - a_x) * dx + (ai.y - a_y) * dy + (ai.z - a_z) * dz;
+    acc += F.lo * t.lo;
+    acc += F.hi * t.hi;
+  }
   for (; k + 8 <= nf; k += 8) {
     const uint8 j = sph_list8(list, k);
     SPH_LOAD8(x, pos, j);
@@ -487,6 +516,7 @@ __kernel void dfsph_jacobi(const SimParams p, __global const float4* pos, __glob
   const float di = density[i] / p.phase_mass[phase[i]];
   xt[i] = (float4)(xi, p1 / (di * di));
 }
+SPH_PSABI_LOUD
 
 /* The end of a solve: the velocities take the pressures, v_i += dt a_i^p. */
 __kernel void dfsph_apply_pressure(const SimParams p, __global const float4* xt, __global float4* vel,
@@ -567,6 +597,7 @@ __kernel void dfsph_density_source(const SimParams p, __global const float4* pos
  * iteration computes increments from the velocities (the sources above) and applies them here.
  * Applies the pressures pinc: v_i += dt a_i^p (the force at the top of this file), and adds them to
  * the accumulated pressure. Reads the neighbours' pressures, writes only particle i. */
+SPH_PSABI_QUIET
 __kernel void dfsph_apply_increments(const SimParams p, __global const float4* xt, __global float4* vel,
                           __global const uint* phase, __global const float* density, __global const float* pinc,
                           __global float* pacc, __global const uint* nbr, __global const uint* nbr_count,
@@ -583,9 +614,25 @@ __kernel void dfsph_apply_increments(const SimParams p, __global const float4* x
   float3 f = (float3)(0.0f);           /* pressure force (unit: N) */
   const uint nf = nbr_count[i];
   const SphList list = sph_list(&p, nbr, i); /* narrow or wide (shared/neighbours.h) */
-  /* fluid neighbours eight at a time (as dfsph_density_rate), then the rest one by one */
+  /* fluid neighbours sixteen at a time (shared/pair_loops.h, SPH_LOAD16), their terms added to the
+   * eight-wide sums a half at a time: the same operations in the same order as eight at a time, so
+   * bitwise the same sums (performance: docs/dfsph.md, session 52); then eight at a time, then the rest
+   * one by one, the lanes summed in a fixed order */
   float8 fx = (float8)(0.0f), fy = fx, fz = fx;
   uint k = 0;
+  for (; k + 16 <= nf; k += 16) {
+    const uint16 j = sph_list16(list, k);
+    SPH_LOAD16(x, xt, j);
+    const float16 dx = xi.x - x_x, dy = xi.y - x_y, dz = xi.z - x_z;
+    SPH_GRAD_FACTOR16(F, sqrt(dx * dx + dy * dy + dz * dz), H);
+    const float16 c = (ti + x_w) * F;
+    fx -= c.lo * dx.lo;
+    fy -= c.lo * dy.lo;
+    fz -= c.lo * dz.lo;
+    fx -= c.hi * dx.hi;
+    fy -= c.hi * dy.hi;
+    fz -= c.hi * dz.hi;
+  }
   for (; k + 8 <= nf; k += 8) {
     const uint8 j = sph_list8(list, k);
     SPH_LOAD8(x, xt, j); /* position and p_j / delta_j^2, packed (dfsph_force) */
@@ -606,6 +653,7 @@ __kernel void dfsph_apply_increments(const SimParams p, __global const float4* x
   vel[i] += (float4)(p.dt / mi * f, 0.0f);
   pacc[i] += pinc[i];
 }
+SPH_PSABI_LOUD
 
 /* Per-chunk sums of err (chunk c: particles c*chunk .. (c+1)*chunk - 1, in order), for the average
  * error; the host adds the chunks in order: a fixed order, so runs are bitwise deterministic. */

@@ -81,6 +81,25 @@ inline SphList sph_list(const SimParams* p, __global const uint* nbr, const uint
 inline uint8 sph_list8(const SphList l, const uint k) {
   return l.w ? vload8(0, l.w + k) : as_uint8(convert_int8(vload8(0, l.s + k)) + (int8)(l.i));
 }
+/* Around device code that passes 16-wide vectors (float16, uint16) to functions, built-ins included: clang
+ * warns on a CPU without AVX-512 that their calling convention differs ("AVX vector argument ... changes
+ * the ABI"), and pocl printed such warnings to the user's stderr (session 46). Harmless here: the program
+ * is one translation unit and these functions are inlined. */
+#ifdef __clang__
+#define SPH_PSABI_QUIET _Pragma("clang diagnostic push") _Pragma("clang diagnostic ignored \"-Wpsabi\"")
+#define SPH_PSABI_LOUD _Pragma("clang diagnostic pop")
+#else
+#define SPH_PSABI_QUIET
+#define SPH_PSABI_LOUD
+#endif
+
+/* Entries k..k+15 (the solves' sixteen-wide loops, shared/pair_loops.h). A 16-wide vector return: clang's
+ * calling-convention warning on CPUs without AVX-512 is silenced (SPH_PSABI_QUIET, below). */
+SPH_PSABI_QUIET
+inline uint16 sph_list16(const SphList l, const uint k) {
+  return l.w ? vload16(0, l.w + k) : as_uint16(convert_int16(vload16(0, l.s + k)) + (int16)(l.i));
+}
+SPH_PSABI_LOUD
 inline uint sph_list1(const SphList l, const uint k) { return l.w ? l.w[k] : (uint)(l.i + (int)l.s[k]); }
 
 /* The narrow offset of candidate j from particle i (valid where it fits: the build checks). */

@@ -51,6 +51,77 @@ inline float8 sph_grad_factor8(const float8 r, const float H) {
 #endif
 }
 
+
+/* ---- sixteen at a time (the solves' pair passes) -----------------------------------------------
+ * Macros rather than functions: a function taking or returning a float16 makes clang warn on a CPU
+ * without AVX-512 that the vector's calling convention differs, and pocl prints such warnings to the
+ * user's stderr (session 46). Without AVX-512 the compiler splits each float16 operation in two.
+ * SPH_GRAD_FACTOR16(OUT, R, H): sph_grad_factor8's formula on sixteen distances. */
+#if SPH_KERNEL == SPH_KERNEL_WENDLAND_C2
+#define SPH_GRAD_FACTOR16(OUT, R, H)                                                              \
+  float16 OUT;                                                                                    \
+  {                                                                                               \
+    const float inv_h_ = 1.0f / (H);                                                              \
+    const float16 q_ = (R) * inv_h_; /* its own statement, as in sph_grad_factor8: no contraction */ \
+    const float16 t_ = fmax(1.0f - q_, 0.0f);                                                     \
+    const float s_ = 21.0f / (2.0f * SPH_PI_F) * inv_h_ * inv_h_ * inv_h_;                        \
+    OUT = -20.0f * s_ * t_ * t_ * t_ * (inv_h_ * inv_h_);                                         \
+  }
+#else
+#define SPH_GRAD_FACTOR16(OUT, R, H)                                                              \
+  float16 OUT;                                                                                    \
+  {                                                                                               \
+    const float inv_h_ = 1.0f / (H);                                                              \
+    const float16 q_ = (R) * inv_h_;                                                              \
+    const float16 t_ = fmax(1.0f - q_, 0.0f);                                                     \
+    const float s_ = 8.0f / SPH_PI_F * inv_h_ * inv_h_ * inv_h_;                                  \
+    OUT = s_ * select(-6.0f * t_ * t_ / fmax(q_, 0.25f), 18.0f * q_ - 12.0f, q_ <= 0.5f) * (inv_h_ * inv_h_); \
+  }
+#endif
+
+/* SPH_LOAD16(NAME, ARR, J): the sixteen float4 ARR[J.s0..sf], and their components as float16
+ * NAME##_x, _y, _z, _w (lane l from J's lane l). With clang the same transpose as SPH_LANES8's, on
+ * four float16 (p0|p4|p8|p12, p1|p5|p9|p13, ...): 24 shuffles for all four components. */
+#define SPH_LOAD16_RAW(NAME, ARR, J)                                                              \
+  const float4 NAME##0 = ARR[J.s0], NAME##1 = ARR[J.s1], NAME##2 = ARR[J.s2], NAME##3 = ARR[J.s3];     \
+  const float4 NAME##4 = ARR[J.s4], NAME##5 = ARR[J.s5], NAME##6 = ARR[J.s6], NAME##7 = ARR[J.s7];     \
+  const float4 NAME##8 = ARR[J.s8], NAME##9 = ARR[J.s9], NAME##10 = ARR[J.sa], NAME##11 = ARR[J.sb];   \
+  const float4 NAME##12 = ARR[J.sc], NAME##13 = ARR[J.sd], NAME##14 = ARR[J.se], NAME##15 = ARR[J.sf]
+#ifdef __clang__
+#define SPH_Q16(P, A, B, C, D)                                                                     \
+  __builtin_shufflevector(__builtin_shufflevector(P##A, P##B, 0, 1, 2, 3, 4, 5, 6, 7),              \
+                          __builtin_shufflevector(P##C, P##D, 0, 1, 2, 3, 4, 5, 6, 7), 0, 1, 2, 3, 4, 5, \
+                          6, 7, 8, 9, 10, 11, 12, 13, 14, 15)
+/* lo: lanes (a.x, b.x, a.y, b.y) of each 128-bit quarter; hi: (a.z, b.z, a.w, b.w) */
+#define SPH_UNPACK_LO16(A, B) \
+  __builtin_shufflevector(A, B, 0, 16, 1, 17, 4, 20, 5, 21, 8, 24, 9, 25, 12, 28, 13, 29)
+#define SPH_UNPACK_HI16(A, B) \
+  __builtin_shufflevector(A, B, 2, 18, 3, 19, 6, 22, 7, 23, 10, 26, 11, 27, 14, 30, 15, 31)
+/* first (x or z) or second (y or w) pair of each quarter of two unpacked vectors */
+#define SPH_PICK_FIRST16(S, T) \
+  __builtin_shufflevector(S, T, 0, 1, 16, 17, 4, 5, 20, 21, 8, 9, 24, 25, 12, 13, 28, 29)
+#define SPH_PICK_SECOND16(S, T) \
+  __builtin_shufflevector(S, T, 2, 3, 18, 19, 6, 7, 22, 23, 10, 11, 26, 27, 14, 15, 30, 31)
+#define SPH_LOAD16(NAME, ARR, J)                                                                   \
+  SPH_LOAD16_RAW(NAME, ARR, J);                                                                    \
+  const float16 NAME##_q0 = SPH_Q16(NAME, 0, 4, 8, 12), NAME##_q1 = SPH_Q16(NAME, 1, 5, 9, 13);    \
+  const float16 NAME##_q2 = SPH_Q16(NAME, 2, 6, 10, 14), NAME##_q3 = SPH_Q16(NAME, 3, 7, 11, 15);  \
+  const float16 NAME##_lo01 = SPH_UNPACK_LO16(NAME##_q0, NAME##_q1), NAME##_lo23 = SPH_UNPACK_LO16(NAME##_q2, NAME##_q3); \
+  const float16 NAME##_hi01 = SPH_UNPACK_HI16(NAME##_q0, NAME##_q1), NAME##_hi23 = SPH_UNPACK_HI16(NAME##_q2, NAME##_q3); \
+  const float16 NAME##_x = SPH_PICK_FIRST16(NAME##_lo01, NAME##_lo23);                            \
+  const float16 NAME##_y = SPH_PICK_SECOND16(NAME##_lo01, NAME##_lo23);                           \
+  const float16 NAME##_z = SPH_PICK_FIRST16(NAME##_hi01, NAME##_hi23);                            \
+  const float16 NAME##_w = SPH_PICK_SECOND16(NAME##_hi01, NAME##_hi23)
+#else
+#define SPH_LANES16(P, C)                                                                          \
+  ((float16)((P##0).C, (P##1).C, (P##2).C, (P##3).C, (P##4).C, (P##5).C, (P##6).C, (P##7).C,       \
+             (P##8).C, (P##9).C, (P##10).C, (P##11).C, (P##12).C, (P##13).C, (P##14).C, (P##15).C))
+#define SPH_LOAD16(NAME, ARR, J)                                                                   \
+  SPH_LOAD16_RAW(NAME, ARR, J);                                                                    \
+  const float16 NAME##_x = SPH_LANES16(NAME, x), NAME##_y = SPH_LANES16(NAME, y);                  \
+  const float16 NAME##_z = SPH_LANES16(NAME, z), NAME##_w = SPH_LANES16(NAME, w)
+#endif
+
 /* Lane-wise gathers. */
 #define SPH_GATHER8(A, J) ((float8)(A[J.s0], A[J.s1], A[J.s2], A[J.s3], A[J.s4], A[J.s5], A[J.s6], A[J.s7]))
 /* One component of eight float4 as a float8 (lane l from P##l). With clang (pocl, and the GPU
