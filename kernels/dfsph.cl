@@ -128,6 +128,7 @@ inline float dfsph_node_sum(const float3 xi, __global const uint* list, const ui
  * sums gwall_i (above). With `with_rate` also the divergence solve's density rate D delta_i / Dt
  * (B&K 2017 eq. 2) of the velocities `vel` into rate_out, from the same pairs: one neighbour pass
  * fewer per step (performance; dfsph_source reads it). */
+SPH_PSABI_QUIET
 __kernel void dfsph_factor(const SimParams p, __global const float4* pos, __global const uint* phase,
                            __global float* density, __global const uint* nbr, __global const uint* nbr_count,
                            __global const float4* bpos, __global const uint* bnbr,
@@ -149,6 +150,51 @@ __kernel void dfsph_factor(const SimParams p, __global const float4* pos, __glob
   float8 sx = (float8)(0.0f), sy = sx, sz = sx, s8 = sx, r8 = sx, w8 = sx;
   const uint nf = nbr_count[i];
   uint k = 0;
+  /* sixteen at a time first, each sum taking the two halves in turn: the eight-wide loop's operations
+   * in its order, so bitwise its sums (performance; as dfsph_force) */
+  for (; k + 16 <= nf; k += 16) {
+    const uint16 j = sph_list16(list, k);
+    SPH_LOAD16(x, pos, j);
+    const float16 dx = xi.x - x_x, dy = xi.y - x_y, dz = xi.z - x_z;
+    const float16 r2 = dx * dx + dy * dy + dz * dz;
+    SPH_GRAD_FACTOR16(F, sqrt(r2), H);
+    if (with_density) {
+      SPH_W16(w, sqrt(r2), H);
+      w8 += w.lo;
+      w8 += w.hi;
+    }
+    const float16 ax = F * dx, ay = F * dy, az = F * dz;
+    sx += ax.lo;
+    sy += ay.lo;
+    sz += az.lo;
+    sx += ax.hi;
+    sy += ay.hi;
+    sz += az.hi;
+    if (one_mass) {
+      const float16 t = (ax * ax + ay * ay + az * az) / mi;
+      s8 += t.lo;
+      s8 += t.hi;
+    } else {
+      const uint16 phj = (uint16)(phase[j.s0], phase[j.s1], phase[j.s2], phase[j.s3], phase[j.s4], phase[j.s5],
+                                  phase[j.s6], phase[j.s7], phase[j.s8], phase[j.s9], phase[j.sa], phase[j.sb],
+                                  phase[j.sc], phase[j.sd], phase[j.se], phase[j.sf]);
+      const float16 t = (ax * ax + ay * ay + az * az) /
+                        (float16)(p.phase_mass[phj.s0], p.phase_mass[phj.s1], p.phase_mass[phj.s2],
+                                  p.phase_mass[phj.s3], p.phase_mass[phj.s4], p.phase_mass[phj.s5],
+                                  p.phase_mass[phj.s6], p.phase_mass[phj.s7], p.phase_mass[phj.s8],
+                                  p.phase_mass[phj.s9], p.phase_mass[phj.sa], p.phase_mass[phj.sb],
+                                  p.phase_mass[phj.sc], p.phase_mass[phj.sd], p.phase_mass[phj.se],
+                                  p.phase_mass[phj.sf]);
+      s8 += t.lo;
+      s8 += t.hi;
+    }
+    if (with_rate) {
+      SPH_LOAD16(v, vel, j);
+      const float16 u = (vi.x - v_x) * dx + (vi.y - v_y) * dy + (vi.z - v_z) * dz;
+      r8 += F.lo * u.lo;
+      r8 += F.hi * u.hi;
+    }
+  }
   for (; k + 8 <= nf; k += 8) {
     const uint8 j = sph_list8(list, k);
     SPH_LOAD8(x, pos, j);
@@ -236,9 +282,11 @@ __kernel void dfsph_factor(const SimParams p, __global const float4* pos, __glob
   /* a particle without neighbours takes no pressure */
   alpha[i] = D > 0.0f ? delta * delta / D : 0.0f;
 }
+SPH_PSABI_LOUD
 
 /* D delta_i / Dt (B&K 2017 eq. 2, number density): the rate at which the neighbours close in; the
  * walls' part from the factor pass's sums gw (v_i . G_b - sum_b psi_b v_b . gradW_ib). */
+SPH_PSABI_QUIET
 SPH_HOT float dfsph_density_rate(const SimParams* p, const uint i, __global const float4* pos,
                                  __global const float4* vel, __global const uint* lists, const uint nf,
                                  const float4 gw) {
@@ -249,6 +297,17 @@ SPH_HOT float dfsph_density_rate(const SimParams* p, const uint i, __global cons
    * lanes summed in a fixed order, then the rest one by one */
   float8 acc = (float8)(0.0f);
   uint k = 0;
+  /* sixteen at a time first, the halves added in turn: bitwise the eight-wide loop's sum (as dfsph_force) */
+  for (; k + 16 <= nf; k += 16) {
+    const uint16 j = sph_list16(nbr, k);
+    SPH_LOAD16(x, pos, j);
+    SPH_LOAD16(v, vel, j);
+    const float16 dx = xi.x - x_x, dy = xi.y - x_y, dz = xi.z - x_z;
+    SPH_GRAD_FACTOR16(F, sqrt(dx * dx + dy * dy + dz * dz), H);
+    const float16 u = (vi.x - v_x) * dx + (vi.y - v_y) * dy + (vi.z - v_z) * dz;
+    acc += F.lo * u.lo;
+    acc += F.hi * u.hi;
+  }
   for (; k + 8 <= nf; k += 8) {
     const uint8 j = sph_list8(nbr, k);
     SPH_LOAD8(x, pos, j);
@@ -265,6 +324,7 @@ SPH_HOT float dfsph_density_rate(const SimParams* p, const uint i, __global cons
   }
   return rate + (dot(vi, gw.xyz) - gw.w);
 }
+SPH_PSABI_LOUD
 
 /* Source of a solve and its warm start (B&K 2017 Alg. 2-3; section 4.4 for the warm start).
  * density (kind 1, eq. 12): s_i = (delta_i + dt D delta_i / Dt) V0 - 1, the relative compression

@@ -79,6 +79,31 @@ inline float8 sph_grad_factor8(const float8 r, const float H) {
   }
 #endif
 
+/* SPH_W16(OUT, R, H): sph_w8's formula on sixteen distances (the same expressions: the same values). */
+#if SPH_KERNEL == SPH_KERNEL_WENDLAND_C2
+#define SPH_W16(OUT, R, H)                                                                        \
+  float16 OUT;                                                                                    \
+  {                                                                                               \
+    const float inv_h_ = 1.0f / (H);                                                              \
+    const float16 q_ = (R) * inv_h_;                                                              \
+    const float16 t_ = fmax(1.0f - q_, 0.0f);                                                     \
+    const float s_ = 21.0f / (2.0f * SPH_PI_F) * inv_h_ * inv_h_ * inv_h_;                        \
+    OUT = s_ * t_ * t_ * t_ * t_ * (1.0f + 4.0f * q_);                                            \
+  }
+#else
+#define SPH_W16(OUT, R, H)                                                                        \
+  float16 OUT;                                                                                    \
+  {                                                                                               \
+    const float inv_h_ = 1.0f / (H);                                                              \
+    const float16 q_ = (R) * inv_h_;                                                              \
+    const float16 t_ = fmax(1.0f - q_, 0.0f);                                                     \
+    const float s_ = 8.0f / SPH_PI_F * inv_h_ * inv_h_ * inv_h_;                                  \
+    const float16 inner_ = 6.0f * q_ * q_ * q_ - 6.0f * q_ * q_ + 1.0f;                           \
+    const float16 outer_ = 2.0f * t_ * t_ * t_;                                                   \
+    OUT = s_ * select(outer_, inner_, q_ <= 0.5f);                                                \
+  }
+#endif
+
 /* SPH_LOAD16(NAME, ARR, J): the sixteen float4 ARR[J.s0..sf], and their components as float16
  * NAME##_x, _y, _z, _w (lane l from J's lane l). With clang the same transpose as SPH_LANES8's, on
  * four float16 (p0|p4|p8|p12, p1|p5|p9|p13, ...): 24 shuffles for all four components. */
@@ -121,6 +146,12 @@ inline float8 sph_grad_factor8(const float8 r, const float H) {
   const float16 NAME##_x = SPH_LANES16(NAME, x), NAME##_y = SPH_LANES16(NAME, y);                  \
   const float16 NAME##_z = SPH_LANES16(NAME, z), NAME##_w = SPH_LANES16(NAME, w)
 #endif
+
+/* Lane-wise gathers of sixteen (the sixteen-wide loops). */
+#define SPH_GATHER16_AS(T, A, J)                                                                   \
+  ((T)(A[J.s0], A[J.s1], A[J.s2], A[J.s3], A[J.s4], A[J.s5], A[J.s6], A[J.s7], A[J.s8], A[J.s9], A[J.sa], \
+       A[J.sb], A[J.sc], A[J.sd], A[J.se], A[J.sf]))
+#define SPH_GATHER16(A, J) SPH_GATHER16_AS(float16, A, J)
 
 /* Lane-wise gathers. */
 #define SPH_GATHER8(A, J) ((float8)(A[J.s0], A[J.s1], A[J.s2], A[J.s3], A[J.s4], A[J.s5], A[J.s6], A[J.s7]))
@@ -312,6 +343,7 @@ typedef struct {
   float3 av; /* viscous acceleration (unit: m/s^2) */
 } SphPairSums;
 
+SPH_PSABI_QUIET
 SPH_HOT SphPairSums sph_pair_sums(const SimParams* p, const uint i, __global const float4* pos,
                                   __global const float4* vel, __global const uint* phase,
                                   __global const float* density, __global const float* pterm,
@@ -328,6 +360,51 @@ SPH_HOT SphPairSums sph_pair_sums(const SimParams* p, const uint i, __global con
 
   float8 fx = (float8)(0.0f), fy = fx, fz = fx, ax = fx, ay = fx, az = fx;
   uint k = 0;
+  /* sixteen at a time first, each sum taking the two halves in turn: the eight-wide loop's operations in
+   * its order, so bitwise its sums (performance: docs/dfsph.md, session 52) */
+  for (; k + 16 <= n; k += 16) {
+    const uint16 j = sph_list16(list, k);
+    SPH_LOAD16(x, pos, j);
+    const float16 dx = xi.x - x_x, dy = xi.y - x_y, dz = xi.z - x_z;
+    const float16 r2 = dx * dx + dy * dy + dz * dz;
+    SPH_GRAD_FACTOR16(F, sqrt(r2), H);
+    if (pressure) {
+      const float16 c = (pi_term + SPH_GATHER16(pterm, j)) * F;
+      fx -= c.lo * dx.lo;
+      fy -= c.lo * dy.lo;
+      fz -= c.lo * dz.lo;
+      fx -= c.hi * dx.hi;
+      fy -= c.hi * dy.hi;
+      fz -= c.hi * dz.hi;
+    }
+    if (viscous) {
+      SPH_LOAD16(v, vel, j);
+      const float16 vx = vi.x - v_x, vy = vi.y - v_y, vz = vi.z - v_z;
+      const float16 rhoj = SPH_GATHER16(density, j);
+      const uint16 phj = SPH_GATHER16_AS(uint16, phase, j);
+      const float16 mj = SPH_GATHER16(p->phase_mass, phj);
+#if SPH_LAMINAR
+      const float16 muj = rhoj * SPH_GATHER16(p->phase_viscosity, phj);
+      const float16 c = mj * (mui + muj) * (F * r2) / (rhoi * rhoj * (r2 + eta2));
+      ax += c.lo * vx.lo;
+      ay += c.lo * vy.lo;
+      az += c.lo * vz.lo;
+      ax += c.hi * vx.hi;
+      ay += c.hi * vy.hi;
+      az += c.hi * vz.hi;
+#else
+      const float16 vdotx = fmin(vx * dx + vy * dy + vz * dz, 0.0f);
+      const float16 Pi = visc_k * vdotx / ((r2 + eta2) * (0.5f * (rhoi + rhoj)));
+      const float16 c = -mj * Pi * F;
+      ax += c.lo * dx.lo;
+      ay += c.lo * dy.lo;
+      az += c.lo * dz.lo;
+      ax += c.hi * dx.hi;
+      ay += c.hi * dy.hi;
+      az += c.hi * dz.hi;
+#endif
+    }
+  }
   for (; k + 8 <= n; k += 8) {
     const uint8 j = sph_list8(list, k);
     SPH_LOAD8(x, pos, j);
@@ -388,6 +465,7 @@ SPH_HOT SphPairSums sph_pair_sums(const SimParams* p, const uint i, __global con
   }
   return s;
 }
+SPH_PSABI_LOUD
 
 /* Viscous acceleration of a fluid particle (mass m, density rho, kinematic viscosity nu) from
  * one boundary particle of volume ratio w = V_b / V0 at offset d = x_i - x_b (|d|^2 = r2), relative
