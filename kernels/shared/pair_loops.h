@@ -1,13 +1,16 @@
 /* Neighbour-list loops of the density and force passes (device side only), eight candidates per
  * iteration in float8 vectors, then the remainder one by one (session 46 tried the remainder as one more
- * group padded with the particle itself, and did not keep it: docs/dfsph.md).
+ * group padded with the particle itself, and did not keep it: docs/dfsph.md). The pair passes that gather
+ * (not the list build and compaction) first take sixteen at a time in float16 vectors and add each half
+ * of the sixteen terms to the eight-wide sums in turn: the same operations in the same order as eight at
+ * a time, so the same bits; with AVX-512 the arithmetic takes half the instructions (session 52).
  *
  * Why by hand: pocl runs a work-group's work-items in a loop on each CPU core and leaves these
  * inner loops scalar (their trip counts differ per particle, and the list compaction carries a
- * dependence), so the arithmetic is written 8-wide here: positions are gathered lane by lane,
- * everything after that (distances, sqrt, kernel, pair terms) runs in one AVX instruction per
- * eight pairs. On a GPU the float8 code is simply unrolled. The eight partial sums are reduced in
- * a fixed order, so results stay bitwise reproducible.
+ * dependence), so the arithmetic is written 8-wide here: positions are gathered lane by lane and
+ * split into components by a transpose of shuffles, everything after that (distances, sqrt, kernel,
+ * pair terms) runs in one AVX instruction per eight pairs. On a GPU the vector code is simply unrolled.
+ * The eight partial sums are reduced in a fixed order, so results stay bitwise reproducible.
  *
  * The formulas are those of shared/sph_kernel.h (kernels) and of the stage files (pair terms);
  * the tests compare every pass with a brute-force reference. */
