@@ -152,6 +152,7 @@ __kernel void dfsph_factor(const SimParams p, __global const float4* pos, __glob
   uint k = 0;
   /* sixteen at a time first, each sum taking the two halves in turn: the eight-wide loop's operations
    * in its order, so bitwise its sums (performance; as dfsph_force) */
+#if SPH_PAIR16
   for (; k + 16 <= nf; k += 16) {
     const uint16 j = sph_list16(list, k);
     SPH_LOAD16(x, pos, j);
@@ -195,6 +196,7 @@ __kernel void dfsph_factor(const SimParams p, __global const float4* pos, __glob
       r8 += F.hi * u.hi;
     }
   }
+#endif
   for (; k + 8 <= nf; k += 8) {
     const uint8 j = sph_list8(list, k);
     SPH_LOAD8(x, pos, j);
@@ -298,6 +300,7 @@ SPH_HOT float dfsph_density_rate(const SimParams* p, const uint i, __global cons
   float8 acc = (float8)(0.0f);
   uint k = 0;
   /* sixteen at a time first, the halves added in turn: bitwise the eight-wide loop's sum (as dfsph_force) */
+#if SPH_PAIR16
   for (; k + 16 <= nf; k += 16) {
     const uint16 j = sph_list16(nbr, k);
     SPH_LOAD16(x, pos, j);
@@ -308,6 +311,7 @@ SPH_HOT float dfsph_density_rate(const SimParams* p, const uint i, __global cons
     acc += F.lo * u.lo;
     acc += F.hi * u.hi;
   }
+#endif
   for (; k + 8 <= nf; k += 8) {
     const uint8 j = sph_list8(nbr, k);
     SPH_LOAD8(x, pos, j);
@@ -446,6 +450,7 @@ SPH_HOT float3 dfsph_force(const SimParams* p, const uint i, __global const floa
    * one by one, the lanes summed in a fixed order */
   float8 fx = (float8)(0.0f), fy = fx, fz = fx;
   uint k = 0;
+#if SPH_PAIR16
   for (; k + 16 <= nf; k += 16) {
     const uint16 j = sph_list16(list, k);
     SPH_LOAD16(x, xt, j);
@@ -459,6 +464,7 @@ SPH_HOT float3 dfsph_force(const SimParams* p, const uint i, __global const floa
     fy -= c.hi * dy.hi;
     fz -= c.hi * dz.hi;
   }
+#endif
   for (; k + 8 <= nf; k += 8) {
     const uint8 j = sph_list8(list, k);
     SPH_LOAD8(x, xt, j);
@@ -533,6 +539,7 @@ __kernel void dfsph_jacobi(const SimParams p, __global const float4* pos, __glob
   /* sum_j (a_i - a_j) . gradW_ij: sixteen at a time, then eight, then the rest (as dfsph_force) */
   float8 acc = (float8)(0.0f);
   uint k = 0;
+#if SPH_PAIR16
   for (; k + 16 <= nf; k += 16) {
     const uint16 j = sph_list16(list, k);
     SPH_LOAD16(x, pos, j);
@@ -543,6 +550,7 @@ __kernel void dfsph_jacobi(const SimParams p, __global const float4* pos, __glob
     acc += F.lo * t.lo;
     acc += F.hi * t.hi;
   }
+#endif
   for (; k + 8 <= nf; k += 8) {
     const uint8 j = sph_list8(list, k);
     SPH_LOAD8(x, pos, j);
@@ -680,6 +688,7 @@ __kernel void dfsph_apply_increments(const SimParams p, __global const float4* x
    * one by one, the lanes summed in a fixed order */
   float8 fx = (float8)(0.0f), fy = fx, fz = fx;
   uint k = 0;
+#if SPH_PAIR16
   for (; k + 16 <= nf; k += 16) {
     const uint16 j = sph_list16(list, k);
     SPH_LOAD16(x, xt, j);
@@ -693,6 +702,7 @@ __kernel void dfsph_apply_increments(const SimParams p, __global const float4* x
     fy -= c.hi * dy.hi;
     fz -= c.hi * dz.hi;
   }
+#endif
   for (; k + 8 <= nf; k += 8) {
     const uint8 j = sph_list8(list, k);
     SPH_LOAD8(x, xt, j); /* position and p_j / delta_j^2, packed (dfsph_force) */

@@ -193,10 +193,10 @@ std::string programOptions(int kind, bool laminar) {
   return "-cl-std=CL1.2 -DSPH_KERNEL=" + std::to_string(kind) + " -DSPH_LAMINAR=" + (laminar ? "1" : "0");
 }
 
-/// One KernelSet per build-option string, built once per test run.
-KernelSet& kernelSet(int kind, bool laminar) {
+/// One KernelSet per build-option string, built once per test run (`extra`: more options).
+KernelSet& kernelSet(int kind, bool laminar, const std::string& extra = "") {
   static std::map<std::string, std::unique_ptr<KernelSet>> cache;
-  const std::string options = programOptions(kind, laminar);
+  const std::string options = programOptions(kind, laminar) + extra;
   auto& ks = cache[options];
   if (!ks) ks = std::make_unique<KernelSet>(clctx(), options);
   return *ks;
@@ -984,6 +984,103 @@ TEST_CASE("dfsph_factor with the density: compute_density's density, pressure, p
     // the scene exercises the marks where it has a boundary
     if (c.boundary) CHECK(std::count(marks.begin(), marks.end(), d.stamp) > 0);
   }
+}
+
+// The pair passes take sixteen neighbours at a time and add each half of the sixteen terms to the eight-wide
+// sums in turn (kernels/shared/pair_loops.h): the eight-wide loop's operations in its order, so its bits.
+// The program built with -DSPH_PAIR16=0 (eight at a time only) must give every output byte for byte.
+/// Outputs of several passes, each as its bytes.
+struct PassBytes {
+  std::vector<std::vector<unsigned char>> bytes;
+  template <class T>
+  void add(const cl::Buffer& b, std::size_t count) {
+    const std::vector<T> v = fromDevice<T>(b, count);
+    bytes.emplace_back(reinterpret_cast<const unsigned char*>(v.data()),
+                       reinterpret_cast<const unsigned char*>(v.data()) + v.size() * sizeof(T));
+  }
+};
+
+void checkSixteenWide(const int kind, const bool laminar) {
+  const float ratio = kind == SPH_KERNEL_WENDLAND_C2 ? 3.0f : 2.0f;
+  INFO(kindName(kind) << ", " << (laminar ? "laminar" : "artificial"));
+  const Scene s = makeScene(kind, ratio, true, SPH_EOS_TAIT, false, 41);
+  KernelSet& k16 = kernelSet(kind, laminar);
+  KernelSet& k8 = kernelSet(kind, laminar, " -DSPH_PAIR16=0");
+  Device d(k16, s);
+  REQUIRE(runDensity(d, 0.3f * (s.P.cell_size - s.P.support)).overflow == 0u);
+  const std::size_t n = d.n, nbc = std::max<std::size_t>(d.nb, 1);
+  // the passes must meet lists of sixteen and more, and lists of fewer
+  const std::vector<uint32_t> counts = fromDevice<uint32_t>(d.snbr_count, n);
+  CHECK(std::count_if(counts.begin(), counts.end(), [](uint32_t c) { return c >= 16; }) > 10);
+  CHECK(std::count_if(counts.begin(), counts.end(), [](uint32_t c) { return c < 16; }) > 0);
+  std::mt19937 g(9);
+  std::vector<F4> xt_host = fromDevice<F4>(d.pos[d.cur], n), acc_host(n);
+  std::vector<float> p_host(n), alpha_host(n), src_host(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    xt_host[i].w = uni(g, 0.0f, 3e-3f);  // p_j / delta_j^2 as the force pass reads it
+    acc_host[i] = F4{uni(g, -5, 5), uni(g, -5, 5), uni(g, -5, 5), 0.0f};
+    p_host[i] = uni(g, 0.0f, 2000.0f);
+    alpha_host[i] = uni(g, 1e-8f, 1e-7f);
+    src_host[i] = uni(g, -1e-3f, 1e-3f);
+  }
+  auto run = [&](KernelSet& ks) {
+    PassBytes o;
+    const cl::Buffer acc = zeros<F4>(n);
+    ks.call("pressure_force", n, kLocal, d.P, d.pos[d.cur], d.phase[d.cur], d.density, d.pterm, d.snbr, d.snbr_count,
+            d.bpos, d.bvel, d.bpressure, d.sbnbr, d.sbnbr_count, acc);
+    o.add<F4>(acc, n);
+    ks.call("viscosity_force", n, kLocal, d.P, d.pos[d.cur], d.vel[d.cur], d.phase[d.cur], d.density, d.snbr,
+            d.snbr_count, d.bpos, d.bvel, d.sbnbr, d.sbnbr_count, acc);
+    o.add<F4>(acc, n);
+    // the factor pass with the density and the density rate, every phase's mass gathered (one_mass 0)
+    const cl::Buffer density = toDevice(fromDevice<float>(d.density, n)), pressure = zeros<float>(n),
+                     pterm = zeros<float>(n), bmark = zeros<uint32_t>(nbc), alpha = zeros<float>(n),
+                     rate = zeros<float>(n), gwall = zeros<F4>(n);
+    ks.call("dfsph_factor", n, kLocal, d.P, d.pos[d.cur], d.phase[d.cur], density, d.snbr, d.snbr_count, d.bpos,
+            d.sbnbr, d.sbnbr_count, 1.0f, alpha, d.bvel, gwall, 1, d.vel[d.cur], rate, 0, 0, gwall, 1, pressure, pterm,
+            d.stamp + 1, bmark);
+    for (const cl::Buffer* b : {&density, &pressure, &pterm, &alpha, &rate}) o.add<float>(*b, n);
+    o.add<F4>(gwall, n);
+    // the solves' passes on the same made-up pressures and accelerations
+    const cl::Buffer xt = toDevice(xt_host), pr = toDevice(p_host), accel = zeros<F4>(n), bpr = zeros<float>(nbc);
+    ks.call("dfsph_pressure_accel", n, kLocal, d.P, xt, d.phase[d.cur], density, pr, d.snbr, d.snbr_count, d.bpos,
+            d.sbnbr, d.sbnbr_count, 1.0f, bpr, 0, accel, gwall);
+    o.add<F4>(accel, n);
+    const cl::Buffer accel2 = toDevice(acc_host), alpha2 = toDevice(alpha_host), src = toDevice(src_host),
+                     pr2 = toDevice(p_host), err = zeros<float>(n), xt2 = zeros<F4>(n), pold = toDevice(p_host);
+    ks.call("dfsph_jacobi", n, kLocal, d.P, d.pos[d.cur], accel2, alpha2, src, d.snbr, d.snbr_count, d.bpos, d.sbnbr,
+            d.sbnbr_count, 0u, 0.5f, 1, pr2, err, d.phase[d.cur], density, xt2, gwall, 0, accel2, 0.9f, pold);
+    for (const cl::Buffer* b : {&pr2, &err, &pold}) o.add<float>(*b, n);
+    o.add<F4>(xt2, n);
+    const cl::Buffer vel = toDevice(fromDevice<F4>(d.vel[d.cur], n));
+    ks.call("dfsph_apply_pressure", n, kLocal, d.P, xt, vel, d.phase[d.cur], density, pr, d.snbr, d.snbr_count, d.bpos,
+            d.sbnbr, d.sbnbr_count, 1.0f, bpr, 0, gwall);
+    o.add<F4>(vel, n);
+    return o;
+  };
+  const PassBytes a = run(k16), b = run(k8);
+  const char* names[] = {"pressure_force",   "viscosity_force", "factor: density",   "factor: pressure",
+                         "factor: p / delta^2", "factor: alpha", "factor: rate",      "factor: wall sums",
+                         "pressure_accel",   "jacobi: pressure", "jacobi: error",     "jacobi: previous",
+                         "jacobi: xt",       "apply_pressure"};
+  REQUIRE(a.bytes.size() == std::size(names));
+  for (std::size_t q = 0; q < a.bytes.size(); ++q) {
+    INFO(names[q]);
+    CHECK(a.bytes[q] == b.bytes[q]);
+  }
+  // and the outputs are not trivially equal: the passes wrote non-zero values
+  CHECK(std::any_of(a.bytes[8].begin(), a.bytes[8].end(), [](unsigned char c) { return c != 0; }));
+}
+
+TEST_CASE("pair passes sixteen at a time give the eight-wide loops' results bitwise (artificial viscosity)",
+          "[kernels][dfsph]") {
+  checkSixteenWide(SPH_KERNEL_CUBIC_SPLINE, false);
+  checkSixteenWide(SPH_KERNEL_WENDLAND_C2, false);
+}
+
+TEST_CASE("pair passes sixteen at a time give the eight-wide loops' results bitwise (laminar viscosity)",
+          "[kernels][dfsph]") {
+  checkSixteenWide(SPH_KERNEL_CUBIC_SPLINE, true);
 }
 
 // ---------------------------------------------------------------------------------------------

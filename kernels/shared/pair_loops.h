@@ -55,6 +55,12 @@ inline float8 sph_grad_factor8(const float8 r, const float H) {
 }
 
 
+/* SPH_PAIR16 0 (a build option) leaves the sixteen-wide loops out: the eight-wide loops then take every group
+ * (the kernel test that holds the two bitwise equal builds both). */
+#ifndef SPH_PAIR16
+#define SPH_PAIR16 1
+#endif
+
 /* ---- sixteen at a time (the solves' pair passes) -----------------------------------------------
  * Macros rather than functions: a function taking or returning a float16 makes clang warn on a CPU
  * without AVX-512 that the vector's calling convention differs, and pocl prints such warnings to the
@@ -365,6 +371,7 @@ SPH_HOT SphPairSums sph_pair_sums(const SimParams* p, const uint i, __global con
   uint k = 0;
   /* sixteen at a time first, each sum taking the two halves in turn: the eight-wide loop's operations in
    * its order, so bitwise its sums (performance: docs/dfsph.md, session 52) */
+#if SPH_PAIR16
   for (; k + 16 <= n; k += 16) {
     const uint16 j = sph_list16(list, k);
     SPH_LOAD16(x, pos, j);
@@ -408,6 +415,7 @@ SPH_HOT SphPairSums sph_pair_sums(const SimParams* p, const uint i, __global con
 #endif
     }
   }
+#endif
   for (; k + 8 <= n; k += 8) {
     const uint8 j = sph_list8(list, k);
     SPH_LOAD8(x, pos, j);
