@@ -427,27 +427,18 @@ __kernel void dfsph_warm_filter(const SimParams p, __global const float4* pos, _
   out[i] = fmax(pi + beta * qsum / wsum, 0.0f);
 }
 
-/* The pressure force of the top of this file on particle i (unit: N), for the pressures `pr`.
- * Performance: the fluid neighbours' positions and p_j / delta_j^2 come packed in one float4 each,
- * xt_j = (x_j, p_j / delta_j^2) (written with the pressures by dfsph_source and dfsph_jacobi), one
- * gather per neighbour instead of five (position, phase, mass, density, pressure). Inlined by force
- * (SPH_HOT, shared/pair_loops.h). */
+/* The fluid part of that pressure force on particle i at xi (unit: N), p_i / delta_i^2 = ti, over
+ * i's list of nf neighbours, whose positions and p_j / delta_j^2 come packed in xt (dfsph_force):
+ *     - sum_j (t_i + t_j) F_ij x_ij.
+ * Sixteen neighbours at a time (shared/pair_loops.h, SPH_LOAD16), their terms added to the eight-wide
+ * sums a half at a time: the same operations in the same order as eight at a time, so bitwise the
+ * same sums (performance: docs/dfsph.md, session 52); then eight at a time, then the rest one by one,
+ * the lanes summed in a fixed order. Shared by dfsph_force and dfsph_apply_increments; inlined by
+ * force (SPH_HOT). */
 SPH_PSABI_QUIET
-SPH_HOT float3 dfsph_force(const SimParams* p, const uint i, __global const float4* xt, __global const uint* phase,
-                           __global const float* density, __global const float* pr, __global const uint* nbr,
-                           const uint nf, __global const float4* bpos, __global const uint* blist, const uint nb,
-                           const float wall, __global const float* bpr, const int use_bp, const float4 gw) {
+SPH_HOT float3 dfsph_fluid_pressure_force(const SimParams* p, const float3 xi, const float ti,
+                                          __global const float4* xt, const SphList list, const uint nf) {
   const float H = p->support;
-  const float3 xi = xt[i].xyz;
-  const float di = density[i] / p->phase_mass[phase[i]];
-  const float ti = pr[i] / (di * di); /* p_i / delta_i^2 */
-  /* i's fluid list, narrow or wide (shared/neighbours.h), made here rather than passed in: when this
-   * function was not inlined, a list passed by value cost ~10 % of the pass (performance) */
-  const SphList list = sph_list(p, nbr, i);
-  /* fluid neighbours sixteen at a time (shared/pair_loops.h, SPH_LOAD16), their terms added to the
-   * eight-wide sums a half at a time: the same operations in the same order as eight at a time, so
-   * bitwise the same sums (performance: docs/dfsph.md, session 52); then eight at a time, then the rest
-   * one by one, the lanes summed in a fixed order */
   float8 fx = (float8)(0.0f), fy = fx, fz = fx;
   uint k = 0;
 #if SPH_PAIR16
@@ -481,6 +472,29 @@ SPH_HOT float3 dfsph_force(const SimParams* p, const uint i, __global const floa
     const float3 d = xi - xj.xyz;
     f -= (ti + xj.w) * sph_grad_factor(SPH_KERNEL, length(d), H) * d;
   }
+  return f;
+}
+SPH_PSABI_LOUD
+
+/* The pressure force of the top of this file on particle i (unit: N), for the pressures `pr`.
+ * Performance: the fluid neighbours' positions and p_j / delta_j^2 come packed in one float4 each,
+ * xt_j = (x_j, p_j / delta_j^2) (written with the pressures by dfsph_source and dfsph_jacobi), one
+ * gather per neighbour instead of five (position, phase, mass, density, pressure). Inlined by force
+ * (SPH_HOT, shared/pair_loops.h). */
+SPH_PSABI_QUIET
+SPH_HOT float3 dfsph_force(const SimParams* p, const uint i, __global const float4* xt, __global const uint* phase,
+                           __global const float* density, __global const float* pr, __global const uint* nbr,
+                           const uint nf, __global const float4* bpos, __global const uint* blist, const uint nb,
+                           const float wall, __global const float* bpr, const int use_bp, const float4 gw) {
+  const float H = p->support;
+  const float3 xi = xt[i].xyz;
+  const float di = density[i] / p->phase_mass[phase[i]];
+  const float ti = pr[i] / (di * di); /* p_i / delta_i^2 */
+  /* i's fluid list, narrow or wide (shared/neighbours.h), made here rather than passed in: when this
+   * function was not inlined, a list passed by value cost ~10 % of the pass (performance); the helper
+   * below is inlined by force */
+  const SphList list = sph_list(p, nbr, i);
+  float3 f = dfsph_fluid_pressure_force(p, xi, ti, xt, list, nf);
   /* walls: wall = 2 mirrors the pressure (p_b = p_i, delta_b = delta_i), wall = 1 is Akinci's
    * single term (p_b = 0 in the symmetric sum); extrapolated (use_bp): wall = 1 and the wall
    * particle's own pressure p_b (Adami et al. 2012 eq. 27, bpr) in the symmetric sum, over delta_i^2 */
@@ -673,52 +687,14 @@ __kernel void dfsph_apply_increments(const SimParams p, __global const float4* x
                           __global const float4* gwall) {
   const uint i = get_global_id(0);
   if (i >= p.n_fluid) return;
-  const uint K = p.max_neighbours;
-  const float H = p.support;
   const float3 xi = xt[i].xyz;
   const float mi = p.phase_mass[phase[i]];
   const float di = density[i] / mi;
   const float ti = pinc[i] / (di * di); /* p_i / delta_i^2 */
-  float3 f = (float3)(0.0f);           /* pressure force (unit: N) */
-  const uint nf = nbr_count[i];
   const SphList list = sph_list(&p, nbr, i); /* narrow or wide (shared/neighbours.h) */
-  /* fluid neighbours sixteen at a time (shared/pair_loops.h, SPH_LOAD16), their terms added to the
-   * eight-wide sums a half at a time: the same operations in the same order as eight at a time, so
-   * bitwise the same sums (performance: docs/dfsph.md, session 52); then eight at a time, then the rest
-   * one by one, the lanes summed in a fixed order */
-  float8 fx = (float8)(0.0f), fy = fx, fz = fx;
-  uint k = 0;
-#if SPH_PAIR16
-  for (; k + 16 <= nf; k += 16) {
-    const uint16 j = sph_list16(list, k);
-    SPH_LOAD16(x, xt, j);
-    const float16 dx = xi.x - x_x, dy = xi.y - x_y, dz = xi.z - x_z;
-    SPH_GRAD_FACTOR16(F, sqrt(dx * dx + dy * dy + dz * dz), H);
-    const float16 c = (ti + x_w) * F;
-    fx -= c.lo * dx.lo;
-    fy -= c.lo * dy.lo;
-    fz -= c.lo * dz.lo;
-    fx -= c.hi * dx.hi;
-    fy -= c.hi * dy.hi;
-    fz -= c.hi * dz.hi;
-  }
-#endif
-  for (; k + 8 <= nf; k += 8) {
-    const uint8 j = sph_list8(list, k);
-    SPH_LOAD8(x, xt, j); /* position and p_j / delta_j^2, packed (dfsph_force) */
-    const float8 dx = xi.x - SPH_LANES8(x, x), dy = xi.y - SPH_LANES8(x, y), dz = xi.z - SPH_LANES8(x, z);
-    const float8 F = sph_grad_factor8(sqrt(dx * dx + dy * dy + dz * dz), H);
-    const float8 c = (ti + SPH_LANES8(x, w)) * F;
-    fx -= c * dx;
-    fy -= c * dy;
-    fz -= c * dz;
-  }
-  f = (float3)(sph_hsum8(fx), sph_hsum8(fy), sph_hsum8(fz));
-  for (; k < nf; ++k) {
-    const float4 xj = xt[sph_list1(list, k)];
-    const float3 d = xi - xj.xyz;
-    f -= (ti + xj.w) * sph_grad_factor(SPH_KERNEL, length(d), H) * d;
-  }
+  /* pressure force (unit: N): the fluid's (dfsph_fluid_pressure_force; xt packs the positions and
+   * p_j / delta_j^2) */
+  float3 f = dfsph_fluid_pressure_force(&p, xi, ti, xt, list, nbr_count[i]);
   f -= 2.0f * ti * gwall[i].xyz; /* walls mirror the pressure: sum_b psi_b 2 t_i gradW_ib = 2 t_i G_b */
   vel[i] += (float4)(p.dt / mi * f, 0.0f);
   pacc[i] += pinc[i];
