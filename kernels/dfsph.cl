@@ -427,9 +427,9 @@ __kernel void dfsph_warm_filter(const SimParams p, __global const float4* pos, _
   out[i] = fmax(pi + beta * qsum / wsum, 0.0f);
 }
 
-/* The fluid part of that pressure force on particle i at xi (unit: N), p_i / delta_i^2 = ti, over
- * i's list of nf neighbours, whose positions and p_j / delta_j^2 come packed in xt (dfsph_force):
- *     - sum_j (t_i + t_j) F_ij x_ij.
+/* The fluid part of the pressure force of the top of this file on particle i at xi (unit: N), with
+ * t_i = p_i / delta_i^2 = ti, over i's list of nf neighbours, whose positions and p_j / delta_j^2 come
+ * packed in xt (dfsph_force):  - sum_j (t_i + t_j) F_ij x_ij.
  * Sixteen neighbours at a time (shared/pair_loops.h, SPH_LOAD16), their terms added to the eight-wide
  * sums a half at a time: the same operations in the same order as eight at a time, so bitwise the
  * same sums (performance: docs/dfsph.md, session 52); then eight at a time, then the rest one by one,
