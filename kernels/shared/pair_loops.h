@@ -65,25 +65,34 @@ inline float8 sph_grad_factor8(const float8 r, const float H) {
  * Macros rather than functions: a function taking or returning a float16 makes clang warn on a CPU
  * without AVX-512 that the vector's calling convention differs, and pocl prints such warnings to the
  * user's stderr (session 46). Without AVX-512 the compiler splits each float16 operation in two.
- * SPH_GRAD_FACTOR16(OUT, R, H): sph_grad_factor8's formula on sixteen distances. */
+ * Each writes sph_grad_factor8's or sph_w8's expressions, statement for statement, so that the values
+ * are bitwise theirs (q = r / h is its own statement there too: no contraction into 1 - q).
+ * SPH_Q16_OPEN(R, H): the statements they share, inv_h_, q_, t_ = max(1 - q, 0) and the kernel's
+ * normalisation s_ (sph_kernel.h). */
+#if SPH_KERNEL == SPH_KERNEL_WENDLAND_C2
+#define SPH_S16_NORM 21.0f / (2.0f * SPH_PI_F)
+#else
+#define SPH_S16_NORM 8.0f / SPH_PI_F
+#endif
+#define SPH_Q16_OPEN(R, H)                                                                        \
+  const float inv_h_ = 1.0f / (H);                                                                \
+  const float16 q_ = (R) * inv_h_;                                                                \
+  const float16 t_ = fmax(1.0f - q_, 0.0f);                                                       \
+  const float s_ = SPH_S16_NORM * inv_h_ * inv_h_ * inv_h_
+
+/* SPH_GRAD_FACTOR16(OUT, R, H): sph_grad_factor8's formula on sixteen distances. */
 #if SPH_KERNEL == SPH_KERNEL_WENDLAND_C2
 #define SPH_GRAD_FACTOR16(OUT, R, H)                                                              \
   float16 OUT;                                                                                    \
   {                                                                                               \
-    const float inv_h_ = 1.0f / (H);                                                              \
-    const float16 q_ = (R) * inv_h_; /* its own statement, as in sph_grad_factor8: no contraction */ \
-    const float16 t_ = fmax(1.0f - q_, 0.0f);                                                     \
-    const float s_ = 21.0f / (2.0f * SPH_PI_F) * inv_h_ * inv_h_ * inv_h_;                        \
+    SPH_Q16_OPEN(R, H);                                                                           \
     OUT = -20.0f * s_ * t_ * t_ * t_ * (inv_h_ * inv_h_);                                         \
   }
 #else
 #define SPH_GRAD_FACTOR16(OUT, R, H)                                                              \
   float16 OUT;                                                                                    \
   {                                                                                               \
-    const float inv_h_ = 1.0f / (H);                                                              \
-    const float16 q_ = (R) * inv_h_;                                                              \
-    const float16 t_ = fmax(1.0f - q_, 0.0f);                                                     \
-    const float s_ = 8.0f / SPH_PI_F * inv_h_ * inv_h_ * inv_h_;                                  \
+    SPH_Q16_OPEN(R, H);                                                                           \
     OUT = s_ * select(-6.0f * t_ * t_ / fmax(q_, 0.25f), 18.0f * q_ - 12.0f, q_ <= 0.5f) * (inv_h_ * inv_h_); \
   }
 #endif
@@ -93,20 +102,14 @@ inline float8 sph_grad_factor8(const float8 r, const float H) {
 #define SPH_W16(OUT, R, H)                                                                        \
   float16 OUT;                                                                                    \
   {                                                                                               \
-    const float inv_h_ = 1.0f / (H);                                                              \
-    const float16 q_ = (R) * inv_h_;                                                              \
-    const float16 t_ = fmax(1.0f - q_, 0.0f);                                                     \
-    const float s_ = 21.0f / (2.0f * SPH_PI_F) * inv_h_ * inv_h_ * inv_h_;                        \
+    SPH_Q16_OPEN(R, H);                                                                           \
     OUT = s_ * t_ * t_ * t_ * t_ * (1.0f + 4.0f * q_);                                            \
   }
 #else
 #define SPH_W16(OUT, R, H)                                                                        \
   float16 OUT;                                                                                    \
   {                                                                                               \
-    const float inv_h_ = 1.0f / (H);                                                              \
-    const float16 q_ = (R) * inv_h_;                                                              \
-    const float16 t_ = fmax(1.0f - q_, 0.0f);                                                     \
-    const float s_ = 8.0f / SPH_PI_F * inv_h_ * inv_h_ * inv_h_;                                  \
+    SPH_Q16_OPEN(R, H);                                                                           \
     const float16 inner_ = 6.0f * q_ * q_ * q_ - 6.0f * q_ * q_ + 1.0f;                           \
     const float16 outer_ = 2.0f * t_ * t_ * t_;                                                   \
     OUT = s_ * select(outer_, inner_, q_ <= 0.5f);                                                \
