@@ -287,6 +287,21 @@ void DfsphSolver::source(Kind kind, const SimParams& p, const DfsphFields& f, cl
       return cl_.queue().enqueueCopyBuffer(scratch_b_, pressure, 0, 0, std::size_t(p.n_fluid) * 4);
     });
   }
+  // The density solve with extrapolated walls and nothing moving inside the solves: its warm start does
+  // not depend on the source (kernels/dfsph.cl, dfsph_source: warm_all, no neighbour-count rule), so the
+  // starting pressure comes first, then its wall pressures, then the source and the first iteration's
+  // accelerations in one pass over the neighbours (dfsph_source_accel; the same bits as dfsph_source and
+  // iterate()'s first dfsph_pressure_accel; performance: docs/dfsph.md, session 54).
+  if (!div && extrapolated() && !nodes_) {
+    kernels_.call("dfsph_warm_pack", p.n_fluid, kLocal, p, *f.pos, *f.phase, *f.density, static_cast<float>(warm),
+                  pressure, xt_);
+    boundaryPressure(kind, p, f, pressure);
+    kernels_.call("dfsph_source_accel", p.n_fluid, kLocal, p, xt_, *f.vel, *f.phase, *f.density, pressure, *f.snbr,
+                  *f.snbr_count, *f.bpos, *f.sbnbr, *f.sbnbr_count, wallFactor(), wallPressure(kind), 1, accel_,
+                  gwall_, source_);
+    accel_ready_ = true;
+    return;
+  }
   kernels_.call("dfsph_source", p.n_fluid, kLocal, p, *f.pos, *f.vel, *f.phase, *f.density, *f.snbr, *f.snbr_count,
                 *f.bpos, *f.bvel, *f.sbnbr, *f.sbnbr_count, div ? 0 : 1, div ? min_neighbours_ : 0u,
                 static_cast<float>(warm), extrapolated() ? 1 : 0, source_, pressure, xt_, gwall_, rate_in_source);
@@ -294,10 +309,14 @@ void DfsphSolver::source(Kind kind, const SimParams& p, const DfsphFields& f, cl
 
 void DfsphSolver::iterate(Kind kind, const SimParams& p, const DfsphFields& f, cl::Buffer& pressure) {
   // Extrapolated walls: the wall pressures of the current pressures first.
+  // (unless source() computed them already: accel_ready_)
   const int use_bp = extrapolated() ? 1 : 0;
-  if (use_bp) boundaryPressure(kind, p, f, pressure);
-  kernels_.call("dfsph_pressure_accel", p.n_fluid, kLocal, p, xt_, *f.phase, *f.density, pressure, *f.snbr,
-                *f.snbr_count, *f.bpos, *f.sbnbr, *f.sbnbr_count, wallFactor(), wallPressure(kind), use_bp, accel_, gwall_);
+  if (!accel_ready_) {
+    if (use_bp) boundaryPressure(kind, p, f, pressure);
+    kernels_.call("dfsph_pressure_accel", p.n_fluid, kLocal, p, xt_, *f.phase, *f.density, pressure, *f.snbr,
+                  *f.snbr_count, *f.bpos, *f.sbnbr, *f.sbnbr_count, wallFactor(), wallPressure(kind), use_bp, accel_, gwall_);
+  }
+  accel_ready_ = false;
   // Cloth nodes and bodies: their accelerations under the same pressures (the residual counts them).
   if (cloth_) nodeAccel(kind, p, f);
   if (bodies_) bodyAccel(kind, p, f, 0.5f, true);

@@ -235,6 +235,7 @@ class DfsphSolver {
   cl::Buffer pdiv_, pdens_;                // the solves' pressures (unit: Pa), kept for the warm start
   bool divergence_ran_ = false;            // the divergence solve runs (its wall pressure counts)
   bool rate_in_source_ = false;            // source_ holds the divergence solve's density rate (factors())
+  bool accel_ready_ = false;               // accel_ holds the first iteration's accelerations (source())
   double prev_dt_div_ = 0.0, prev_dt_dens_ = 0.0;  // step of the last solve of each kind (unit: s)
   // Chebyshev semi-iteration (spec chebyshev): on in this solve (a moving step), the iterations of its
   // sequence so far, the last weight, and the iterate before the last

@@ -519,6 +519,48 @@ __kernel void dfsph_pressure_accel(const SimParams p, __global const float4* xt,
   accel[i] = (float4)(f / p.phase_mass[phase[i]], 0.0f);
 }
 
+/* The density solve's start in two passes instead of one with neighbours and the first iteration's
+ * (core/dfsph.cpp, DfsphSolver::source; performance): where the warm start does not depend on the
+ * source (dfsph_source with warm_all, extrapolated walls, and kind 1, which leaves no particle out by
+ * its neighbour count), the starting pressure and xt come first, from the particle alone
+ * (dfsph_warm_pack: dfsph_source's p0 and xt), then the wall pressures of that pressure
+ * (dfsph_wall_list_pressure), then dfsph_source_accel: the source of dfsph_source (kind 1) and the
+ * accelerations of dfsph_pressure_accel, which the first iteration would compute next. The same
+ * functions on the same values give the same bits; the two loops over i's neighbours follow each
+ * other in one work-item, so the second finds the list and the neighbours' xt in the cache. */
+__kernel void dfsph_warm_pack(const SimParams p, __global const float4* pos, __global const uint* phase,
+                              __global const float* density, const float warm, __global float* pressure,
+                              __global float4* xt) {
+  const uint i = get_global_id(0);
+  if (i >= p.n_fluid) return;
+  const float delta = density[i] / p.phase_mass[phase[i]];
+  const float p0 = warm * pressure[i];
+  pressure[i] = p0;
+  xt[i] = (float4)(pos[i].xyz, p0 / (delta * delta));
+}
+
+__kernel void dfsph_source_accel(const SimParams p, __global const float4* xt, __global const float4* vel,
+                                 __global const uint* phase, __global const float* density,
+                                 __global const float* pressure, __global const uint* nbr,
+                                 __global const uint* nbr_count, __global const float4* bpos,
+                                 __global const uint* bnbr, __global const uint* bnbr_count, const float wall,
+                                 __global const float* bpr, const int use_bp, __global float4* accel,
+                                 __global const float4* gwall, __global float* source) {
+  const uint i = get_global_id(0);
+  if (i >= p.n_fluid) return;
+  const uint K = p.max_neighbours;
+  const uint nf = nbr_count[i];
+  const float4 gw = gwall[i];
+  /* dfsph_source, kind 1: positions from xt (the same bits as pos) */
+  const float rate = dfsph_density_rate(&p, i, xt, vel, nbr, nf, gw);
+  const float delta = density[i] / p.phase_mass[phase[i]];
+  source[i] = (delta + p.dt * rate) * p.rest_volume - 1.0f;
+  /* dfsph_pressure_accel */
+  const float3 f = dfsph_force(&p, i, xt, phase, density, pressure, nbr, nf, bpos, bnbr + (size_t)i * K,
+                               bnbr_count[i], wall, bpr, use_bp, gw);
+  accel[i] = (float4)(f / p.phase_mass[phase[i]], 0.0f);
+}
+
 /* One relaxed Jacobi iteration (the formulas at the top of this file): the residual
  * r_i = s_i + dt^2 V0 (sum_j (a_i - a_j) . gradW_ij + sum_b psi_b a_i . gradW_ib), the pressure
  * p_i <- max(p_i + omega r_i alpha_i / (dt^2 V0), 0), err_i = max(r_i, 0) before the update (as the

@@ -416,15 +416,24 @@ TEST_CASE("DFSPH stage mask: its kernels run only with solver dfsph", "[dfsph]")
   CHECK(d.dispatch_counts.count("pressure_force") == 0);
   // (boundary_pressure runs: the default walls, extrapolated, take their pressure from it in each
   // Jacobi iteration)
+  // (the dispatches of a kernel, 0 where it never ran)
+  auto runs = [](const app::RunResult& r, const char* name) {
+    const auto it = r.dispatch_counts.find(name);
+    return it == r.dispatch_counts.end() ? 0 : it->second;
+  };
   CHECK(d.dispatch_counts.at("dfsph_factor") == d.profile.steps);
   CHECK(d.dispatch_counts.at("dfsph_predict") == d.profile.steps);
   // the divergence solve is a stage of its own: off in the scene, none of its passes
   o.sets.push_back("fluid.dfsph.divergence_solve=false");
   const app::RunResult nd = app::runScene(o);
   REQUIRE(nd.exit_code == 0);
-  // (the default walls' solves start with dfsph_source: once per step without it, twice with it)
-  CHECK(d.dispatch_counts.at("dfsph_source") == 2 * d.profile.steps);
-  CHECK(nd.dispatch_counts.at("dfsph_source") == nd.profile.steps);
+  // (the default walls' divergence solve starts with dfsph_source, their density solve with dfsph_warm_pack
+  // and dfsph_source_accel, once per step each)
+  CHECK(runs(d, "dfsph_source") == d.profile.steps);
+  CHECK(runs(d, "dfsph_warm_pack") == d.profile.steps);
+  CHECK(runs(d, "dfsph_source_accel") == d.profile.steps);
+  CHECK(runs(nd, "dfsph_source") == 0);
+  CHECK(runs(nd, "dfsph_source_accel") == nd.profile.steps);
   CHECK(nd.dispatch_counts.at("dfsph_factor") == nd.profile.steps);
   CHECK(nd.state_hash != d.state_hash);
   // the implicit viscosity's passes run only when the scene asks for them

@@ -1083,6 +1083,62 @@ TEST_CASE("pair passes sixteen at a time give the eight-wide loops' results bitw
   checkSixteenWide(SPH_KERNEL_CUBIC_SPLINE, true);
 }
 
+// The density solve's start with extrapolated walls (core/dfsph.cpp, DfsphSolver::source): dfsph_warm_pack
+// and dfsph_source_accel give the bits of dfsph_source (kind 1, warm_all) and of the first iteration's
+// dfsph_pressure_accel (with the walls' own pressures) on the same values.
+TEST_CASE("dfsph_warm_pack + dfsph_source_accel equal dfsph_source + dfsph_pressure_accel bitwise", "[kernels][dfsph]") {
+  for (const int kind : {SPH_KERNEL_CUBIC_SPLINE, SPH_KERNEL_WENDLAND_C2}) {
+    const float ratio = kind == SPH_KERNEL_WENDLAND_C2 ? 3.0f : 2.0f;
+    INFO(kindName(kind));
+    const Scene s = makeScene(kind, ratio, true, SPH_EOS_TAIT, false, 43);
+    KernelSet& ks = kernelSet(kind, false);
+    Device d(ks, s);
+    REQUIRE(runDensity(d, 0.3f * (s.P.cell_size - s.P.support)).overflow == 0u);
+    const std::size_t n = d.n, nbc = std::max<std::size_t>(d.nb, 1);
+    REQUIRE(d.nb > 0u);
+    auto P = d.P;
+    P.dt = 2e-3f;  // s
+    // the wall sums of the factor pass, and made-up warm pressures (Pa) and wall pressures (Pa)
+    const cl::Buffer density = toDevice(fromDevice<float>(d.density, n)), alpha = zeros<float>(n),
+                     rate = zeros<float>(n), gwall = zeros<F4>(n), pterm = zeros<float>(n),
+                     fpress = zeros<float>(n), bmark = zeros<uint32_t>(nbc);
+    ks.call("dfsph_factor", n, kLocal, P, d.pos[d.cur], d.phase[d.cur], density, d.snbr, d.snbr_count, d.bpos,
+            d.sbnbr, d.sbnbr_count, 1.0f, alpha, d.bvel, gwall, 0, d.vel[d.cur], rate, 0, 0, gwall, 0, fpress, pterm,
+            d.stamp + 1, bmark);
+    std::mt19937 g(17);
+    std::vector<float> p_host(n), bp_host(nbc);
+    for (auto& v : p_host) v = uni(g, 0.0f, 2000.0f);
+    for (auto& v : bp_host) v = uni(g, 0.0f, 2000.0f);
+    const cl::Buffer bpr = toDevice(bp_host);
+    const float warm = 0.75f;
+    // separate: dfsph_source (kind 1, no neighbour-count rule, warm_all), then dfsph_pressure_accel
+    const cl::Buffer pa = toDevice(p_host), xa = zeros<F4>(n), sa = zeros<float>(n), aa = zeros<F4>(n);
+    ks.call("dfsph_source", n, kLocal, P, d.pos[d.cur], d.vel[d.cur], d.phase[d.cur], density, d.snbr, d.snbr_count,
+            d.bpos, d.bvel, d.sbnbr, d.sbnbr_count, 1, 0u, warm, 1, sa, pa, xa, gwall, 0);
+    ks.call("dfsph_pressure_accel", n, kLocal, P, xa, d.phase[d.cur], density, pa, d.snbr, d.snbr_count, d.bpos,
+            d.sbnbr, d.sbnbr_count, 1.0f, bpr, 1, aa, gwall);
+    // together: dfsph_warm_pack, then dfsph_source_accel
+    const cl::Buffer pb = toDevice(p_host), xb = zeros<F4>(n), sb = zeros<float>(n), ab = zeros<F4>(n);
+    ks.call("dfsph_warm_pack", n, kLocal, P, d.pos[d.cur], d.phase[d.cur], density, warm, pb, xb);
+    ks.call("dfsph_source_accel", n, kLocal, P, xb, d.vel[d.cur], d.phase[d.cur], density, pb, d.snbr, d.snbr_count,
+            d.bpos, d.sbnbr, d.sbnbr_count, 1.0f, bpr, 1, ab, gwall, sb);
+    const auto same = [](const auto& x, const auto& y) {
+      return x.size() == y.size() && std::memcmp(x.data(), y.data(), x.size() * sizeof(x[0])) == 0;
+    };
+    CHECK(same(fromDevice<float>(pa, n), fromDevice<float>(pb, n)));
+    CHECK(same(fromDevice<F4>(xa, n), fromDevice<F4>(xb, n)));
+    CHECK(same(fromDevice<float>(sa, n), fromDevice<float>(sb, n)));
+    const std::vector<F4> acc = fromDevice<F4>(ab, n);
+    CHECK(same(fromDevice<F4>(aa, n), acc));
+    // not trivially equal: sources and accelerations that are not all zero, and walls that took part
+    const std::vector<float> src = fromDevice<float>(sb, n);
+    CHECK(std::count_if(src.begin(), src.end(), [](float v) { return v != 0.0f; }) > 10);
+    CHECK(std::count_if(acc.begin(), acc.end(), [](const F4& a) { return a.x != 0.0f || a.z != 0.0f; }) > 10);
+    const std::vector<uint32_t> bc = fromDevice<uint32_t>(d.sbnbr_count, n);
+    CHECK(std::count_if(bc.begin(), bc.end(), [](uint32_t c) { return c > 0; }) > 10);
+  }
+}
+
 // ---------------------------------------------------------------------------------------------
 // Forces
 // ---------------------------------------------------------------------------------------------
