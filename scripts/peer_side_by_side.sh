@@ -8,7 +8,8 @@
 # code,config,run,wall_s,simulated_s,steps,density_iterations_per_step; then, on stderr, each configuration's
 # median wall time, per simulated second, and its ratio to the reference's default configuration.
 #   PEER_BIN=.../SPlisHSPlasH/bin/SPHSimulator PEER_SCENES=.../scenes scripts/peer_side_by_side.sh [REPS]
-# PEER_CONFIGS and SPH_CONFIGS choose a subset (defaults: all three and all four below).
+# PEER_CONFIGS and SPH_CONFIGS choose a subset (defaults: all three and all four below); SPHAPTICS picks the
+# binary (default build/cli/sphaptics) and SPHAPTICS_BASELINE adds a second one's defaults (before and after).
 set -euo pipefail
 reps=${1:-3}
 : "${PEER_BIN:?set PEER_BIN to the SPHSimulator binary of SPlisHSPlasH (../shared/peer-bench/README.md)}"
@@ -20,7 +21,7 @@ work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 export OMP_NUM_THREADS=${OMP_NUM_THREADS:-2}
 now() { date +%s.%N; }
-echo "code,config,run,wall_s,simulated_s,steps,density_iterations_per_step"
+echo "code,config,run,wall_s,simulated_s,steps,density_iterations_per_step" | tee "$work/csv"
 # The reference at twice its Courant number too (its step is cflFactor 0.4 diameter / |v|max, so
 # cflFactor 2 is sphaptics' fluid.dfsph.cfl 0.8, the default since session 50): ratios at equal steps.
 sed 's/"cflFactor": 1,/"cflFactor": 2,/' "$PEER_SCENES/dambreak50k_dfsph.json" > "$work/dambreak50k_dfsph_cfl0.8.json"
@@ -38,17 +39,22 @@ for k in $(seq 1 "$reps"); do
   # the three wall models at the scene's settings (the reference's: Courant number 0.4; the pressure step
   # bound at sphaptics' default, 0.5 since session 50), then the default walls at the Courant number 0.8:
   # sphaptics' defaults since session 50 (session 48: with the Chebyshev semi-iteration the longer step pays)
-  for w in ${SPH_CONFIGS:-single extrapolated mirrored extrapolated_cfl0.8}; do
-    extra=(--set simulation.frame_rate=20 --set fluid.dfsph.walls=${w%_cfl*})
+  # (with SPHAPTICS_BASELINE, another sphaptics binary, e.g. main before a change, runs the defaults too, in
+  # the same sitting: configuration baseline_extrapolated_cfl0.8)
+  for w in ${SPH_CONFIGS:-single extrapolated mirrored extrapolated_cfl0.8} ${SPHAPTICS_BASELINE:+baseline_extrapolated_cfl0.8}; do
+    bin=$sph
+    case $w in baseline_*) bin=$SPHAPTICS_BASELINE ;; esac
+    walls=${w#baseline_}
+    extra=(--set simulation.frame_rate=20 --set fluid.dfsph.walls=${walls%_cfl*})
     case $w in *_cfl*) extra+=(--set fluid.dfsph.cfl=${w#*_cfl}) ;; esac
-    t0=$(now); "$sph" run "$scene" -o "$work/sph" "${extra[@]}" > "$work/sph.log" 2>&1; t1=$(now)
+    t0=$(now); "$bin" run "$scene" -o "$work/sph" "${extra[@]}" > "$work/sph.log" 2>&1; t1=$(now)
     done_line=$(grep '^done:' "$work/sph.log")
     sim=$(echo "$done_line" | sed -n 's/.* \([0-9.]*\) s simulated.*/\1/p')
     steps=$(echo "$done_line" | sed -n 's/.* \([0-9]*\) steps.*/\1/p')
     it=$(sed -n 's/.*DFSPH: \([0-9.]*\) density.*/\1/p' "$work/sph.log")
     echo "sphaptics,dfsph_walls_$w,$k,$(echo "$t1 - $t0" | bc),$sim,$steps,$it"
   done
-done | tee "$work/csv"
+done | tee -a "$work/csv"
 # the summary: medians over the rounds, per simulated second, against the reference's default configuration
 python3 - "$work/csv" >&2 <<'PY'
 import csv, statistics, sys
