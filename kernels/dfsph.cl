@@ -330,6 +330,18 @@ SPH_HOT float dfsph_density_rate(const SimParams* p, const uint i, __global cons
 }
 SPH_PSABI_LOUD
 
+/* The density solve's source s_i = (delta_i + dt D delta_i / Dt) V0 - 1 (B&K 2017 eq. 12), and a solve's
+ * starting pressure p0 with xt_i = (x_i, p0 / delta_i^2): shared by dfsph_source and by dfsph_warm_pack and
+ * dfsph_source_accel below, which must give its bits. */
+inline float dfsph_compression(const SimParams* p, const float delta, const float rate) {
+  return (delta + p->dt * rate) * p->rest_volume - 1.0f;
+}
+inline void dfsph_start_pressure(const uint i, const float p0, const float delta, __global const float4* pos,
+                                 __global float* pressure, __global float4* xt) {
+  pressure[i] = p0;
+  xt[i] = (float4)(pos[i].xyz, p0 / (delta * delta)); /* position and p / delta^2 (dfsph_force) */
+}
+
 /* Source of a solve and its warm start (B&K 2017 Alg. 2-3; section 4.4 for the warm start).
  * density (kind 1, eq. 12): s_i = (delta_i + dt D delta_i / Dt) V0 - 1, the relative compression
  *     the current velocities would leave at the end of the step;
@@ -352,7 +364,7 @@ __kernel void dfsph_source(const SimParams p, __global const float4* pos, __glob
   const float rate = rate_in_source ? source[i]
                                     : dfsph_density_rate(&p, i, pos, vel, nbr, nbr_count[i], gwall[i]);
   const float delta = density[i] / p.phase_mass[phase[i]];
-  float s = kind ? (delta + p.dt * rate) * p.rest_volume - 1.0f : p.dt * rate * p.rest_volume;
+  float s = kind ? dfsph_compression(&p, delta, rate) : p.dt * rate * p.rest_volume;
   /* divergence solve: fewer than min_neighbours neighbours (free surface, splashes): left alone */
   const bool few = nbr_count[i] + bnbr_count[i] < min_neighbours;
   if (few) s = 0.0f;
@@ -364,9 +376,7 @@ __kernel void dfsph_source(const SimParams p, __global const float4* pos, __glob
    * m/s (the 50k dam break's "jet"). Zeroing it always (the reference) made the hydrostatic tank's
    * top layer, at the threshold, flicker: 109 Pa between frames against 66 Pa. */
   const bool keep = few ? (warm_all && rate > 0.0f) : (s > 0.0f || warm_all);
-  const float p0 = keep ? warm * pressure[i] : 0.0f;
-  pressure[i] = p0;
-  xt[i] = (float4)(pos[i].xyz, p0 / (delta * delta)); /* position and p / delta^2 (dfsph_force) */
+  dfsph_start_pressure(i, keep ? warm * pressure[i] : 0.0f, delta, pos, pressure, xt);
 }
 
 /* Filtered warm start of the density solve (fluid.dfsph.warm_smoothing = beta > 0; session 28):
@@ -533,10 +543,7 @@ __kernel void dfsph_warm_pack(const SimParams p, __global const float4* pos, __g
                               __global float4* xt) {
   const uint i = get_global_id(0);
   if (i >= p.n_fluid) return;
-  const float delta = density[i] / p.phase_mass[phase[i]];
-  const float p0 = warm * pressure[i];
-  pressure[i] = p0;
-  xt[i] = (float4)(pos[i].xyz, p0 / (delta * delta));
+  dfsph_start_pressure(i, warm * pressure[i], density[i] / p.phase_mass[phase[i]], pos, pressure, xt);
 }
 
 __kernel void dfsph_source_accel(const SimParams p, __global const float4* xt, __global const float4* vel,
@@ -553,8 +560,7 @@ __kernel void dfsph_source_accel(const SimParams p, __global const float4* xt, _
   const float4 gw = gwall[i];
   /* dfsph_source, kind 1: positions from xt (the same bits as pos) */
   const float rate = dfsph_density_rate(&p, i, xt, vel, nbr, nf, gw);
-  const float delta = density[i] / p.phase_mass[phase[i]];
-  source[i] = (delta + p.dt * rate) * p.rest_volume - 1.0f;
+  source[i] = dfsph_compression(&p, density[i] / p.phase_mass[phase[i]], rate);
   /* dfsph_pressure_accel */
   const float3 f = dfsph_force(&p, i, xt, phase, density, pressure, nbr, nf, bpos, bnbr + (size_t)i * K,
                                bnbr_count[i], wall, bpr, use_bp, gw);
@@ -825,6 +831,16 @@ __kernel void dfsph_predict(const SimParams p, __global float4* vel, __global fl
   acc[i] = (float4)(0.0f);
 }
 
+/* One axis a of dfsph_wall_impulse (below): the velocity va of a particle at xa, by the low wall (mask bit 2a) and the high (2a + 1). */
+inline float dfsph_wall_impulse_axis(const SimParams* p, const int a, const float lo, const float hi,
+                                     const float gap, const float xa, float va) {
+  /* low wall: the velocity that reaches the plane min + gap in this step, or 0 inside the gap */
+  if ((p->closed_mask >> (2 * a)) & 1u) va = fmax(va, fmin((lo + gap - xa) / p->dt, 0.0f));
+  /* high wall: the same, mirrored */
+  if ((p->closed_mask >> (2 * a + 1)) & 1u) va = fmin(va, fmax((hi - gap - xa) / p->dt, 0.0f));
+  return va;
+}
+
 /* Extrapolated walls: the closed domain walls as a unilateral contact (a non-penetration condition
  * on the velocity, Signorini's condition x_n >= gap written for one step of the symplectic update
  * x += dt v, as velocity-level contact solvers do: Moreau 1988, "Unilateral contact and dry
@@ -844,16 +860,6 @@ __kernel void dfsph_predict(const SimParams p, __global float4* vel, __global fl
  * hollows between them: a sheet landing at 1.4 m/s went through the floor in 2 steps (rho 536, 692,
  * 919 kg/m^3, p = 0), and the particles that rest on the floor slid into the hollows and sank (p = 0,
  * 0.03 m/s down). gap (unit: m) > 0 keeps every centre inside the domain: no wall crossing. */
-/* One axis a of it: the velocity va of a particle at xa, by the low wall (mask bit 2a) and the high (2a + 1). */
-inline float dfsph_wall_impulse_axis(const SimParams* p, const int a, const float lo, const float hi,
-                                     const float gap, const float xa, float va) {
-  /* low wall: the velocity that reaches the plane min + gap in this step, or 0 inside the gap */
-  if ((p->closed_mask >> (2 * a)) & 1u) va = fmax(va, fmin((lo + gap - xa) / p->dt, 0.0f));
-  /* high wall: the same, mirrored */
-  if ((p->closed_mask >> (2 * a + 1)) & 1u) va = fmin(va, fmax((hi - gap - xa) / p->dt, 0.0f));
-  return va;
-}
-
 __kernel void dfsph_wall_impulse(const SimParams p, __global const float4* pos, __global float4* vel, const float gap) {
   const uint i = get_global_id(0);
   if (i >= p.n_fluid) return;
